@@ -1,0 +1,2 @@
+//! stickslip: where tangential substrate vibration suppresses stick-slip friction.
+pub mod ode;

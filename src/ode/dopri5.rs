@@ -1,0 +1,240 @@
+//! Dormand–Prince 5(4) with the PI step controller (β = 0.04) and the 4th-order continuous
+//! extension of Dormand & Prince (Hairer, Nørsett & Wanner, *Solving ODEs I*, Sect. II.5–II.6;
+//! the DOPRI5 code). First-same-as-last: 6 right-hand sides per accepted step.
+
+use super::{OdeSystem, Stats, StepOutcome, Stepper, error_norm};
+
+const C2: f64 = 1.0 / 5.0;
+const C3: f64 = 3.0 / 10.0;
+const C4: f64 = 4.0 / 5.0;
+const C5: f64 = 8.0 / 9.0;
+const A21: f64 = 1.0 / 5.0;
+const A31: f64 = 3.0 / 40.0;
+const A32: f64 = 9.0 / 40.0;
+const A41: f64 = 44.0 / 45.0;
+const A42: f64 = -56.0 / 15.0;
+const A43: f64 = 32.0 / 9.0;
+const A51: f64 = 19372.0 / 6561.0;
+const A52: f64 = -25360.0 / 2187.0;
+const A53: f64 = 64448.0 / 6561.0;
+const A54: f64 = -212.0 / 729.0;
+const A61: f64 = 9017.0 / 3168.0;
+const A62: f64 = -355.0 / 33.0;
+const A63: f64 = 46732.0 / 5247.0;
+const A64: f64 = 49.0 / 176.0;
+const A65: f64 = -5103.0 / 18656.0;
+const A71: f64 = 35.0 / 384.0;
+const A73: f64 = 500.0 / 1113.0;
+const A74: f64 = 125.0 / 192.0;
+const A75: f64 = -2187.0 / 6784.0;
+const A76: f64 = 11.0 / 84.0;
+const E1: f64 = 71.0 / 57600.0;
+const E3: f64 = -71.0 / 16695.0;
+const E4: f64 = 71.0 / 1920.0;
+const E5: f64 = -17253.0 / 339200.0;
+const E6: f64 = 22.0 / 525.0;
+const E7: f64 = -1.0 / 40.0;
+const D1: f64 = -12715105075.0 / 11282082432.0;
+const D3: f64 = 87487479700.0 / 32700410799.0;
+const D4: f64 = -10690763975.0 / 1880347072.0;
+const D5: f64 = 701980252875.0 / 199316789632.0;
+const D6: f64 = -1453857185.0 / 822651844.0;
+const D7: f64 = 69997945.0 / 29380423.0;
+
+const SAFE: f64 = 0.9;
+const BETA: f64 = 0.04;
+/// Step ratio bounds: `FAC1 ≤ h_new/h ≤ FAC2`.
+const FAC1: f64 = 0.2;
+const FAC2: f64 = 10.0;
+
+pub(crate) struct Dopri5 {
+    n: usize,
+    rtol: f64,
+    atol: Vec<f64>,
+    t: f64,
+    h: f64,
+    h_prev: f64,
+    y: Vec<f64>,
+    k1: Vec<f64>,
+    k2: Vec<f64>,
+    k3: Vec<f64>,
+    k4: Vec<f64>,
+    k5: Vec<f64>,
+    k6: Vec<f64>,
+    k7: Vec<f64>,
+    ynew: Vec<f64>,
+    ytmp: Vec<f64>,
+    /// Dense output coefficients of the last accepted step.
+    rc: [Vec<f64>; 5],
+    facold: f64,
+    reject: bool,
+}
+
+impl Dopri5 {
+    pub(crate) fn new(n: usize) -> Self {
+        let v = || vec![0.0; n];
+        Dopri5 {
+            n,
+            rtol: 1e-6,
+            atol: v(),
+            t: 0.0,
+            h: 0.0,
+            h_prev: 0.0,
+            y: v(),
+            k1: v(),
+            k2: v(),
+            k3: v(),
+            k4: v(),
+            k5: v(),
+            k6: v(),
+            k7: v(),
+            ynew: v(),
+            ytmp: v(),
+            rc: [v(), v(), v(), v(), v()],
+            facold: 1e-4,
+            reject: false,
+        }
+    }
+
+    pub(crate) fn set_tolerances(&mut self, rtol: f64, atol: &[f64]) {
+        self.rtol = rtol;
+        self.atol.copy_from_slice(atol);
+    }
+}
+
+impl Stepper for Dopri5 {
+    fn start<S: OdeSystem>(&mut self, sys: &S, t0: f64, y0: &[f64], h: f64, st: &mut Stats) {
+        self.t = t0;
+        self.h = h;
+        self.h_prev = h;
+        self.y.copy_from_slice(y0);
+        sys.rhs(t0, y0, &mut self.k1);
+        st.rhs_evals += 1;
+        self.facold = 1e-4;
+        self.reject = false;
+        self.rc[0].copy_from_slice(y0);
+        for c in self.rc[1..].iter_mut() {
+            c.fill(0.0);
+        }
+    }
+
+    fn t(&self) -> f64 {
+        self.t
+    }
+    fn y(&self) -> &[f64] {
+        &self.y
+    }
+    fn h(&self) -> f64 {
+        self.h
+    }
+    fn set_h(&mut self, h: f64) {
+        self.h = h;
+    }
+
+    fn attempt<S: OdeSystem>(&mut self, sys: &S, st: &mut Stats) -> StepOutcome {
+        let n = self.n;
+        let (t, h) = (self.t, self.h);
+        let y = &self.y;
+        for i in 0..n {
+            self.ytmp[i] = y[i] + h * A21 * self.k1[i];
+        }
+        sys.rhs(t + C2 * h, &self.ytmp, &mut self.k2);
+        for i in 0..n {
+            self.ytmp[i] = y[i] + h * (A31 * self.k1[i] + A32 * self.k2[i]);
+        }
+        sys.rhs(t + C3 * h, &self.ytmp, &mut self.k3);
+        for i in 0..n {
+            self.ytmp[i] = y[i] + h * (A41 * self.k1[i] + A42 * self.k2[i] + A43 * self.k3[i]);
+        }
+        sys.rhs(t + C4 * h, &self.ytmp, &mut self.k4);
+        for i in 0..n {
+            self.ytmp[i] = y[i]
+                + h * (A51 * self.k1[i] + A52 * self.k2[i] + A53 * self.k3[i] + A54 * self.k4[i]);
+        }
+        sys.rhs(t + C5 * h, &self.ytmp, &mut self.k5);
+        for i in 0..n {
+            self.ytmp[i] = y[i]
+                + h * (A61 * self.k1[i]
+                    + A62 * self.k2[i]
+                    + A63 * self.k3[i]
+                    + A64 * self.k4[i]
+                    + A65 * self.k5[i]);
+        }
+        sys.rhs(t + h, &self.ytmp, &mut self.k6);
+        for i in 0..n {
+            self.ynew[i] = y[i]
+                + h * (A71 * self.k1[i]
+                    + A73 * self.k3[i]
+                    + A74 * self.k4[i]
+                    + A75 * self.k5[i]
+                    + A76 * self.k6[i]);
+        }
+        sys.rhs(t + h, &self.ynew, &mut self.k7);
+        st.rhs_evals += 6;
+        // Local error estimate, reusing k2 as scratch.
+        for i in 0..n {
+            self.k2[i] = h
+                * (E1 * self.k1[i]
+                    + E3 * self.k3[i]
+                    + E4 * self.k4[i]
+                    + E5 * self.k5[i]
+                    + E6 * self.k6[i]
+                    + E7 * self.k7[i]);
+        }
+        let err = error_norm(&self.k2, &self.y, &self.ynew, &self.atol, self.rtol);
+        if !err.is_finite() {
+            st.rejected += 1;
+            self.h *= 0.1;
+            self.reject = true;
+            return StepOutcome::Rejected;
+        }
+        // PI controller with Lund stabilisation.
+        let fac11 = err.powf(0.2 - BETA * 0.75);
+        let fac = (fac11 / self.facold.powf(BETA) / SAFE).clamp(1.0 / FAC2, 1.0 / FAC1);
+        if err <= 1.0 {
+            self.facold = err.max(1e-4);
+            // Dense output coefficients.
+            for i in 0..n {
+                let ydiff = self.ynew[i] - self.y[i];
+                let bspl = h * self.k1[i] - ydiff;
+                self.rc[0][i] = self.y[i];
+                self.rc[1][i] = ydiff;
+                self.rc[2][i] = bspl;
+                self.rc[3][i] = ydiff - h * self.k7[i] - bspl;
+                self.rc[4][i] = h
+                    * (D1 * self.k1[i]
+                        + D3 * self.k3[i]
+                        + D4 * self.k4[i]
+                        + D5 * self.k5[i]
+                        + D6 * self.k6[i]
+                        + D7 * self.k7[i]);
+            }
+            std::mem::swap(&mut self.k1, &mut self.k7);
+            std::mem::swap(&mut self.y, &mut self.ynew);
+            self.h_prev = h;
+            self.t = t + h;
+            let mut hnew = h / fac;
+            if self.reject {
+                hnew = hnew.min(h);
+            }
+            self.reject = false;
+            self.h = hnew;
+            st.steps += 1;
+            StepOutcome::Accepted
+        } else {
+            st.rejected += 1;
+            self.reject = true;
+            self.h = h / (1.0 / FAC1).min(fac11 / SAFE);
+            StepOutcome::Rejected
+        }
+    }
+
+    fn dense(&self, t: f64, out: &mut [f64]) {
+        let s = (t - (self.t - self.h_prev)) / self.h_prev;
+        let s1 = 1.0 - s;
+        let rc = &self.rc;
+        for i in 0..self.n {
+            out[i] = rc[0][i] + s * (rc[1][i] + s1 * (rc[2][i] + s * (rc[3][i] + s1 * rc[4][i])));
+        }
+    }
+}

@@ -1,0 +1,646 @@
+//! Initial-value-problem solvers for small stiff systems.
+//!
+//! The pieces are kept apart, as in RADAU5, SUNDIALS and diffsol:
+//! - the **problem**: an [`OdeSystem`] (right-hand side and Jacobian) plus an initial state and a
+//!   time span, given to [`solve`];
+//! - the **method** and its knobs: [`Method`];
+//! - the **workspace**: buffers and controller history, allocated once per [`Solver`] and reused
+//!   across runs (the inner loop allocates nothing);
+//! - the per-call **options**: [`Options`] (tolerances, step limits) and the output grid
+//!   [`OutputGrid`].
+//!
+//! Every run returns a [`RunReport`]: a [`Status`] and [`Stats`].
+//!
+//! # Error norm
+//! All methods measure a local error estimate `e` (and Newton increments) in the same weighted
+//! root-mean-square norm
+//!
+//! ```text
+//! ‖e‖ = sqrt( (1/n) Σ_i ( e_i / sc_i )² ),   sc_i = atol · w_i + rtol · max(|y_i|, |ŷ_i|)
+//! ```
+//!
+//! where `y` is the state at the start of the step, `ŷ` the proposed state at its end (implicit
+//! methods use `ŷ = y`, since the scale must be fixed before the Newton iteration), and
+//! `w_i = OdeSystem::scale(i)` is the component's characteristic size (1 unless the system says
+//! otherwise). A step is accepted when `‖e‖ ≤ 1`.
+
+mod dopri5;
+mod linalg;
+mod radau5;
+mod rodas;
+
+pub use linalg::{DenseLu, LuError};
+
+use std::fmt;
+
+/// A system of ordinary differential equations `y' = f(t, y)` of fixed dimension.
+///
+/// Implementations must not allocate in [`rhs`](Self::rhs) or [`jacobian`](Self::jacobian):
+/// both run in the integrators' inner loops.
+pub trait OdeSystem {
+    /// Number of state components `n` (at least 1).
+    fn dim(&self) -> usize;
+
+    /// Right-hand side: writes `f(t, y)` into `dy` (both of length `n`).
+    fn rhs(&self, t: f64, y: &[f64], dy: &mut [f64]);
+
+    /// Jacobian `∂f/∂y` at `(t, y)`, written row-major into `jac` (length `n·n`):
+    /// `jac[i * n + j] = ∂f_i / ∂y_j`.
+    fn jacobian(&self, t: f64, y: &[f64], jac: &mut [f64]);
+
+    /// Partial time derivative `∂f/∂t` at `(t, y)`, needed by Rosenbrock methods.
+    ///
+    /// The default is a one-sided finite difference with step `√ε·max(|t|, 1e-3)`; `scratch` has
+    /// length `n`. Systems with an explicit time dependence should override it.
+    fn time_derivative(&self, t: f64, y: &[f64], dfdt: &mut [f64], scratch: &mut [f64]) {
+        let dt = f64::EPSILON.sqrt() * t.abs().max(1e-3);
+        self.rhs(t, y, scratch);
+        self.rhs(t + dt, y, dfdt);
+        for (d, s) in dfdt.iter_mut().zip(scratch.iter()) {
+            *d = (*d - *s) / dt;
+        }
+    }
+
+    /// Characteristic size of component `i`, in its own unit (default 1).
+    ///
+    /// The absolute tolerance of component `i` is `atol · scale(i)`, so one dimensionless `atol`
+    /// serves components of very different magnitude (a displacement of 1e-3 m beside a contact
+    /// deformation of 1e-7 m).
+    fn scale(&self, _i: usize) -> f64 {
+        1.0
+    }
+}
+
+/// Integration method.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Method {
+    /// Radau IIA, 3 stages, order 5, L-stable, with the simplified Newton iteration, Jacobian
+    /// reuse, the predictive (Gustafsson) step controller and a continuous extension of order 3
+    /// (Hairer & Wanner, *Solving ODEs II*, Sect. IV.8; the RADAU5 code).
+    Radau5,
+    /// Rodas4: a 6-stage L-stable, stiffly accurate Rosenbrock method of order 4(3)
+    /// (Hairer & Wanner, Sect. VI.4) with a cubic Hermite continuous extension.
+    Rodas4,
+    /// Dormand–Prince 5(4), explicit, with the PI step controller and the 4th-order continuous
+    /// extension (Hairer, Nørsett & Wanner, *Solving ODEs I*, Sect. II.5; the DOPRI5 code).
+    Dopri5,
+}
+
+impl Method {
+    /// All methods, in the order tables and benchmarks list them.
+    pub const ALL: [Method; 3] = [Method::Radau5, Method::Rodas4, Method::Dopri5];
+
+    /// The name used on the command line and in files.
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::Radau5 => "radau5",
+            Method::Rodas4 => "rodas4",
+            Method::Dopri5 => "dopri5",
+        }
+    }
+
+    /// Whether the method is implicit (uses the Jacobian).
+    pub fn is_implicit(self) -> bool {
+        !matches!(self, Method::Dopri5)
+    }
+}
+
+impl fmt::Display for Method {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl std::str::FromStr for Method {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        Method::ALL
+            .into_iter()
+            .find(|m| m.name() == s)
+            .ok_or_else(|| format!("unknown solver '{s}': allowed are radau5, rodas4, dopri5"))
+    }
+}
+
+/// Per-call options. Every field documents its unit, default and valid range;
+/// [`Options::validate`] quotes the violated bound.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Options {
+    /// Relative tolerance (dimensionless). Default 1e-6. Range: 1e-13 ≤ rtol ≤ 0.1.
+    pub rtol: f64,
+    /// Absolute tolerance, in units of each component's [`OdeSystem::scale`] (dimensionless).
+    /// Default 1e-6. Range: 0 < atol ≤ 1.
+    pub atol: f64,
+    /// Initial step size (units of t). Default 0: chosen automatically. Range: ≥ 0.
+    pub h0: f64,
+    /// Largest step size (units of t). Default ∞. Range: > 0.
+    pub h_max: f64,
+    /// Most steps (accepted and rejected) before the run stops with [`Status::MaxSteps`].
+    /// Default 50 000 000. Range: ≥ 1.
+    pub max_steps: u64,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options {
+            rtol: 1e-6,
+            atol: 1e-6,
+            h0: 0.0,
+            h_max: f64::INFINITY,
+            max_steps: 50_000_000,
+        }
+    }
+}
+
+/// An option outside its valid range.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("option `{field}` = {value} is out of range: {allowed}")]
+pub struct OptionError {
+    /// Name of the offending field.
+    pub field: &'static str,
+    /// The value given.
+    pub value: f64,
+    /// The allowed range, in words.
+    pub allowed: &'static str,
+}
+
+impl Options {
+    /// Checks every field against its documented range.
+    pub fn validate(&self) -> Result<(), OptionError> {
+        let bad = |field, value, allowed| {
+            Err(OptionError {
+                field,
+                value,
+                allowed,
+            })
+        };
+        if !(self.rtol >= 1e-13 && self.rtol <= 0.1) {
+            return bad("rtol", self.rtol, "1e-13 <= rtol <= 0.1");
+        }
+        if !(self.atol > 0.0 && self.atol <= 1.0) {
+            return bad("atol", self.atol, "0 < atol <= 1");
+        }
+        if !(self.h0 >= 0.0 && self.h0.is_finite()) {
+            return bad("h0", self.h0, "finite and >= 0 (0 chooses automatically)");
+        }
+        if !(self.h_max > 0.0) {
+            return bad("h_max", self.h_max, "h_max > 0");
+        }
+        if self.max_steps == 0 {
+            return bad("max_steps", 0.0, "max_steps >= 1");
+        }
+        Ok(())
+    }
+}
+
+/// Times at which the solution is reported, by dense output: `t_k = start + k · step` for
+/// `k = 0 .. count` (computed by index, never by accumulating `step`). Times outside the span
+/// are skipped.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct OutputGrid {
+    /// First output time.
+    pub start: f64,
+    /// Spacing (> 0).
+    pub step: f64,
+    /// Number of output times.
+    pub count: u64,
+}
+
+impl OutputGrid {
+    /// No output at all.
+    pub const NONE: OutputGrid = OutputGrid {
+        start: 0.0,
+        step: 1.0,
+        count: 0,
+    };
+
+    /// `count` equally spaced times from `t0` to `t1` inclusive.
+    pub fn linspace(t0: f64, t1: f64, count: u64) -> Self {
+        let step = if count > 1 {
+            (t1 - t0) / (count - 1) as f64
+        } else {
+            1.0
+        };
+        OutputGrid {
+            start: t0,
+            step,
+            count,
+        }
+    }
+
+    /// The `k`-th output time.
+    #[inline]
+    pub fn time(&self, k: u64) -> f64 {
+        self.start + k as f64 * self.step
+    }
+}
+
+/// How a run ended.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Status {
+    /// Reached the end of the span.
+    Success,
+    /// The step size fell below the round-off limit of `t`.
+    StepTooSmall,
+    /// `Options::max_steps` steps were taken.
+    MaxSteps,
+    /// The Newton iteration failed repeatedly (or the iteration matrix stayed singular).
+    NewtonFailure,
+    /// The state or the right-hand side became NaN or infinite.
+    NonFinite,
+}
+
+impl Status {
+    /// The name used in files.
+    pub fn name(self) -> &'static str {
+        match self {
+            Status::Success => "success",
+            Status::StepTooSmall => "step_too_small",
+            Status::MaxSteps => "max_steps",
+            Status::NewtonFailure => "newton_failure",
+            Status::NonFinite => "non_finite",
+        }
+    }
+
+    /// A small integer code for files: 0 success, 1 step too small, 2 max steps,
+    /// 3 Newton failure, 4 non-finite.
+    pub fn code(self) -> i32 {
+        self as i32
+    }
+}
+
+/// Work done by one run.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct Stats {
+    /// Accepted steps.
+    pub steps: u64,
+    /// Rejected steps (error test or Newton failure).
+    pub rejected: u64,
+    /// Right-hand-side evaluations (Jacobians by finite differences not counted here).
+    pub rhs_evals: u64,
+    /// Jacobian evaluations.
+    pub jac_evals: u64,
+    /// LU factorisations (for Radau5 a real and a complex one count as two).
+    pub lu_decomps: u64,
+    /// Newton iterations (Radau5 only).
+    pub newton_iters: u64,
+}
+
+impl std::ops::AddAssign for Stats {
+    fn add_assign(&mut self, o: Stats) {
+        self.steps += o.steps;
+        self.rejected += o.rejected;
+        self.rhs_evals += o.rhs_evals;
+        self.jac_evals += o.jac_evals;
+        self.lu_decomps += o.lu_decomps;
+        self.newton_iters += o.newton_iters;
+    }
+}
+
+/// The outcome of one call to [`Solver::solve`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RunReport {
+    /// How the run ended.
+    pub status: Status,
+    /// The time reached (the end of the span on success).
+    pub t: f64,
+    /// Work done.
+    pub stats: Stats,
+}
+
+/// Weighted RMS norm of `e` (see the module docs): the single definition all methods use.
+#[inline]
+pub(crate) fn error_norm(e: &[f64], y: &[f64], y_new: &[f64], atol: &[f64], rtol: f64) -> f64 {
+    let mut sum = 0.0;
+    for i in 0..e.len() {
+        let sc = atol[i] + rtol * y[i].abs().max(y_new[i].abs());
+        let q = e[i] / sc;
+        sum += q * q;
+    }
+    (sum / e.len() as f64).sqrt()
+}
+
+/// What a method's step attempt produced.
+pub(crate) enum StepOutcome {
+    /// Step accepted: the method advanced from `t` to `t + h` and its dense output covers it.
+    Accepted,
+    /// Step rejected; the method has chosen a smaller step and will retry.
+    Rejected,
+    /// The method gives up.
+    Failed(Status),
+}
+
+/// Internal interface between the shared driver and one method.
+pub(crate) trait Stepper {
+    /// Prepares for a run from `(t0, y0)` with the given first step.
+    fn start<S: OdeSystem>(&mut self, sys: &S, t0: f64, y0: &[f64], h: f64, st: &mut Stats);
+    /// Current time and state.
+    fn t(&self) -> f64;
+    fn y(&self) -> &[f64];
+    /// Step size of the next attempt.
+    fn h(&self) -> f64;
+    /// Caps the next attempt's step (to land on the end of the span).
+    fn set_h(&mut self, h: f64);
+    /// One attempt with step `h()`.
+    fn attempt<S: OdeSystem>(&mut self, sys: &S, st: &mut Stats) -> StepOutcome;
+    /// Dense output over the last accepted step, at `t` in `[t_prev, t]`.
+    fn dense(&self, t: f64, out: &mut [f64]);
+}
+
+/// Chooses an initial step from the first two derivatives (Hairer, Nørsett & Wanner,
+/// *Solving ODEs I*, Sect. II.4, algorithm of the HINIT routine).
+fn initial_step<S: OdeSystem>(
+    sys: &S,
+    t0: f64,
+    y0: &[f64],
+    order: f64,
+    atol: &[f64],
+    rtol: f64,
+    h_max: f64,
+    buf: &mut [Vec<f64>; 3],
+    st: &mut Stats,
+) -> f64 {
+    let n = y0.len();
+    let [f0, y1, f1] = buf;
+    sys.rhs(t0, y0, f0);
+    st.rhs_evals += 1;
+    let d0 = error_norm(y0, y0, y0, atol, rtol);
+    let d1 = error_norm(f0, y0, y0, atol, rtol);
+    let mut h = if d0 < 1e-5 || d1 < 1e-5 {
+        1e-6
+    } else {
+        0.01 * d0 / d1
+    };
+    h = h.min(h_max);
+    for i in 0..n {
+        y1[i] = y0[i] + h * f0[i];
+    }
+    sys.rhs(t0 + h, y1, f1);
+    st.rhs_evals += 1;
+    for i in 0..n {
+        y1[i] = f1[i] - f0[i];
+    }
+    let d2 = error_norm(y1, y0, y0, atol, rtol) / h;
+    let dm = d1.max(d2);
+    let h1 = if dm <= 1e-15 {
+        (h * 1e-3).max(1e-6)
+    } else {
+        (0.01 / dm).powf(1.0 / (order + 1.0))
+    };
+    (100.0 * h).min(h1).min(h_max)
+}
+
+/// A reusable integrator: the method plus its workspace. Create one per worker thread and call
+/// [`Solver::solve`] for every run; buffers are allocated when the dimension changes only.
+pub struct Solver {
+    method: Method,
+    dim: usize,
+    radau: Option<radau5::Radau5>,
+    rodas: Option<rodas::Rodas4>,
+    dopri: Option<dopri5::Dopri5>,
+    atol: Vec<f64>,
+    out: Vec<f64>,
+    init: [Vec<f64>; 3],
+}
+
+impl Solver {
+    /// A solver for `method`; the workspace is sized on the first call.
+    pub fn new(method: Method) -> Self {
+        Solver {
+            method,
+            dim: 0,
+            radau: None,
+            rodas: None,
+            dopri: None,
+            atol: Vec::new(),
+            out: Vec::new(),
+            init: [Vec::new(), Vec::new(), Vec::new()],
+        }
+    }
+
+    /// The method this solver runs.
+    pub fn method(&self) -> Method {
+        self.method
+    }
+
+    fn ensure(&mut self, n: usize) {
+        if self.dim == n {
+            return;
+        }
+        self.dim = n;
+        self.radau = None;
+        self.rodas = None;
+        self.dopri = None;
+        match self.method {
+            Method::Radau5 => self.radau = Some(radau5::Radau5::new(n)),
+            Method::Rodas4 => self.rodas = Some(rodas::Rodas4::new(n)),
+            Method::Dopri5 => self.dopri = Some(dopri5::Dopri5::new(n)),
+        }
+        self.atol = vec![0.0; n];
+        self.out = vec![0.0; n];
+        self.init = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
+    }
+
+    /// Integrates `sys` from `(t0, y0)` to `t1 > t0`, calling `observe(t, y)` at every time of
+    /// `grid` inside `[t0, t1]` (by dense output). On return `y0` holds the state reached.
+    ///
+    /// Options must be valid ([`Options::validate`]); invalid options panic in debug builds
+    /// only, so validate once before a batch.
+    pub fn solve<S: OdeSystem>(
+        &mut self,
+        sys: &S,
+        t0: f64,
+        t1: f64,
+        y0: &mut [f64],
+        opts: &Options,
+        grid: OutputGrid,
+        mut observe: impl FnMut(f64, &[f64]),
+    ) -> RunReport {
+        debug_assert!(opts.validate().is_ok());
+        let n = sys.dim();
+        assert_eq!(y0.len(), n, "initial state has the wrong length");
+        self.ensure(n);
+        for i in 0..n {
+            self.atol[i] = opts.atol * sys.scale(i);
+        }
+        let mut stats = Stats::default();
+        match self.method {
+            Method::Radau5 => {
+                let m = self.radau.as_mut().unwrap();
+                m.set_tolerances(opts.rtol, &self.atol);
+                drive(
+                    m,
+                    sys,
+                    t0,
+                    t1,
+                    y0,
+                    opts,
+                    grid,
+                    &mut observe,
+                    &mut self.out,
+                    &mut self.init,
+                    &self.atol,
+                    &mut stats,
+                    3.0,
+                )
+            }
+            Method::Rodas4 => {
+                let m = self.rodas.as_mut().unwrap();
+                m.set_tolerances(opts.rtol, &self.atol);
+                drive(
+                    m,
+                    sys,
+                    t0,
+                    t1,
+                    y0,
+                    opts,
+                    grid,
+                    &mut observe,
+                    &mut self.out,
+                    &mut self.init,
+                    &self.atol,
+                    &mut stats,
+                    3.0,
+                )
+            }
+            Method::Dopri5 => {
+                let m = self.dopri.as_mut().unwrap();
+                m.set_tolerances(opts.rtol, &self.atol);
+                drive(
+                    m,
+                    sys,
+                    t0,
+                    t1,
+                    y0,
+                    opts,
+                    grid,
+                    &mut observe,
+                    &mut self.out,
+                    &mut self.init,
+                    &self.atol,
+                    &mut stats,
+                    4.0,
+                )
+            }
+        }
+    }
+}
+
+/// The driver shared by all methods: step control against the span, output by dense output,
+/// step limits and status.
+#[allow(clippy::too_many_arguments)]
+fn drive<M: Stepper, S: OdeSystem>(
+    m: &mut M,
+    sys: &S,
+    t0: f64,
+    t1: f64,
+    y0: &mut [f64],
+    opts: &Options,
+    grid: OutputGrid,
+    observe: &mut impl FnMut(f64, &[f64]),
+    out: &mut [f64],
+    init: &mut [Vec<f64>; 3],
+    atol: &[f64],
+    stats: &mut Stats,
+    order: f64,
+) -> RunReport {
+    let finish = |status, t, y0: &mut [f64], y: &[f64], stats: &Stats| {
+        y0.copy_from_slice(y);
+        RunReport {
+            status,
+            t,
+            stats: *stats,
+        }
+    };
+    if y0.iter().any(|v| !v.is_finite()) {
+        return RunReport {
+            status: Status::NonFinite,
+            t: t0,
+            stats: *stats,
+        };
+    }
+    // Output times before t0 are skipped; the one at t0 is the initial state.
+    let mut k = 0u64;
+    while k < grid.count && grid.time(k) < t0 {
+        k += 1;
+    }
+    while k < grid.count && grid.time(k) == t0 {
+        observe(t0, y0);
+        k += 1;
+    }
+    let span = t1 - t0;
+    if span <= 0.0 {
+        return RunReport {
+            status: Status::Success,
+            t: t0,
+            stats: *stats,
+        };
+    }
+    let h_max = opts.h_max.min(span);
+    let h = if opts.h0 > 0.0 {
+        opts.h0.min(h_max)
+    } else {
+        initial_step(
+            sys,
+            t0,
+            y0,
+            order,
+            atol,
+            opts.rtol.max(1e-12),
+            h_max,
+            init,
+            stats,
+        )
+    };
+    m.start(sys, t0, y0, h, stats);
+    let mut attempts = 0u64;
+    loop {
+        let t = m.t();
+        let remaining = t1 - t;
+        if remaining <= 1e-14 * t1.abs().max(1.0) {
+            let t_end = t;
+            return finish(Status::Success, t_end, y0, m.y(), stats);
+        }
+        let mut h = m.h().min(h_max);
+        // Land on t1 exactly without a sliver step at the end.
+        if h >= remaining {
+            h = remaining;
+        } else if h > 0.5 * remaining {
+            h = 0.5 * remaining;
+        }
+        if 0.1 * h <= t.abs() * f64::EPSILON || h <= 0.0 {
+            return finish(Status::StepTooSmall, t, y0, m.y(), stats);
+        }
+        m.set_h(h);
+        if attempts >= opts.max_steps {
+            return finish(Status::MaxSteps, t, y0, m.y(), stats);
+        }
+        attempts += 1;
+        match m.attempt(sys, stats) {
+            StepOutcome::Accepted => {
+                let t_new = m.t();
+                if m.y().iter().any(|v| !v.is_finite()) {
+                    return finish(Status::NonFinite, t_new, y0, m.y(), stats);
+                }
+                // The last step lands on t1 up to round-off; snap output times there.
+                let t_hi = if (t_new - t1).abs() <= 1e-14 * t1.abs().max(1.0) {
+                    t1
+                } else {
+                    t_new
+                };
+                while k < grid.count {
+                    let tk = grid.time(k);
+                    if tk > t_hi {
+                        break;
+                    }
+                    m.dense(tk.min(t_new), out);
+                    observe(tk, out);
+                    k += 1;
+                }
+            }
+            StepOutcome::Rejected => {}
+            StepOutcome::Failed(status) => return finish(status, t, y0, m.y(), stats),
+        }
+    }
+}

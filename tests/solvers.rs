@@ -1,0 +1,500 @@
+//! Solver tests in three tiers:
+//! 1. convergence order at fixed step size;
+//! 2. error within tolerance units, with bounds on the work done;
+//! 3. agreement with published reference solutions of standard stiff problems
+//!    (Robertson, Van der Pol with μ = 1000, HIRES), from the Bari test set for IVP solvers
+//!    (Mazzia & Magherini), whose reference values were computed with RADAU5 in quadruple
+//!    precision (rtol = atol = 1.1e-18).
+
+use stickslip::ode::{Method, OdeSystem, Options, OutputGrid, Solver, Status};
+
+/// `y' = y²`, `z' = cos(t) z`: exact `y = 1/(1 − t)`, `z = exp(sin t)` (nonlinear and
+/// non-autonomous, so Rosenbrock's ∂f/∂t is exercised).
+struct Exact;
+impl OdeSystem for Exact {
+    fn dim(&self) -> usize {
+        2
+    }
+    fn rhs(&self, t: f64, y: &[f64], dy: &mut [f64]) {
+        dy[0] = y[0] * y[0];
+        dy[1] = t.cos() * y[1];
+    }
+    fn jacobian(&self, t: f64, y: &[f64], j: &mut [f64]) {
+        j.copy_from_slice(&[2.0 * y[0], 0.0, 0.0, t.cos()]);
+    }
+    fn time_derivative(&self, t: f64, y: &[f64], d: &mut [f64], _s: &mut [f64]) {
+        d[0] = 0.0;
+        d[1] = -t.sin() * y[1];
+    }
+}
+fn exact(t: f64) -> [f64; 2] {
+    [1.0 / (1.0 - t), t.sin().exp()]
+}
+
+/// The forced oscillator `y₁'' + y₁ = sin 2t`, `y(0) = (1, 0)`: exact
+/// `y₁ = cos t + (2/3) sin t − (1/3) sin 2t`. Linear with a constant Jacobian, so the simplified
+/// Newton iteration of Radau5 is exact after one iteration and the fixed-step error is the
+/// method's truncation error alone.
+struct Forced;
+impl OdeSystem for Forced {
+    fn dim(&self) -> usize {
+        2
+    }
+    fn rhs(&self, t: f64, y: &[f64], dy: &mut [f64]) {
+        dy[0] = y[1];
+        dy[1] = -y[0] + (2.0 * t).sin();
+    }
+    fn jacobian(&self, _t: f64, _y: &[f64], j: &mut [f64]) {
+        j.copy_from_slice(&[0.0, 1.0, -1.0, 0.0]);
+    }
+}
+fn forced(t: f64) -> [f64; 2] {
+    let (s, c) = t.sin_cos();
+    [
+        c + 2.0 / 3.0 * s - (2.0 * t).sin() / 3.0,
+        -s + 2.0 / 3.0 * c - 2.0 / 3.0 * (2.0 * t).cos(),
+    ]
+}
+
+struct Robertson;
+impl OdeSystem for Robertson {
+    fn dim(&self) -> usize {
+        3
+    }
+    fn rhs(&self, _t: f64, y: &[f64], dy: &mut [f64]) {
+        dy[0] = -0.04 * y[0] + 1e4 * y[1] * y[2];
+        dy[2] = 3e7 * y[1] * y[1];
+        dy[1] = -dy[0] - dy[2];
+    }
+    fn jacobian(&self, _t: f64, y: &[f64], j: &mut [f64]) {
+        j.copy_from_slice(&[
+            -0.04,
+            1e4 * y[2],
+            1e4 * y[1],
+            0.04,
+            -1e4 * y[2] - 6e7 * y[1],
+            -1e4 * y[1],
+            0.0,
+            6e7 * y[1],
+            0.0,
+        ]);
+    }
+    fn scale(&self, i: usize) -> f64 {
+        // y2 lives near 1e-5 and below.
+        if i == 1 { 1e-4 } else { 1.0 }
+    }
+}
+
+/// Van der Pol in the Bari test set's scaling, ε = 1e-6 (μ = 1000).
+struct VanDerPol(f64);
+impl OdeSystem for VanDerPol {
+    fn dim(&self) -> usize {
+        2
+    }
+    fn rhs(&self, _t: f64, y: &[f64], dy: &mut [f64]) {
+        dy[0] = y[1];
+        dy[1] = ((1.0 - y[0] * y[0]) * y[1] - y[0]) / self.0;
+    }
+    fn jacobian(&self, _t: f64, y: &[f64], j: &mut [f64]) {
+        let e = self.0;
+        j.copy_from_slice(&[
+            0.0,
+            1.0,
+            (-2.0 * y[0] * y[1] - 1.0) / e,
+            (1.0 - y[0] * y[0]) / e,
+        ]);
+    }
+}
+
+struct Hires;
+impl OdeSystem for Hires {
+    fn dim(&self) -> usize {
+        8
+    }
+    fn rhs(&self, _t: f64, y: &[f64], f: &mut [f64]) {
+        f[0] = -1.71 * y[0] + 0.43 * y[1] + 8.32 * y[2] + 0.0007;
+        f[1] = 1.71 * y[0] - 8.75 * y[1];
+        f[2] = -10.03 * y[2] + 0.43 * y[3] + 0.035 * y[4];
+        f[3] = 8.32 * y[1] + 1.71 * y[2] - 1.12 * y[3];
+        f[4] = -1.745 * y[4] + 0.43 * y[5] + 0.43 * y[6];
+        f[5] = -280.0 * y[5] * y[7] + 0.69 * y[3] + 1.71 * y[4] - 0.43 * y[5] + 0.69 * y[6];
+        f[6] = 280.0 * y[5] * y[7] - 1.81 * y[6];
+        f[7] = -280.0 * y[5] * y[7] + 1.81 * y[6];
+    }
+    fn jacobian(&self, _t: f64, y: &[f64], j: &mut [f64]) {
+        j.fill(0.0);
+        let mut s = |r: usize, c: usize, v: f64| j[r * 8 + c] = v;
+        s(0, 0, -1.71);
+        s(0, 1, 0.43);
+        s(0, 2, 8.32);
+        s(1, 0, 1.71);
+        s(1, 1, -8.75);
+        s(2, 2, -10.03);
+        s(2, 3, 0.43);
+        s(2, 4, 0.035);
+        s(3, 1, 8.32);
+        s(3, 2, 1.71);
+        s(3, 3, -1.12);
+        s(4, 4, -1.745);
+        s(4, 5, 0.43);
+        s(4, 6, 0.43);
+        s(5, 3, 0.69);
+        s(5, 4, 1.71);
+        s(5, 5, -0.43 - 280.0 * y[7]);
+        s(5, 6, 0.69);
+        s(5, 7, -280.0 * y[5]);
+        s(6, 5, 280.0 * y[7]);
+        s(6, 6, -1.81);
+        s(6, 7, 280.0 * y[5]);
+        s(7, 5, -280.0 * y[7]);
+        s(7, 6, 1.81);
+        s(7, 7, -280.0 * y[5]);
+    }
+}
+
+const ROBER_T: f64 = 1e11;
+const ROBER_REF: [f64; 3] = [
+    0.2083340149701255e-7,
+    0.8333360770334713e-13,
+    0.9999999791665050,
+];
+const VDP_REF: [f64; 2] = [0.1706167732170483e1, -0.8928097010247975];
+const HIRES_T: f64 = 321.8122;
+const HIRES_REF: [f64; 8] = [
+    0.7371312573325668e-3,
+    0.1442485726316185e-3,
+    0.5888729740967575e-4,
+    0.1175651343283149e-2,
+    0.2386356198831331e-2,
+    0.6238968252742796e-2,
+    0.2849998395185769e-2,
+    0.2850001604814231e-2,
+];
+
+fn opts(rtol: f64, atol: f64) -> Options {
+    Options {
+        rtol,
+        atol,
+        ..Options::default()
+    }
+}
+
+/// Largest mixed error `|y − ref| / (atol + rtol |ref|)` in units of the requested tolerance.
+fn tol_units(y: &[f64], r: &[f64], rtol: f64, atol: f64) -> f64 {
+    y.iter()
+        .zip(r)
+        .map(|(a, b)| (a - b).abs() / (atol + rtol * b.abs()))
+        .fold(0.0, f64::max)
+}
+
+// ---------------------------------------------------------------- tier 1: convergence order
+
+fn fixed_step_error(method: Method, h: f64) -> f64 {
+    let t1 = 2.0;
+    let mut y = [1.0, 0.0];
+    let o = Options {
+        rtol: 0.1,
+        atol: 1.0,
+        h0: h,
+        h_max: h,
+        ..Options::default()
+    };
+    let rep = Solver::new(method).solve(&Forced, 0.0, t1, &mut y, &o, OutputGrid::NONE, |_, _| {});
+    assert_eq!(rep.status, Status::Success);
+    assert_eq!(
+        rep.stats.rejected, 0,
+        "{method}: a fixed-step run must accept every step"
+    );
+    assert_eq!(
+        rep.stats.steps,
+        (t1 / h).round() as u64,
+        "{method}: step count"
+    );
+    let e = forced(t1);
+    ((y[0] - e[0]).powi(2) + (y[1] - e[1]).powi(2)).sqrt()
+}
+
+#[test]
+fn convergence_orders_match_theory() {
+    for (method, order, h) in [
+        (Method::Radau5, 5.0, 0.25),
+        (Method::Rodas4, 4.0, 0.125),
+        (Method::Dopri5, 5.0, 0.125),
+    ] {
+        let e1 = fixed_step_error(method, h);
+        let e2 = fixed_step_error(method, h / 2.0);
+        let e3 = fixed_step_error(method, h / 4.0);
+        let p1 = (e1 / e2).log2();
+        let p2 = (e2 / e3).log2();
+        assert!(
+            (p1 - order).abs() < 0.5 && (p2 - order).abs() < 0.5,
+            "{method}: observed orders {p1:.2}, {p2:.2}, expected {order}"
+        );
+    }
+}
+
+// ---------------------------------------------------------------- tier 2: tolerance and work
+
+#[test]
+fn error_within_tolerance_units_and_dense_output_agrees() {
+    for method in Method::ALL {
+        for rtol in [1e-4, 1e-6, 1e-8] {
+            let atol = rtol;
+            let mut y = [1.0, 1.0];
+            let mut worst = 0.0f64;
+            let grid = OutputGrid::linspace(0.0, 0.9, 91);
+            let rep = Solver::new(method).solve(
+                &Exact,
+                0.0,
+                0.9,
+                &mut y,
+                &opts(rtol, atol),
+                grid,
+                |t, yt| {
+                    worst = worst.max(tol_units(yt, &exact(t), rtol, atol));
+                },
+            );
+            assert_eq!(rep.status, Status::Success);
+            // The final value is within a few tolerance units; the dense output (of lower order)
+            // within tens of them.
+            let end = tol_units(&y, &exact(0.9), rtol, atol);
+            assert!(
+                end < 20.0,
+                "{method} rtol {rtol}: end error {end:.2} tolerance units"
+            );
+            assert!(
+                worst < 50.0,
+                "{method} rtol {rtol}: dense output error {worst:.2} tolerance units"
+            );
+            // Work grows no faster than tol^(-1/(p)) (with slack): bound the steps.
+            let bound = 40.0 * rtol.powf(-1.0 / 4.0);
+            assert!(
+                (rep.stats.steps as f64) < bound,
+                "{method} rtol {rtol}: {} steps > {bound:.0}",
+                rep.stats.steps
+            );
+        }
+    }
+}
+
+#[test]
+fn tighter_tolerance_gives_smaller_error_on_van_der_pol() {
+    // μ = 1000 is far too stiff for the explicit method: implicit methods only.
+    for method in [Method::Radau5, Method::Rodas4] {
+        let mut errs = vec![];
+        for rtol in [1e-4, 1e-6, 1e-8] {
+            let mut y = [2.0, 0.0];
+            let rep = Solver::new(method).solve(
+                &VanDerPol(1e-6),
+                0.0,
+                2.0,
+                &mut y,
+                &opts(rtol, rtol),
+                OutputGrid::NONE,
+                |_, _| {},
+            );
+            assert_eq!(rep.status, Status::Success);
+            errs.push((y[0] - VDP_REF[0]).abs().max((y[1] - VDP_REF[1]).abs()));
+        }
+        assert!(
+            errs[1] < errs[0] && errs[2] < errs[1],
+            "{method}: errors {errs:?} must fall with the tolerance"
+        );
+    }
+}
+
+#[test]
+fn explicit_method_stalls_on_stiffness_but_implicit_does_not() {
+    // The stiffness ratio decides the work: Dopri5 needs orders of magnitude more steps than
+    // Radau5 on Van der Pol with ε = 1e-5, and a step cap stops it with MaxSteps.
+    let sys = VanDerPol(1e-5);
+    let o = opts(1e-6, 1e-6);
+    let mut y = [2.0, 0.0];
+    let implicit =
+        Solver::new(Method::Radau5).solve(&sys, 0.0, 2.0, &mut y, &o, OutputGrid::NONE, |_, _| {});
+    let mut y = [2.0, 0.0];
+    let explicit =
+        Solver::new(Method::Dopri5).solve(&sys, 0.0, 2.0, &mut y, &o, OutputGrid::NONE, |_, _| {});
+    assert_eq!(implicit.status, Status::Success);
+    assert_eq!(explicit.status, Status::Success);
+    assert!(
+        explicit.stats.steps > 10 * implicit.stats.steps,
+        "{:?} vs {:?}",
+        explicit.stats,
+        implicit.stats
+    );
+    let mut y = [2.0, 0.0];
+    let capped = Solver::new(Method::Dopri5).solve(
+        &sys,
+        0.0,
+        2.0,
+        &mut y,
+        &Options {
+            max_steps: 100,
+            ..o
+        },
+        OutputGrid::NONE,
+        |_, _| {},
+    );
+    assert_eq!(capped.status, Status::MaxSteps);
+    assert!(capped.t < 2.0);
+}
+
+#[test]
+fn non_finite_state_is_reported() {
+    // y' = y² blows up at t = 1.
+    struct Blowup;
+    impl OdeSystem for Blowup {
+        fn dim(&self) -> usize {
+            1
+        }
+        fn rhs(&self, _t: f64, y: &[f64], dy: &mut [f64]) {
+            dy[0] = y[0] * y[0];
+        }
+        fn jacobian(&self, _t: f64, y: &[f64], j: &mut [f64]) {
+            j[0] = 2.0 * y[0];
+        }
+    }
+    for method in Method::ALL {
+        let mut y = [1.0];
+        let rep = Solver::new(method).solve(
+            &Blowup,
+            0.0,
+            2.0,
+            &mut y,
+            &opts(1e-6, 1e-6),
+            OutputGrid::NONE,
+            |_, _| {},
+        );
+        assert_ne!(rep.status, Status::Success, "{method}");
+        assert!(
+            rep.t < 1.0 + 1e-6,
+            "{method} passed the singularity: t = {}",
+            rep.t
+        );
+    }
+    let mut y = [f64::NAN];
+    let rep = Solver::new(Method::Radau5).solve(
+        &Blowup,
+        0.0,
+        1.0,
+        &mut y,
+        &opts(1e-6, 1e-6),
+        OutputGrid::NONE,
+        |_, _| {},
+    );
+    assert_eq!(rep.status, Status::NonFinite);
+}
+
+// ---------------------------------------------------------------- tier 3: published references
+
+#[test]
+fn robertson_matches_reference() {
+    for (method, rtol) in [(Method::Radau5, 1e-8), (Method::Rodas4, 1e-8)] {
+        let mut y = [1.0, 0.0, 0.0];
+        let rep = Solver::new(method).solve(
+            &Robertson,
+            0.0,
+            ROBER_T,
+            &mut y,
+            &opts(rtol, 1e-10),
+            OutputGrid::NONE,
+            |_, _| {},
+        );
+        assert_eq!(rep.status, Status::Success, "{method}");
+        let rel: Vec<f64> = y
+            .iter()
+            .zip(ROBER_REF)
+            .map(|(a, b)| ((a - b) / b).abs())
+            .collect();
+        assert!(
+            rel.iter().all(|&e| e < 1e-4),
+            "{method}: relative errors {rel:?}"
+        );
+        assert!(rep.stats.steps < 3000, "{method}: {:?}", rep.stats);
+    }
+}
+
+#[test]
+fn van_der_pol_mu_1000_matches_reference() {
+    for (method, rtol, max_steps) in [(Method::Radau5, 1e-8, 3000), (Method::Rodas4, 1e-8, 20000)] {
+        let mut y = [2.0, 0.0];
+        let rep = Solver::new(method).solve(
+            &VanDerPol(1e-6),
+            0.0,
+            2.0,
+            &mut y,
+            &opts(rtol, rtol),
+            OutputGrid::NONE,
+            |_, _| {},
+        );
+        assert_eq!(rep.status, Status::Success, "{method}");
+        let err = tol_units(&y, &VDP_REF, 1e-6, 1e-6);
+        assert!(
+            err < 1.0,
+            "{method}: y = {y:?}, error {err:.3} units of 1e-6"
+        );
+        assert!(rep.stats.steps < max_steps, "{method}: {:?}", rep.stats);
+        if method == Method::Radau5 {
+            // The Jacobian is reused across steps.
+            assert!(rep.stats.jac_evals < rep.stats.steps, "{:?}", rep.stats);
+        }
+    }
+}
+
+#[test]
+fn hires_matches_reference() {
+    for method in [Method::Radau5, Method::Rodas4] {
+        let mut y = [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0057];
+        let rep = Solver::new(method).solve(
+            &Hires,
+            0.0,
+            HIRES_T,
+            &mut y,
+            &opts(1e-9, 1e-11),
+            OutputGrid::NONE,
+            |_, _| {},
+        );
+        assert_eq!(rep.status, Status::Success, "{method}");
+        let rel = y
+            .iter()
+            .zip(HIRES_REF)
+            .map(|(a, b)| ((a - b) / b).abs())
+            .fold(0.0, f64::max);
+        assert!(rel < 1e-6, "{method}: max relative error {rel:.2e}");
+        assert!(rep.stats.steps < 5000, "{method}: {:?}", rep.stats);
+    }
+}
+
+#[test]
+fn a_solver_is_reusable_and_gives_identical_runs() {
+    let mut s = Solver::new(Method::Radau5);
+    let run = |s: &mut Solver| {
+        let mut y = [2.0, 0.0];
+        let rep = s.solve(
+            &VanDerPol(1e-3),
+            0.0,
+            1.0,
+            &mut y,
+            &opts(1e-6, 1e-6),
+            OutputGrid::NONE,
+            |_, _| {},
+        );
+        (y, rep.stats)
+    };
+    let a = run(&mut s);
+    // A different dimension in between resizes the workspace.
+    let mut y3 = [1.0, 0.0, 0.0];
+    s.solve(
+        &Robertson,
+        0.0,
+        1.0,
+        &mut y3,
+        &opts(1e-6, 1e-6),
+        OutputGrid::NONE,
+        |_, _| {},
+    );
+    let b = run(&mut s);
+    assert_eq!(a.0, b.0);
+    assert_eq!(a.1, b.1);
+}
