@@ -1,2 +1,10 @@
 //! stickslip: where tangential substrate vibration suppresses stick-slip friction.
+//!
+//! The library simulates the test rig of the paper (a body dragged through a soft drive over a
+//! tangentially vibrating substrate, LuGre friction; equations in [`model`]) with stiff adaptive
+//! integrators ([`ode`]), measures the stick-slip amplitude, the reduction coefficient `r` and the
+//! mean drive force ([`measures`], [`sim`]).
+pub mod measures;
+pub mod model;
 pub mod ode;
+pub mod sim;

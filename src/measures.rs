@@ -1,0 +1,275 @@
+//! The measures of MODEL.md, computed on the fly from a uniformly sampled drive force, so that a
+//! run of any length needs only a buffer of one vibration period.
+//!
+//! - **Smoothed drive force**: a moving average of `F_d` over exactly one vibration period
+//!   (`K` samples at spacing `1/(K f)`), which cancels the ripple at `f` and its harmonics below
+//!   `K f`; no smoothing without vibration.
+//! - **Steady window**: the second half of the simulated time.
+//! - **Stick-slip cycles**: a peak-and-trough (zig-zag) detector with hysteresis `δ` on the
+//!   smoothed force; a *drop* is a peak followed by the next trough. The detector starts in the
+//!   falling state, so a drop cut by the window's start is never counted.
+//! - **dF**: the mean drop, with its standard error `std/√n`; where no drop remains
+//!   (stick-slip eliminated), the max minus min of the smoothed force over the window.
+//! - **Mean drive force**: the mean of the raw `F_d` samples over the window (Fig. 10b).
+//! - **Stick fraction**: the share of the window in which the period-averaged relative velocity
+//!   of body and substrate is below `0.05 v_d` in magnitude.
+//! - **Period**: the mean spacing of successive peaks. **Peak / trough force**: the means over the
+//!   counted drops (with no drop: max and min of the smoothed force).
+
+use serde::{Deserialize, Serialize};
+
+/// Hysteresis of the cycle detector as a share of `F_s − F_c` (so 1 % of the nominal
+/// amplitude `2 (F_s − F_c)` without vibration): smaller wiggles do not make a cycle.
+pub const DROP_THRESHOLD: f64 = 0.02;
+/// Stick: period-averaged |v − u'| below this share of `v_d`.
+pub const STICK_VELOCITY: f64 = 0.05;
+
+/// The measures of one run.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Measures {
+    /// Stick-slip amplitude dF [N].
+    #[serde(rename = "dF")]
+    pub d_f: f64,
+    /// Standard error of dF over the cycles [N] (0 when no cycle remains).
+    #[serde(rename = "dF_stderr")]
+    pub d_f_stderr: f64,
+    /// Mean drive force over the steady window [N].
+    pub mean_force: f64,
+    /// Share of the steady window spent sticking [-].
+    pub stick_fraction: f64,
+    /// Mean stick-slip period [s] (NaN with fewer than two peaks).
+    pub period: f64,
+    /// Mean peak of the smoothed drive force before a slip [N].
+    pub peak_force: f64,
+    /// Mean trough of the smoothed drive force after a slip [N].
+    pub trough_force: f64,
+    /// Number of drops counted in the steady window.
+    pub cycles: u32,
+}
+
+/// A streaming analyser: feed it samples `(t, F_d, v_r)` at uniform spacing; ask for the
+/// [`Measures`] at the end. Allocates its period buffer once.
+#[derive(Clone, Debug)]
+pub struct Analyzer {
+    window_start: f64,
+    threshold: f64,
+    stick_speed: f64,
+    // Moving averages over one period (ring buffers of K samples).
+    ring_f: Vec<f64>,
+    ring_v: Vec<f64>,
+    pos: usize,
+    filled: usize,
+    sum_f: f64,
+    sum_v: f64,
+    // Window statistics.
+    n: u64,
+    sum_raw: f64,
+    stick: u64,
+    smin: f64,
+    smax: f64,
+    // Zig-zag detector.
+    rising: bool,
+    ext: f64,
+    ext_t: f64,
+    pending_peak: Option<(f64, f64)>,
+    drops: Vec<f64>,
+    peaks: Vec<(f64, f64)>,
+    troughs: Vec<f64>,
+}
+
+impl Analyzer {
+    /// An analyser for samples `period_samples` per vibration period (1: no smoothing), a steady
+    /// window from `window_start`, drop threshold `threshold` [N] and stick speed [m/s].
+    pub fn new(period_samples: usize, window_start: f64, threshold: f64, stick_speed: f64) -> Self {
+        let k = period_samples.max(1);
+        Analyzer {
+            window_start,
+            threshold,
+            stick_speed,
+            ring_f: vec![0.0; k],
+            ring_v: vec![0.0; k],
+            pos: 0,
+            filled: 0,
+            sum_f: 0.0,
+            sum_v: 0.0,
+            n: 0,
+            sum_raw: 0.0,
+            stick: 0,
+            smin: f64::INFINITY,
+            smax: f64::NEG_INFINITY,
+            rising: false,
+            ext: f64::INFINITY,
+            ext_t: 0.0,
+            pending_peak: None,
+            drops: Vec::with_capacity(64),
+            peaks: Vec::with_capacity(64),
+            troughs: Vec::with_capacity(64),
+        }
+    }
+
+    /// Feeds one sample and returns the smoothed force (NaN until one period is filled).
+    pub fn push(&mut self, t: f64, force: f64, v_rel: f64) -> f64 {
+        let k = self.ring_f.len();
+        // Running sums are refreshed from the buffer once per period, so round-off cannot drift.
+        self.sum_f += force - self.ring_f[self.pos];
+        self.sum_v += v_rel - self.ring_v[self.pos];
+        self.ring_f[self.pos] = force;
+        self.ring_v[self.pos] = v_rel;
+        self.pos += 1;
+        if self.pos == k {
+            self.pos = 0;
+            self.sum_f = self.ring_f.iter().sum();
+            self.sum_v = self.ring_v.iter().sum();
+        }
+        self.filled = (self.filled + 1).min(k);
+        if self.filled < k {
+            return f64::NAN;
+        }
+        let sf = self.sum_f / k as f64;
+        let sv = self.sum_v / k as f64;
+        if t >= self.window_start {
+            self.n += 1;
+            self.sum_raw += force;
+            if sv.abs() < self.stick_speed {
+                self.stick += 1;
+            }
+            self.smin = self.smin.min(sf);
+            self.smax = self.smax.max(sf);
+            self.detect(t, sf);
+        }
+        sf
+    }
+
+    fn detect(&mut self, t: f64, f: f64) {
+        if self.rising {
+            if f > self.ext {
+                self.ext = f;
+                self.ext_t = t;
+            } else if f < self.ext - self.threshold {
+                // A peak: the slip has begun.
+                self.pending_peak = Some((self.ext, self.ext_t));
+                self.rising = false;
+                self.ext = f;
+                self.ext_t = t;
+            }
+        } else if f < self.ext {
+            self.ext = f;
+            self.ext_t = t;
+        } else if f > self.ext + self.threshold {
+            // A trough: the slip has ended; it closes the drop of the pending peak.
+            if let Some((pk, pt)) = self.pending_peak.take() {
+                self.drops.push(pk - self.ext);
+                self.peaks.push((pk, pt));
+                self.troughs.push(self.ext);
+            }
+            self.rising = true;
+            self.ext = f;
+            self.ext_t = t;
+        }
+    }
+
+    /// The measures over the window seen so far.
+    pub fn finish(&self) -> Measures {
+        let nd = self.drops.len();
+        let mean_force = if self.n > 0 {
+            self.sum_raw / self.n as f64
+        } else {
+            f64::NAN
+        };
+        let stick_fraction = if self.n > 0 {
+            self.stick as f64 / self.n as f64
+        } else {
+            f64::NAN
+        };
+        if nd == 0 {
+            return Measures {
+                d_f: self.smax - self.smin,
+                d_f_stderr: 0.0,
+                mean_force,
+                stick_fraction,
+                period: f64::NAN,
+                peak_force: self.smax,
+                trough_force: self.smin,
+                cycles: 0,
+            };
+        }
+        let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+        let d_f = mean(&self.drops);
+        let d_f_stderr = if nd > 1 {
+            let var = self.drops.iter().map(|d| (d - d_f).powi(2)).sum::<f64>() / (nd - 1) as f64;
+            (var / nd as f64).sqrt()
+        } else {
+            0.0
+        };
+        let period = if self.peaks.len() > 1 {
+            (self.peaks[nd - 1].1 - self.peaks[0].1) / (nd - 1) as f64
+        } else {
+            f64::NAN
+        };
+        Measures {
+            d_f,
+            d_f_stderr,
+            mean_force,
+            stick_fraction,
+            period,
+            peak_force: self.peaks.iter().map(|p| p.0).sum::<f64>() / nd as f64,
+            trough_force: mean(&self.troughs),
+            cycles: nd as u32,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A saw-tooth: linear rise from 5 to 11 N over 0.9 s, then a fall back over 0.1 s.
+    fn saw(t: f64) -> f64 {
+        let ph = t.rem_euclid(1.0);
+        if ph < 0.9 {
+            5.0 + 6.0 * ph / 0.9
+        } else {
+            11.0 - 6.0 * (ph - 0.9) / 0.1
+        }
+    }
+
+    #[test]
+    fn saw_tooth_gives_its_drop_period_and_mean() {
+        let dt = 1e-3;
+        // Window starts in the middle of a fall: that partial drop must not count.
+        let mut a = Analyzer::new(1, 4.95, 0.1, 1e-4);
+        for k in 0..10_000 {
+            let t = k as f64 * dt;
+            a.push(t, saw(t), 1.0);
+        }
+        let m = a.finish();
+        assert_eq!(m.cycles, 5, "{m:?}");
+        assert!((m.d_f - 6.0).abs() < 0.07, "{m:?}");
+        assert!(m.d_f_stderr < 1e-9);
+        assert!((m.period - 1.0).abs() < 2e-3, "{m:?}");
+        assert!((m.mean_force - 8.0).abs() < 0.02, "{m:?}");
+        assert!(
+            (m.peak_force - 11.0).abs() < 0.07 && (m.trough_force - 5.0).abs() < 0.07,
+            "{m:?}"
+        );
+        assert_eq!(m.stick_fraction, 0.0);
+    }
+
+    #[test]
+    fn smoothing_over_one_period_removes_the_ripple() {
+        // A constant force plus a 100 Hz ripple of 1 N and its third harmonic.
+        let k = 20;
+        let dt = 1.0 / (100.0 * k as f64);
+        let mut a = Analyzer::new(k, 0.5, 0.05, 1e-3);
+        for i in 0..(k * 100) {
+            let t = i as f64 * dt;
+            let w = 2.0 * std::f64::consts::PI * 100.0 * t;
+            a.push(t, 8.0 + w.sin() + 0.3 * (3.0 * w).cos(), 0.0);
+        }
+        let m = a.finish();
+        assert_eq!(m.cycles, 0);
+        assert!(m.d_f < 1e-9, "{m:?}");
+        assert!((m.mean_force - 8.0).abs() < 1e-9);
+        assert_eq!(m.stick_fraction, 1.0);
+    }
+}

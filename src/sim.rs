@@ -1,0 +1,421 @@
+//! One simulated test: the run policy (simulated time, sampling), the integration, the measures,
+//! and the reduction coefficient `r` against the automatic run without vibration.
+
+use crate::measures::{Analyzer, DROP_THRESHOLD, Measures, STICK_VELOCITY};
+use crate::model::{ParamError, Params, Rig, S, V, X};
+use crate::ode::{Method, OdeSystem, OptionError, Options, OutputGrid, Solver, Stats, Status};
+use serde::{Deserialize, Serialize};
+use std::time::Instant;
+
+/// How a run is made. Every field documents its unit, default and range;
+/// [`RunOptions::validate`] quotes the violated bound.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RunOptions {
+    /// Integration method. Default [`Method::Radau5`].
+    pub method: Method,
+    /// Integrator options (tolerances, step limits). Default `rtol = 1e-6`, `atol = 1e-6`
+    /// (in units of each state's characteristic size, see `Rig::scale`).
+    pub ode: Options,
+    /// Stick-slip cycles (of the run without vibration) the steady window must hold.
+    /// Default 3. Range 1 to 1000.
+    pub min_cycles: u32,
+    /// Simulated time [s]; `None` (default) chooses it from the run (see [`simulated_time`]).
+    /// Range: > 0.
+    pub t_end: Option<f64>,
+    /// Samples per vibration period for the smoothing (more when the stick-slip needs a finer
+    /// grid). Default 16. Range 4 to 4096.
+    pub samples_per_period: usize,
+    /// Keep the time traces (for `run`, plots and chosen sweep points). Default false.
+    pub trace: bool,
+    /// Most trace points kept; longer runs are decimated evenly. Default 400 000. Range ≥ 100.
+    pub trace_points: usize,
+}
+
+impl Default for RunOptions {
+    fn default() -> Self {
+        RunOptions {
+            method: Method::Radau5,
+            ode: Options::default(),
+            min_cycles: 3,
+            t_end: None,
+            samples_per_period: 16,
+            trace: false,
+            trace_points: 400_000,
+        }
+    }
+}
+
+impl RunOptions {
+    /// Checks every field against its documented range.
+    pub fn validate(&self) -> Result<(), OptionError> {
+        self.ode.validate()?;
+        let bad = |field, value: f64, allowed| {
+            Err(OptionError {
+                field,
+                value,
+                allowed,
+            })
+        };
+        if !(1..=1000).contains(&self.min_cycles) {
+            return bad(
+                "min_cycles",
+                self.min_cycles as f64,
+                "1 <= min_cycles <= 1000",
+            );
+        }
+        if let Some(t) = self.t_end {
+            if !(t > 0.0 && t.is_finite()) {
+                return bad("t_end", t, "finite and > 0 s");
+            }
+        }
+        if !(4..=4096).contains(&self.samples_per_period) {
+            return bad(
+                "samples_per_period",
+                self.samples_per_period as f64,
+                "4 <= samples_per_period <= 4096",
+            );
+        }
+        if self.trace_points < 100 {
+            return bad(
+                "trace_points",
+                self.trace_points as f64,
+                "trace_points >= 100",
+            );
+        }
+        Ok(())
+    }
+}
+
+/// Simulated time chosen for a run [s]: long enough that the second half (the steady window)
+/// holds `min_cycles` stick-slip cycles of the run without vibration plus a spare 1.5, and that
+/// the first loading of the spring from rest (`F_s / (k_d v_d)`) and one more cycle lie before it:
+///
+/// ```text
+/// T = 2 · max( (n + 1.5) T_c,  F_s/(k_d v_d) + 2 T_c,  20 π √(m/k_d) ),   T_c = 2 (F_s − F_c)/(k_d v_d)
+/// ```
+///
+/// It depends on `v_d`, `k_d`, `F_s`, `F_c` and `m` only, so a run and its reference without
+/// vibration share it.
+pub fn simulated_time(p: &Params, min_cycles: u32) -> f64 {
+    let tc = p.cycle_estimate();
+    let t_load = p.f_s / (p.k_d * p.v_d);
+    let a = (min_cycles as f64 + 1.5) * tc;
+    let b = t_load + 2.0 * tc;
+    let c = 20.0 * p.slip_duration();
+    2.0 * a.max(b).max(c)
+}
+
+/// The sampling of a run: spacing [s] and samples per vibration period (1 without vibration).
+pub fn sampling(p: &Params, samples_per_period: usize) -> (f64, usize) {
+    // Fine enough for the slip (100 samples per slip) and for the cycle (2000 per cycle).
+    let dt0 = (p.cycle_estimate() / 2000.0).min(p.slip_duration() / 100.0);
+    if !p.vibrates() {
+        return (dt0, 1);
+    }
+    let k = samples_per_period.max((1.0 / (p.f * dt0)).ceil() as usize);
+    (1.0 / (k as f64 * p.f), k)
+}
+
+/// Time traces of a run, in SI units.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Trace {
+    /// Time [s].
+    pub t: Vec<f64>,
+    /// Drive force `F_d` [N].
+    pub f_d: Vec<f64>,
+    /// Drive force smoothed over one vibration period [N] (NaN during the first period).
+    pub f_d_smooth: Vec<f64>,
+    /// Body displacement `x_s` [m].
+    pub x_s: Vec<f64>,
+    /// Drive displacement `x_d = v_d t` [m].
+    pub x_d: Vec<f64>,
+    /// Contact deformation `s` [m].
+    pub s: Vec<f64>,
+    /// Relative velocity `v_r = v − u'(t)` [m/s].
+    pub v_r: Vec<f64>,
+    /// Body velocity `v` [m/s].
+    pub v: Vec<f64>,
+    /// Substrate displacement `u` [m].
+    pub u: Vec<f64>,
+}
+
+impl Trace {
+    /// Channel names, units and meanings, in file order.
+    pub const CHANNELS: [(&'static str, &'static str, &'static str); 9] = [
+        ("t", "s", "time"),
+        ("F_d", "N", "drive force"),
+        (
+            "F_d_smooth",
+            "N",
+            "drive force, moving average over one vibration period",
+        ),
+        ("x_s", "m", "body (specimen) displacement"),
+        ("x_d", "m", "drive displacement v_d t"),
+        ("s", "m", "elastic deformation of the contact"),
+        ("v_r", "m/s", "relative velocity of body and substrate"),
+        ("v", "m/s", "body velocity"),
+        ("u", "m", "substrate displacement"),
+    ];
+
+    /// The channels in [`Trace::CHANNELS`] order.
+    pub fn columns(&self) -> [&[f64]; 9] {
+        [
+            &self.t,
+            &self.f_d,
+            &self.f_d_smooth,
+            &self.x_s,
+            &self.x_d,
+            &self.s,
+            &self.v_r,
+            &self.v,
+            &self.u,
+        ]
+    }
+
+    /// Number of samples.
+    pub fn len(&self) -> usize {
+        self.t.len()
+    }
+
+    /// Whether the trace is empty.
+    pub fn is_empty(&self) -> bool {
+        self.t.is_empty()
+    }
+}
+
+/// The outcome of one integration of the rig.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RunResult {
+    /// How the integration ended.
+    pub status: Status,
+    /// Work done.
+    pub stats: Stats,
+    /// The measures (NaN where the run failed).
+    pub measures: Measures,
+    /// Simulated time [s].
+    pub t_end: f64,
+    /// Start of the steady window [s].
+    pub window_start: f64,
+    /// Wall-clock time of the integration and analysis [s].
+    pub wall_time: f64,
+    /// Time traces, when asked for.
+    #[serde(skip)]
+    pub trace: Option<Trace>,
+}
+
+/// Simulates the rig once (no reference run) with the given solver.
+pub fn simulate(p: &Params, opts: &RunOptions, solver: &mut Solver) -> Result<RunResult, SimError> {
+    opts.validate()?;
+    let rig = Rig::new(*p)?;
+    let t_end = opts
+        .t_end
+        .unwrap_or_else(|| simulated_time(p, opts.min_cycles));
+    Ok(integrate(&rig, t_end, opts, solver))
+}
+
+fn integrate(rig: &Rig, t_end: f64, opts: &RunOptions, solver: &mut Solver) -> RunResult {
+    let start = Instant::now();
+    let p = &rig.p;
+    let (dt, k) = sampling(p, opts.samples_per_period);
+    let count = (t_end / dt).floor() as u64 + 1;
+    let window_start = 0.5 * t_end;
+    let mut an = Analyzer::new(
+        k,
+        window_start,
+        DROP_THRESHOLD * (p.f_s - p.f_c),
+        STICK_VELOCITY * p.v_d,
+    );
+    let stride = if opts.trace {
+        count.div_ceil(opts.trace_points as u64).max(1)
+    } else {
+        0
+    };
+    let mut trace = opts.trace.then(|| {
+        let n = (count / stride.max(1) + 1) as usize;
+        let v = || Vec::with_capacity(n);
+        Trace {
+            t: v(),
+            f_d: v(),
+            f_d_smooth: v(),
+            x_s: v(),
+            x_d: v(),
+            s: v(),
+            v_r: v(),
+            v: v(),
+            u: v(),
+        }
+    });
+    let mut y = rig.initial_state();
+    let grid = OutputGrid {
+        start: 0.0,
+        step: dt,
+        count,
+    };
+    let mut idx = 0u64;
+    let rep = solver.solve(rig, 0.0, t_end, &mut y, &opts.ode, grid, |t, y| {
+        let f = rig.drive_force(t, y);
+        let v_r = rig.relative_velocity(t, y);
+        let smooth = an.push(t, f, v_r);
+        if let Some(tr) = trace.as_mut() {
+            if idx % stride == 0 {
+                tr.t.push(t);
+                tr.f_d.push(f);
+                tr.f_d_smooth.push(if k > 1 { smooth } else { f });
+                tr.x_s.push(y[X]);
+                tr.x_d.push(rig.drive_displacement(t));
+                tr.s.push(y[S]);
+                tr.v_r.push(v_r);
+                tr.v.push(y[V]);
+                tr.u.push(rig.substrate_displacement(t));
+            }
+        }
+        idx += 1;
+    });
+    let measures = if rep.status == Status::Success {
+        an.finish()
+    } else {
+        nan_measures()
+    };
+    debug_assert_eq!(rig.dim(), y.len());
+    RunResult {
+        status: rep.status,
+        stats: rep.stats,
+        measures,
+        t_end,
+        window_start,
+        wall_time: start.elapsed().as_secs_f64(),
+        trace,
+    }
+}
+
+fn nan_measures() -> Measures {
+    Measures {
+        d_f: f64::NAN,
+        d_f_stderr: f64::NAN,
+        mean_force: f64::NAN,
+        stick_fraction: f64::NAN,
+        period: f64::NAN,
+        peak_force: f64::NAN,
+        trough_force: f64::NAN,
+        cycles: 0,
+    }
+}
+
+/// A run with vibration and its reference without vibration, and the reduction coefficient.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CaseResult {
+    /// The parameters of the run.
+    pub params: Params,
+    /// The run itself.
+    pub run: RunResult,
+    /// The run without vibration at the same `v_d`, `k_d` and load (absent when `u0 = 0`: the
+    /// run is its own reference).
+    pub reference: Option<RunResult>,
+    /// Reduction coefficient `r = dF_sd / dF_ss` (5.1).
+    pub r: f64,
+    /// Standard error of `r`, propagated from the two dF standard errors.
+    pub r_stderr: f64,
+}
+
+impl CaseResult {
+    /// The worse of the two runs' statuses (success only when both succeeded).
+    pub fn status(&self) -> Status {
+        match &self.reference {
+            Some(r) if r.status != Status::Success => r.status,
+            _ => self.run.status,
+        }
+    }
+
+    /// Work of both runs together.
+    pub fn total_stats(&self) -> Stats {
+        let mut s = self.run.stats;
+        if let Some(r) = &self.reference {
+            s += r.stats;
+        }
+        s
+    }
+}
+
+/// Reduction coefficient and its standard error from a run and its reference.
+pub fn reduction(run: &Measures, reference: &Measures) -> (f64, f64) {
+    let r = run.d_f / reference.d_f;
+    let rel = ((run.d_f_stderr / run.d_f).powi(2) + (reference.d_f_stderr / reference.d_f).powi(2))
+        .sqrt();
+    let se = if run.d_f > 0.0 {
+        r * rel
+    } else {
+        r * reference.d_f_stderr / reference.d_f
+    };
+    (r, se)
+}
+
+/// Runs a case: the run with vibration and, when `u0 > 0`, its reference without vibration over
+/// the same simulated time; computes `r`.
+pub fn run_case(
+    p: &Params,
+    opts: &RunOptions,
+    solver: &mut Solver,
+) -> Result<CaseResult, SimError> {
+    opts.validate()?;
+    let rig = Rig::new(*p)?;
+    let t_end = opts
+        .t_end
+        .unwrap_or_else(|| simulated_time(p, opts.min_cycles));
+    let run = integrate(&rig, t_end, opts, solver);
+    if !p.vibrates() {
+        // Without vibration the run is its own reference: r = 1 by definition.
+        return Ok(CaseResult {
+            params: *p,
+            run,
+            reference: None,
+            r: 1.0,
+            r_stderr: 0.0,
+        });
+    }
+    let ref_opts = RunOptions {
+        trace: false,
+        ..opts.clone()
+    };
+    let reference = integrate(&Rig::new(p.without_vibration())?, t_end, &ref_opts, solver);
+    let (r, r_stderr) = reduction(&run.measures, &reference.measures);
+    Ok(CaseResult {
+        params: *p,
+        run,
+        reference: Some(reference),
+        r,
+        r_stderr,
+    })
+}
+
+/// The reference run without vibration alone, as sweeps share it between many points.
+pub fn run_reference(
+    p: &Params,
+    opts: &RunOptions,
+    solver: &mut Solver,
+) -> Result<RunResult, SimError> {
+    let q = p.without_vibration();
+    let t_end = opts
+        .t_end
+        .unwrap_or_else(|| simulated_time(p, opts.min_cycles));
+    opts.validate()?;
+    Ok(integrate(
+        &Rig::new(q)?,
+        t_end,
+        &RunOptions {
+            trace: false,
+            ..opts.clone()
+        },
+        solver,
+    ))
+}
+
+/// Bad parameters or options.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SimError {
+    /// A model parameter is out of range.
+    #[error(transparent)]
+    Param(#[from] ParamError),
+    /// A solver or run option is out of range.
+    #[error(transparent)]
+    Option(#[from] OptionError),
+}
