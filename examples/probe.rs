@@ -17,6 +17,12 @@ fn main() {
         f,
         ..Params::default()
     };
+    if let Ok(v) = std::env::var("VS") {
+        p.v_s = v.parse().unwrap();
+    }
+    if let Ok(v) = std::env::var("HT") {
+        p.h_t = v.parse().unwrap();
+    }
     p.set_v_a(ratio * v_d);
     let o = RunOptions {
         method,

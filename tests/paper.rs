@@ -1,0 +1,174 @@
+//! The paper's results (MODEL.md, "What the paper's results say the model must show") on the
+//! Fig. 10 cases: k_d = 11 700 N/m, v_d = 0.5, 1.0, 1.5 mm/s, f = 1500 Hz; and Fig. 11's
+//! low-frequency exception at f = 100 Hz, v_d = 0.5 mm/s. Plus the convergence criterion of
+//! MODEL.md at the default tolerances.
+
+use rayon::prelude::*;
+use stickslip::model::Params;
+use stickslip::ode::{Method, Options, Solver, Status};
+use stickslip::sim::{CaseResult, RunOptions, run_case};
+
+fn case(v_d: f64, f: f64, ratio: f64, opts: &RunOptions) -> CaseResult {
+    let mut p = Params {
+        k_d: 11_700.0,
+        v_d,
+        f,
+        ..Params::default()
+    };
+    p.set_v_a(ratio * v_d);
+    let c = run_case(&p, opts, &mut Solver::new(opts.method)).unwrap();
+    assert_eq!(
+        c.status(),
+        Status::Success,
+        "v_d {v_d}, f {f}, ratio {ratio}"
+    );
+    c
+}
+
+const V_D: [f64; 3] = [0.5e-3, 1.0e-3, 1.5e-3];
+
+#[test]
+fn fig10_without_vibration_saw_tooth_with_peaks_near_f_s() {
+    let p = Params::default();
+    for v_d in V_D {
+        let c = case(v_d, 1500.0, 0.0, &RunOptions::default());
+        let m = c.run.measures;
+        assert!(
+            m.cycles >= 3,
+            "v_d {v_d}: only {} cycles in the steady window",
+            m.cycles
+        );
+        assert!(
+            (m.peak_force - p.f_s).abs() < 0.05 * p.f_s,
+            "v_d {v_d}: peak {}",
+            m.peak_force
+        );
+        assert!(
+            m.trough_force < p.f_c - 0.5 * (p.f_s - p.f_c),
+            "v_d {v_d}: trough {} not well below F_c",
+            m.trough_force
+        );
+        let nominal = 2.0 * (p.f_s - p.f_c);
+        assert!(
+            (m.d_f / nominal - 1.0).abs() < 0.2,
+            "v_d {v_d}: dF {} vs 2(F_s - F_c) = {nominal}",
+            m.d_f
+        );
+        assert!(
+            m.stick_fraction > 0.5,
+            "v_d {v_d}: stick fraction {}",
+            m.stick_fraction
+        );
+    }
+}
+
+#[test]
+fn fig10a_partial_reduction_below_v_d_keeps_the_mean_force() {
+    V_D.par_iter().for_each(|&v_d| {
+        let base = case(v_d, 1500.0, 0.0, &RunOptions::default())
+            .run
+            .measures
+            .mean_force;
+        let rs: Vec<(f64, f64)> = [0.2, 0.5, 0.9]
+            .iter()
+            .map(|&ratio| {
+                let c = case(v_d, 1500.0, ratio, &RunOptions::default());
+                let mf = c.run.measures.mean_force;
+                assert!(
+                    (mf / base - 1.0).abs() < 0.05,
+                    "v_d {v_d}, v_a/v_d {ratio}: mean force {mf} vs {base} without vibration"
+                );
+                (c.r, c.r_stderr)
+            })
+            .collect();
+        for w in rs.windows(2) {
+            assert!(
+                w[1].0 < w[0].0,
+                "v_d {v_d}: r must fall as v_a/v_d rises: {rs:?}"
+            );
+        }
+        assert!(
+            rs[0].0 < 1.0 && rs[2].0 > 0.05,
+            "v_d {v_d}: partial, not total, reduction: {rs:?}"
+        );
+    });
+}
+
+#[test]
+fn fig10_eliminated_at_1_2_and_mean_force_falls_beyond() {
+    V_D.par_iter().for_each(|&v_d| {
+        let c = case(v_d, 1500.0, 1.2, &RunOptions::default());
+        assert!(c.r < 0.05, "v_d {v_d}: r = {} at v_a/v_d = 1.2", c.r);
+        let means: Vec<f64> = [1.5, 2.0, 3.0, 4.0]
+            .iter()
+            .map(|&ratio| {
+                case(v_d, 1500.0, ratio, &RunOptions::default())
+                    .run
+                    .measures
+                    .mean_force
+            })
+            .collect();
+        for w in means.windows(2) {
+            assert!(
+                w[1] < w[0],
+                "v_d {v_d}: mean force must fall with v_a/v_d from 1.5 to 4: {means:?}"
+            );
+        }
+    });
+}
+
+#[test]
+fn fig11_low_frequency_large_amplitude_does_not_eliminate() {
+    // At f = 100 Hz the body follows the substrate: some v_a/v_d > 1.5 leaves r > 0.5.
+    let found = [1.6, 2.0, 3.0]
+        .par_iter()
+        .map(|&ratio| case(0.5e-3, 100.0, ratio, &RunOptions::default()).r)
+        .collect::<Vec<_>>();
+    assert!(
+        found.iter().any(|&r| r > 0.5),
+        "r at f = 100 Hz, v_a/v_d = 1.6, 2, 3: {found:?}"
+    );
+    // While at 1500 Hz the same ratios eliminate it.
+    let high = case(0.5e-3, 1500.0, 1.6, &RunOptions::default()).r;
+    assert!(high < 0.05, "r = {high} at 1500 Hz");
+}
+
+/// MODEL.md, Numerics: tightening the tolerance tenfold moves r by less than the standard errors
+/// plus 0.005, and the mean force by less than its standard error plus 0.5 %.
+#[test]
+fn default_tolerances_are_converged() {
+    let cases = [(0.5e-3, 0.0), (0.5e-3, 0.5), (1.0e-3, 0.9), (0.5e-3, 2.0)];
+    cases.par_iter().for_each(|&(v_d, ratio)| {
+        for method in [Method::Radau5, Method::Dopri5] {
+            let base = RunOptions {
+                method,
+                ..RunOptions::default()
+            };
+            let tight = RunOptions {
+                method,
+                ode: Options {
+                    rtol: base.ode.rtol / 10.0,
+                    atol: base.ode.atol / 10.0,
+                    ..base.ode.clone()
+                },
+                ..base.clone()
+            };
+            let a = case(v_d, 1500.0, ratio, &base);
+            let b = case(v_d, 1500.0, ratio, &tight);
+            let dr = (a.r - b.r).abs();
+            assert!(
+                dr < a.r_stderr + b.r_stderr + 0.005,
+                "{method} v_d {v_d} ratio {ratio}: r {} vs {} (±{}, ±{})",
+                a.r,
+                b.r,
+                a.r_stderr,
+                b.r_stderr
+            );
+            let (ma, mb) = (a.run.measures.mean_force, b.run.measures.mean_force);
+            assert!(
+                ((ma - mb) / mb).abs() < 0.005,
+                "{method} v_d {v_d} ratio {ratio}: mean force {ma} vs {mb}"
+            );
+        }
+    });
+}
