@@ -4,7 +4,12 @@
 //! tangentially vibrating substrate, LuGre friction; equations in [`model`]) with stiff adaptive
 //! integrators ([`ode`]), measures the stick-slip amplitude, the reduction coefficient `r` and the
 //! mean drive force ([`measures`], [`sim`]).
+pub mod app;
+pub mod cli;
+pub mod config;
 pub mod measures;
 pub mod model;
 pub mod ode;
+pub mod output;
+pub mod plot;
 pub mod sim;

@@ -1,0 +1,208 @@
+//! The commands, as library calls: each takes a resolved configuration and does the work.
+
+use crate::cli::{CliError, Command, RunArgs};
+use crate::ode::Solver;
+use crate::output::{self, OutputError};
+use crate::plot::{self, PlotError};
+use crate::sim::{self, CaseResult, RunOptions, SimError};
+use std::io::Write;
+
+/// Anything that can stop a command.
+#[derive(Debug, thiserror::Error)]
+pub enum AppError {
+    /// Bad command line or configuration file.
+    #[error(transparent)]
+    Cli(#[from] CliError),
+    /// Bad parameters or options.
+    #[error(transparent)]
+    Sim(#[from] SimError),
+    /// A file could not be written.
+    #[error(transparent)]
+    Output(#[from] OutputError),
+    /// A figure could not be drawn.
+    #[error(transparent)]
+    Plot(#[from] PlotError),
+    /// The simulation ran but did not succeed.
+    #[error("the integration stopped early: {0}")]
+    Failed(String),
+}
+
+impl AppError {
+    /// Process exit code: 2 for bad input, 1 for failures while running.
+    pub fn exit_code(&self) -> i32 {
+        match self {
+            AppError::Cli(_) | AppError::Sim(_) => 2,
+            _ => 1,
+        }
+    }
+}
+
+/// Runs a parsed command.
+pub fn execute(cmd: Command) -> Result<(), AppError> {
+    match cmd {
+        Command::Run(a) => run(&a),
+    }
+}
+
+/// `stickslip run`.
+pub fn run(a: &RunArgs) -> Result<(), AppError> {
+    let case = a.resolve()?;
+    let mut solver = Solver::new(case.run.method);
+    let res = sim::run_case(&case.params, &case.run, &mut solver)?;
+    output::write_case_h5(&a.out, &res, &case.run)?;
+    let mut written = vec![a.out.clone()];
+    if let (Some(path), Some(tr)) = (&a.csv, &res.run.trace) {
+        output::write_trace_csv(path, tr)?;
+        written.push(path.clone());
+    }
+    if a.plot {
+        if let Some(tr) = &res.run.trace {
+            let p = &case.params;
+            let title = format!(
+                "k_d = {} N/m, v_d = {} mm/s, f = {} Hz, v_a = {:.3} mm/s: r = {:.3}",
+                p.k_d,
+                p.v_d * 1e3,
+                p.f,
+                p.v_a() * 1e3,
+                res.r
+            );
+            written.extend(plot::trace_figure(&a.out.with_extension(""), tr, &title)?);
+        }
+    }
+    let mut out = std::io::stdout().lock();
+    if a.json {
+        let _ = writeln!(out, "{}", case_json(&res, &case.run));
+    } else {
+        let _ = write!(out, "{}", case_summary(&res, &case.run));
+        for w in &written {
+            let _ = writeln!(out, "wrote {}", w.display());
+        }
+    }
+    if res.status() != crate::ode::Status::Success {
+        return Err(AppError::Failed(res.status().name().to_string()));
+    }
+    Ok(())
+}
+
+fn finite(x: f64) -> serde_json::Value {
+    if x.is_finite() {
+        serde_json::json!(x)
+    } else {
+        serde_json::Value::Null
+    }
+}
+
+fn run_json(r: &sim::RunResult) -> serde_json::Value {
+    let m = &r.measures;
+    serde_json::json!({
+        "status": r.status.name(),
+        "dF": finite(m.d_f),
+        "dF_stderr": finite(m.d_f_stderr),
+        "mean_force": finite(m.mean_force),
+        "stick_fraction": finite(m.stick_fraction),
+        "period": finite(m.period),
+        "peak_force": finite(m.peak_force),
+        "trough_force": finite(m.trough_force),
+        "cycles": m.cycles,
+        "t_end": r.t_end,
+        "window_start": r.window_start,
+        "wall_time": r.wall_time,
+        "stats": r.stats,
+    })
+}
+
+/// The results of a case as one JSON object (non-finite numbers become null).
+pub fn case_json(c: &CaseResult, o: &RunOptions) -> serde_json::Value {
+    let mut v = run_json(&c.run);
+    let obj = v.as_object_mut().expect("object");
+    obj.insert("status".into(), serde_json::json!(c.status().name()));
+    obj.insert("r".into(), finite(c.r));
+    obj.insert("r_stderr".into(), finite(c.r_stderr));
+    obj.insert("v_a".into(), finite(c.params.v_a()));
+    obj.insert("va_ratio".into(), finite(c.params.v_a() / c.params.v_d));
+    obj.insert(
+        "params".into(),
+        serde_json::to_value(c.params).expect("params serialise"),
+    );
+    obj.insert(
+        "solver".into(),
+        serde_json::json!({"method": o.method.name(), "rtol": o.ode.rtol, "atol": o.ode.atol}),
+    );
+    obj.insert(
+        "reference".into(),
+        c.reference
+            .as_ref()
+            .map(run_json)
+            .unwrap_or(serde_json::Value::Null),
+    );
+    v
+}
+
+/// A readable summary of a case.
+pub fn case_summary(c: &CaseResult, o: &RunOptions) -> String {
+    use std::fmt::Write as _;
+    let p = &c.params;
+    let m = &c.run.measures;
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "case      k_d = {} N/m, v_d = {} mm/s, f = {} Hz, u0 = {:.4e} m (v_a = {:.4} mm/s, v_a/v_d = {:.3})",
+        p.k_d,
+        p.v_d * 1e3,
+        p.f,
+        p.u0,
+        p.v_a() * 1e3,
+        p.v_a() / p.v_d
+    );
+    let _ = writeln!(
+        s,
+        "          F_s = {} N, F_c = {} N, v_s = {} m/s, k_t = {:e} N/m, h_t = {} N s/m, h_d = {} N s/m, m = {:.4} kg",
+        p.f_s, p.f_c, p.v_s, p.k_t, p.h_t, p.h_d, p.m
+    );
+    let _ = writeln!(s, "status    {}", c.status().name());
+    let _ = writeln!(
+        s,
+        "r         {:.4} ± {:.4}   (dF with / without vibration, Eq. 5.1)",
+        c.r, c.r_stderr
+    );
+    let _ = writeln!(
+        s,
+        "dF        {:.4} ± {:.4} N over {} cycles",
+        m.d_f, m.d_f_stderr, m.cycles
+    );
+    let _ = writeln!(s, "mean F_d  {:.4} N", m.mean_force);
+    let _ = writeln!(
+        s,
+        "peak      {:.4} N   trough {:.4} N   period {:.4} s   stick fraction {:.3}",
+        m.peak_force, m.trough_force, m.period, m.stick_fraction
+    );
+    if let Some(r) = &c.reference {
+        let rm = &r.measures;
+        let _ = writeln!(
+            s,
+            "reference dF {:.4} ± {:.4} N, mean F_d {:.4} N, period {:.4} s (no vibration)",
+            rm.d_f, rm.d_f_stderr, rm.mean_force, rm.period
+        );
+    }
+    let _ = writeln!(
+        s,
+        "window    {:.3} s to {:.3} s (second half of the run)",
+        c.run.window_start, c.run.t_end
+    );
+    let st = c.total_stats();
+    let wall = c.run.wall_time + c.reference.as_ref().map(|r| r.wall_time).unwrap_or(0.0);
+    let _ = writeln!(
+        s,
+        "solver    {} rtol {:e} atol {:e}: {} steps, {} rejected, {} RHS, {} Jacobians, {} LU, {:.3} s",
+        o.method,
+        o.ode.rtol,
+        o.ode.atol,
+        st.steps,
+        st.rejected,
+        st.rhs_evals,
+        st.jac_evals,
+        st.lu_decomps,
+        wall
+    );
+    s
+}

@@ -1,0 +1,236 @@
+//! Command-line arguments (clap) and their translation into validated configurations.
+//! Nothing here runs a simulation: [`crate::app`] does, from what this module resolves.
+
+use crate::config::{self, Case};
+use crate::model::Params;
+use crate::model::params::{PARAMS, ParamInfo};
+use crate::ode::Method;
+use crate::sim::RunOptions;
+use clap::{Arg, ArgAction, ArgMatches, Args, FromArgMatches, Parser, Subcommand};
+use std::path::PathBuf;
+
+/// Maps where tangential substrate vibration suppresses stick-slip friction.
+#[derive(Parser, Debug)]
+#[command(name = "stickslip", version, about, long_about = None, max_term_width = 100)]
+pub struct Cli {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// The subcommands.
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// Simulate one case (and its reference without vibration); print r, dF, the mean force and
+    /// solver statistics; write the traces to HDF5 (and CSV, plots on request).
+    Run(RunArgs),
+}
+
+/// Every model parameter as a flag named after it (`--k-d`, `--f-s`, ...), SI units.
+#[derive(Debug, Clone, Default)]
+pub struct ParamArgs {
+    /// Values given on the command line, by parameter name.
+    pub values: Vec<(&'static str, f64)>,
+}
+
+fn param_help(p: &ParamInfo) -> String {
+    format!(
+        "{} [{}] (default {})",
+        p.doc,
+        p.unit,
+        p.get(&Params::default())
+    )
+}
+
+impl Args for ParamArgs {
+    fn augment_args(mut cmd: clap::Command) -> clap::Command {
+        for p in PARAMS {
+            cmd = cmd.arg(
+                Arg::new(p.name)
+                    .long(p.flag)
+                    .value_name(p.unit)
+                    .help(param_help(p))
+                    .allow_negative_numbers(true)
+                    .value_parser(clap::value_parser!(f64))
+                    .action(ArgAction::Set)
+                    .help_heading("Model parameters (SI units)"),
+            );
+        }
+        cmd
+    }
+    fn augment_args_for_update(cmd: clap::Command) -> clap::Command {
+        Self::augment_args(cmd)
+    }
+}
+
+impl FromArgMatches for ParamArgs {
+    fn from_arg_matches(m: &ArgMatches) -> Result<Self, clap::Error> {
+        let values = PARAMS
+            .iter()
+            .filter_map(|p| m.get_one::<f64>(p.name).map(|v| (p.name, *v)))
+            .collect();
+        Ok(ParamArgs { values })
+    }
+    fn update_from_arg_matches(&mut self, m: &ArgMatches) -> Result<(), clap::Error> {
+        *self = Self::from_arg_matches(m)?;
+        Ok(())
+    }
+}
+
+/// Arguments of `stickslip run`.
+#[derive(Args, Debug)]
+pub struct RunArgs {
+    /// Case file (TOML): parameters by name in SI units, optional [solver] and [run] tables;
+    /// flags override it.
+    #[arg(long, value_name = "FILE")]
+    pub case: Option<PathBuf>,
+
+    #[command(flatten)]
+    pub params: ParamArgs,
+
+    /// Vibration velocity amplitude v_a = 2 pi f u0 [m/s], instead of --u0.
+    #[arg(long, value_name = "m/s", conflicts_with_all = ["u0", "va_ratio"], allow_negative_numbers = true)]
+    pub v_a: Option<f64>,
+
+    /// Vibration velocity amplitude as a ratio v_a / v_d [-], instead of --u0.
+    #[arg(
+        long,
+        value_name = "RATIO",
+        conflicts_with = "u0",
+        allow_negative_numbers = true
+    )]
+    pub va_ratio: Option<f64>,
+
+    /// Integration method: radau5 (implicit Radau IIA, order 5), rodas4 (Rosenbrock, order 4)
+    /// or dopri5 (explicit Dormand-Prince 5(4)). Default radau5.
+    #[arg(long, value_name = "METHOD")]
+    pub solver: Option<Method>,
+
+    /// Relative tolerance (1e-13 to 0.1). Default 1e-6.
+    #[arg(long, allow_negative_numbers = true)]
+    pub rtol: Option<f64>,
+
+    /// Absolute tolerance, in units of each state's characteristic size (0 to 1). Default 1e-6.
+    #[arg(long, allow_negative_numbers = true)]
+    pub atol: Option<f64>,
+
+    /// Simulated time [s]. Default: chosen so that the steady window (the second half) holds
+    /// --min-cycles stick-slip cycles of the run without vibration.
+    #[arg(long, value_name = "s", allow_negative_numbers = true)]
+    pub t_end: Option<f64>,
+
+    /// Stick-slip cycles the steady window must hold (1 to 1000). Default 3.
+    #[arg(long)]
+    pub min_cycles: Option<u32>,
+
+    /// Print the results as one JSON object on stdout (no other output there).
+    #[arg(long)]
+    pub json: bool,
+
+    /// HDF5 file for the traces and results.
+    #[arg(short, long, value_name = "FILE", default_value = "results/run.h5")]
+    pub out: PathBuf,
+
+    /// Also write the traces as CSV to this file.
+    #[arg(long, value_name = "FILE")]
+    pub csv: Option<PathBuf>,
+
+    /// Draw F_d, x_s and x_d against time (the paper's Figs. 3 to 5) to PNG and SVG; the
+    /// files take the HDF5 file's name with .png and .svg.
+    #[arg(long)]
+    pub plot: bool,
+}
+
+/// A bad command line that clap cannot see (ranges, relations).
+#[derive(Debug, thiserror::Error)]
+pub enum CliError {
+    /// A case-file problem.
+    #[error(transparent)]
+    Config(#[from] config::ConfigError),
+    /// A flag's value is out of range.
+    #[error("--{flag} = {value}: {msg}")]
+    Flag {
+        /// Flag name.
+        flag: String,
+        /// Value given.
+        value: String,
+        /// What is allowed.
+        msg: String,
+    },
+}
+
+impl RunArgs {
+    /// Resolves defaults, case file and flags (in that order) into a validated case.
+    pub fn resolve(&self) -> Result<Case, CliError> {
+        let mut case = match &self.case {
+            Some(path) => config::load_case(path)?,
+            None => Case {
+                params: Params::default(),
+                run: RunOptions::default(),
+                path: None,
+            },
+        };
+        let p = &mut case.params;
+        for (name, v) in &self.params.values {
+            p.set(name, *v).expect("flag names are parameter names");
+        }
+        // An amplitude flag replaces the case file's u0; a case file's v_a or va_ratio was turned
+        // into u0 at the file's own f and v_d.
+        if let Some(x) = self.v_a {
+            config::resolve_amplitude(p, "v_a", x).map_err(|msg| CliError::Flag {
+                flag: "v-a".into(),
+                value: x.to_string(),
+                msg,
+            })?;
+        } else if let Some(x) = self.va_ratio {
+            config::resolve_amplitude(p, "va_ratio", x).map_err(|msg| CliError::Flag {
+                flag: "va-ratio".into(),
+                value: x.to_string(),
+                msg,
+            })?;
+        }
+        p.validate().map_err(|e| match e {
+            crate::model::ParamError::OutOfRange {
+                name,
+                value,
+                allowed,
+                ..
+            } => CliError::Flag {
+                flag: crate::model::params::info(name)
+                    .map(|i| i.flag)
+                    .unwrap_or(name)
+                    .to_string(),
+                value: value.to_string(),
+                msg: allowed,
+            },
+            other => CliError::Flag {
+                flag: "?".into(),
+                value: String::new(),
+                msg: other.to_string(),
+            },
+        })?;
+        let o = &mut case.run;
+        if let Some(m) = self.solver {
+            o.method = m;
+        }
+        if let Some(v) = self.rtol {
+            o.ode.rtol = v;
+        }
+        if let Some(v) = self.atol {
+            o.ode.atol = v;
+        }
+        if let Some(v) = self.t_end {
+            o.t_end = Some(v);
+        }
+        if let Some(v) = self.min_cycles {
+            o.min_cycles = v;
+        }
+        o.trace = true;
+        o.validate().map_err(|e| CliError::Flag {
+            flag: e.field.replace('_', "-"),
+            value: e.value.to_string(),
+            msg: e.allowed.to_string(),
+        })?;
+        Ok(case)
+    }
+}
