@@ -1,0 +1,146 @@
+//! The `stickslip` binary end to end: output files, JSON, error messages and exit codes; the
+//! HDF5 file is read back with h5py (tests/python/requirements.txt).
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn stickslip(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_stickslip"))
+        .args(args)
+        .output()
+        .expect("binary runs")
+}
+
+fn python(script: &str, args: &[&Path]) {
+    let here = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/python")
+        .join(script);
+    let out = Command::new("python3")
+        .arg(here)
+        .args(args)
+        .output()
+        .expect("python3 runs");
+    assert!(
+        out.status.success(),
+        "{script} failed (install the readers with `python3 -m pip install -r tests/python/requirements.txt`):\n{}\n{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+#[test]
+fn run_fig4_case_writes_hdf5_csv_plots_and_json() {
+    let dir = tempfile::tempdir().unwrap();
+    let h5 = dir.path().join("fig4.h5");
+    let csv = dir.path().join("fig4.csv");
+    let out = stickslip(&[
+        "run",
+        "--k-d",
+        "10000",
+        "--v-d",
+        "1e-3",
+        "--f",
+        "1500",
+        "--v-a",
+        "1.1e-3",
+        "--json",
+        "--plot",
+        "-o",
+        h5.to_str().unwrap(),
+        "--csv",
+        csv.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let json: serde_json::Value =
+        serde_json::from_slice(&out.stdout).expect("stdout is one JSON object");
+    for k in ["r", "dF", "dF_stderr", "mean_force", "status"] {
+        assert!(json.get(k).is_some(), "missing {k}");
+    }
+    assert_eq!(json["status"], "success");
+    // Fig. 4: v_a slightly above v_d removes the stick-slip.
+    assert!(json["r"].as_f64().unwrap() < 0.05, "{json}");
+    assert!(json["reference"]["dF"].as_f64().unwrap() > 5.0);
+    for ext in ["png", "svg"] {
+        let f = h5.with_extension(ext);
+        assert!(
+            std::fs::metadata(&f).unwrap().len() > 10_000,
+            "{} too small",
+            f.display()
+        );
+    }
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(
+        lines.next().unwrap(),
+        "t [s],F_d [N],F_d_smooth [N],x_s [m],x_d [m],s [m],v_r [m/s],v [m/s],u [m]"
+    );
+    let row: Vec<f64> = lines
+        .nth(10)
+        .unwrap()
+        .split(',')
+        .map(|x| x.parse().unwrap())
+        .collect();
+    assert_eq!(row.len(), 9);
+    let expected = dir.path().join("expected.json");
+    std::fs::write(&expected, &out.stdout).unwrap();
+    python("check_run.py", &[&h5, &expected]);
+}
+
+#[test]
+fn case_file_and_flags_combine_and_summary_prints() {
+    let dir = tempfile::tempdir().unwrap();
+    let case = dir.path().join("case.toml");
+    std::fs::write(
+        &case,
+        "k_d = 17900\nv_d = 0.5e-3\n[solver]\nmethod = \"dopri5\"\n",
+    )
+    .unwrap();
+    let h5 = dir.path().join("c.h5");
+    let out = stickslip(&[
+        "run",
+        "--case",
+        case.to_str().unwrap(),
+        "--k-d",
+        "5950",
+        "-o",
+        h5.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let s = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        s.contains("k_d = 5950 N/m") && s.contains("dopri5") && s.contains("r         1.0000"),
+        "{s}"
+    );
+}
+
+#[test]
+fn bad_input_is_named_with_its_range_and_exit_code_2() {
+    let cases: &[(&[&str], &str)] = &[
+        (&["run", "--k-d", "-5"], "--k-d = -5"),
+        (&["run", "--m", "0"], "--m = 0"),
+        (&["run", "--u0", "1e-7", "--f", "0"], "f"),
+        (&["run", "--rtol", "3"], "--rtol = 3"),
+        (&["run", "--va-ratio", "1.2", "--f", "0"], "--va-ratio"),
+        (&["run", "--f-s", "5"], "F_c"),
+        (&["run", "--solver", "euler"], "euler"),
+        (&["run", "--case", "/nonexistent/case.toml"], "cannot read"),
+    ];
+    for (args, needle) in cases {
+        let out = stickslip(args);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert!(
+            err.contains(needle),
+            "{args:?}: '{err}' should mention '{needle}'"
+        );
+        assert!(!err.contains("panicked"), "{args:?}: {err}");
+    }
+}
