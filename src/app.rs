@@ -1,10 +1,11 @@
 //! The commands, as library calls: each takes a resolved configuration and does the work.
 
-use crate::cli::{CliError, Command, RunArgs};
+use crate::cli::{BoundaryArgs, CliError, Command, PlotArgs, RunArgs, SweepArgs};
 use crate::ode::Solver;
 use crate::output::{self, OutputError};
 use crate::plot::{self, PlotError};
 use crate::sim::{self, CaseResult, RunOptions, SimError};
+use crate::sweep::{self, SweepError};
 use std::io::Write;
 
 /// Anything that can stop a command.
@@ -22,6 +23,9 @@ pub enum AppError {
     /// A figure could not be drawn.
     #[error(transparent)]
     Plot(#[from] PlotError),
+    /// A sweep could not go on.
+    #[error(transparent)]
+    Sweep(#[from] SweepError),
     /// The simulation ran but did not succeed.
     #[error("the integration stopped early: {0}")]
     Failed(String),
@@ -41,7 +45,103 @@ impl AppError {
 pub fn execute(cmd: Command) -> Result<(), AppError> {
     match cmd {
         Command::Run(a) => run(&a),
+        Command::Sweep(a) => sweep_cmd(&a),
+        Command::Plot(a) => plot_cmd(&a),
+        Command::Boundary(a) => boundary_cmd(&a),
     }
+}
+
+/// `stickslip sweep`.
+pub fn sweep_cmd(a: &SweepArgs) -> Result<(), AppError> {
+    let (spec, opts) = a.resolve()?;
+    let plan = sweep::Plan::new(&spec);
+    let tasks = plan.tasks().len();
+    eprintln!(
+        "sweep {}: {} points over {} ({} runs: {} without vibration as references), {} threads -> {}",
+        spec.name,
+        plan.points.len(),
+        spec.dims
+            .iter()
+            .map(|d| format!("{} x{}", d.name, d.len))
+            .collect::<Vec<_>>()
+            .join(", "),
+        tasks,
+        plan.refs.len(),
+        opts.threads.unwrap_or_else(rayon::current_num_threads),
+        opts.out.display()
+    );
+    let outcome = sweep::run(&spec, &opts)?;
+    println!(
+        "wrote {}: {} points, {} runs made, {} resumed, {} failed, {:.1} s",
+        outcome.out.display(),
+        outcome.points,
+        outcome.runs_made,
+        outcome.runs_resumed,
+        outcome.failed,
+        outcome.wall_time
+    );
+    if !a.no_plot {
+        let d = sweep::read::SweepData::read(&outcome.out).map_err(SweepError::from)?;
+        for f in sweep::figures::plot_all(&d, &outcome.out.with_extension(""))? {
+            println!("wrote {}", f.display());
+        }
+        if sweep::boundary::compute(&d).is_ok() && (d.dim("f").is_some()) {
+            let (csv, _) = sweep::boundary::run(&outcome.out)?;
+            println!("wrote {} (elimination boundary)", csv.display());
+        }
+    }
+    Ok(())
+}
+
+/// `stickslip plot`.
+pub fn plot_cmd(a: &PlotArgs) -> Result<(), AppError> {
+    let d = sweep::read::SweepData::read(&a.file).map_err(SweepError::from)?;
+    let stem = a.out.clone().unwrap_or_else(|| a.file.with_extension(""));
+    for f in sweep::figures::plot_all(&d, &stem)? {
+        println!("wrote {}", f.display());
+    }
+    Ok(())
+}
+
+/// `stickslip boundary`.
+pub fn boundary_cmd(a: &BoundaryArgs) -> Result<(), AppError> {
+    let (csv, pts) = sweep::boundary::run(&a.file)?;
+    let mut out = std::io::stdout().lock();
+    for p in &pts {
+        let coords = p
+            .coords
+            .iter()
+            .map(|(n, v)| sweep::figures::format_value(n, *v))
+            .collect::<Vec<_>>()
+            .join(", ");
+        if p.u0.is_finite() {
+            let _ = writeln!(
+                out,
+                "{coords}: u0 = {:.4e} m (v_a/v_d = {:.3}; rule of thumb u0 = {:.4e} m){}",
+                p.u0,
+                p.va_ratio,
+                p.u0_rule,
+                if p.below_range {
+                    ", at or below the grid's smallest amplitude"
+                } else {
+                    ""
+                }
+            );
+        } else {
+            let _ = writeln!(
+                out,
+                "{coords}: not eliminated within the grid (rule of thumb u0 = {:.4e} m)",
+                p.u0_rule
+            );
+        }
+    }
+    let _ = writeln!(
+        out,
+        "wrote {} and group /boundary in {}",
+        csv.display(),
+        a.file.display()
+    );
+    Ok(())
 }
 
 /// `stickslip run`.

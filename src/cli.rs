@@ -24,6 +24,62 @@ pub enum Command {
     /// Simulate one case (and its reference without vibration); print r, dF, the mean force and
     /// solver statistics; write the traces to HDF5 (and CSV, plots on request).
     Run(RunArgs),
+    /// Run a grid from a TOML sweep file in parallel; write one HDF5 file of maps (r, dF, mean
+    /// force, ..., solver statistics), its plots and, with an amplitude axis, the elimination
+    /// boundary. Interrupted sweeps resume with --resume.
+    Sweep(SweepArgs),
+    /// Draw the figures of a sweep file: Fig. 10a/10b, Fig. 11a/11b and the (u0, f) map of r
+    /// with the elimination boundary, as PNG and SVG.
+    Plot(PlotArgs),
+    /// Compute the elimination boundary of a sweep file (for each f, the smallest u0 with
+    /// r < 0.05), store it in the file (group `boundary`) and write it as CSV.
+    Boundary(BoundaryArgs),
+}
+
+/// Arguments of `stickslip sweep`.
+#[derive(Args, Debug)]
+pub struct SweepArgs {
+    /// The sweep file (TOML), e.g. sweeps/fig10.toml.
+    pub file: PathBuf,
+    /// Output HDF5 file. Default: results/<sweep name>.h5.
+    #[arg(short, long, value_name = "FILE")]
+    pub out: Option<PathBuf>,
+    /// Worker threads (default: one per core).
+    #[arg(long, value_name = "N")]
+    pub threads: Option<usize>,
+    /// Continue an interrupted sweep: run only what its journal lacks.
+    #[arg(long, conflicts_with = "overwrite")]
+    pub resume: bool,
+    /// Discard an interrupted sweep's journal and start afresh.
+    #[arg(long)]
+    pub overwrite: bool,
+    /// No progress bar.
+    #[arg(short, long)]
+    pub quiet: bool,
+    /// Do not draw the figures or compute the boundary at the end.
+    #[arg(long)]
+    pub no_plot: bool,
+    /// Seconds between HDF5 checkpoints while running (>= 1).
+    #[arg(long, value_name = "s", default_value_t = 30.0)]
+    pub checkpoint_every: f64,
+}
+
+/// Arguments of `stickslip plot`.
+#[derive(Args, Debug)]
+pub struct PlotArgs {
+    /// A sweep's HDF5 file.
+    pub file: PathBuf,
+    /// Stem of the figure files (default: the HDF5 file without extension); figures are named
+    /// <stem>_fig10a.png, <stem>_map.svg, ...
+    #[arg(short, long, value_name = "STEM")]
+    pub out: Option<PathBuf>,
+}
+
+/// Arguments of `stickslip boundary`.
+#[derive(Args, Debug)]
+pub struct BoundaryArgs {
+    /// A sweep's HDF5 file with an amplitude axis (u0, v_a or va_ratio).
+    pub file: PathBuf,
 }
 
 /// Every model parameter as a flag named after it (`--k-d`, `--f-s`, ...), SI units.
@@ -157,6 +213,46 @@ pub enum CliError {
         /// What is allowed.
         msg: String,
     },
+}
+
+impl SweepArgs {
+    /// Loads and validates the sweep file and resolves the options.
+    pub fn resolve(
+        &self,
+    ) -> Result<(crate::sweep::spec::SweepSpec, crate::sweep::SweepOptions), CliError> {
+        let spec = crate::sweep::spec::SweepSpec::load(&self.file)?;
+        if let Some(t) = self.threads {
+            if t == 0 || t > 1024 {
+                return Err(CliError::Flag {
+                    flag: "threads".into(),
+                    value: t.to_string(),
+                    msg: "must be from 1 to 1024".into(),
+                });
+            }
+        }
+        if !(self.checkpoint_every >= 1.0 && self.checkpoint_every.is_finite()) {
+            return Err(CliError::Flag {
+                flag: "checkpoint-every".into(),
+                value: self.checkpoint_every.to_string(),
+                msg: "must be a finite number of seconds >= 1".into(),
+            });
+        }
+        let out = self
+            .out
+            .clone()
+            .unwrap_or_else(|| PathBuf::from("results").join(format!("{}.h5", spec.name)));
+        Ok((
+            spec,
+            crate::sweep::SweepOptions {
+                out,
+                threads: self.threads,
+                resume: self.resume,
+                overwrite: self.overwrite,
+                progress: !self.quiet,
+                checkpoint_every: self.checkpoint_every,
+            },
+        ))
+    }
 }
 
 impl RunArgs {

@@ -12,4 +12,6 @@ pub mod model;
 pub mod ode;
 pub mod output;
 pub mod plot;
+pub mod progress;
 pub mod sim;
+pub mod sweep;

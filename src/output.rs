@@ -199,7 +199,7 @@ pub fn write_case_h5(path: &Path, case: &CaseResult, opts: &RunOptions) -> Resul
             set_measures(&file, "reference_", r, path)?;
         }
         if let Some(tr) = &case.run.trace {
-            write_trace_group(&file, "trace", tr, path)?;
+            write_trace_group(&file.root_group(), "trace", tr, path)?;
         }
         file.close().map_err(&e)?;
     }
@@ -207,8 +207,13 @@ pub fn write_case_h5(path: &Path, case: &CaseResult, opts: &RunOptions) -> Resul
 }
 
 /// Writes a trace as group `name`: one dataset per channel, `t` a dimension scale.
-pub fn write_trace_group(file: &H5File, name: &str, tr: &Trace, path: &Path) -> Result<()> {
-    let g = file.create_group(name).map_err(h5err(path))?;
+pub fn write_trace_group(
+    parent: &rust_hdf5::H5Group,
+    name: &str,
+    tr: &Trace,
+    path: &Path,
+) -> Result<rust_hdf5::H5Group> {
+    let g = parent.create_group(name).map_err(h5err(path))?;
     let cols = tr.columns();
     let mut t_ds = None;
     for ((ch, unit, doc), data) in Trace::CHANNELS.iter().zip(cols) {
@@ -220,7 +225,7 @@ pub fn write_trace_group(file: &H5File, name: &str, tr: &Trace, path: &Path) -> 
             ds.attach_scale(0, t).map_err(h5err(path))?;
         }
     }
-    Ok(())
+    Ok(g)
 }
 
 /// Writes a trace as CSV with a header of names and units (`t [s],F_d [N],...`).

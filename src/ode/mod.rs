@@ -268,6 +268,19 @@ impl Status {
     pub fn code(self) -> i32 {
         self as i32
     }
+
+    /// The status with the given [`code`](Self::code).
+    pub fn from_code(c: i32) -> Option<Status> {
+        [
+            Status::Success,
+            Status::StepTooSmall,
+            Status::MaxSteps,
+            Status::NewtonFailure,
+            Status::NonFinite,
+        ]
+        .into_iter()
+        .find(|s| s.code() == c)
+    }
 }
 
 /// Work done by one run.

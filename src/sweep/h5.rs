@@ -1,0 +1,332 @@
+//! The sweep's HDF5 file: one N-dimensional dataset per measure at the root, its dimensions the
+//! sweep's axes (zipped axes share one), each axis a coordinate dataset attached as an HDF5
+//! dimension scale, so h5py's `dims` and xarray (engine h5netcdf) show named coordinates.
+//!
+//! | dataset | unit | meaning |
+//! |---|---|---|
+//! | `r`, `r_stderr` | 1 | reduction coefficient (5.1) and its standard error |
+//! | `dF`, `dF_stderr` | N | stick-slip amplitude and its standard error |
+//! | `dF_reference` | N | dF of the run without vibration used for r |
+//! | `mean_force`, `peak_force`, `trough_force` | N | drive-force measures |
+//! | `stick_fraction` | 1 | share of the steady window spent sticking |
+//! | `period` | s | stick-slip period |
+//! | `cycles` | 1 | cycles counted |
+//! | `status` | 1 | 0 success, 1 step too small, 2 max steps, 3 Newton failure, 4 non-finite, −1 not run yet |
+//! | `steps`, `rejected`, `rhs_evals`, `jac_evals`, `lu_decomps` | 1 | solver statistics of the point's own run |
+//! | `wall_time` | s | wall time of the point's own run |
+//! | `u0_grid`, `v_a_grid` | m, m/s | the vibration amplitude and velocity amplitude of each point |
+//!
+//! Root attributes: the sweep file's text, the resolved fixed parameters, solver settings, the
+//! program version, start and end times, and `sweep_status` (`complete` or `in_progress`).
+//! Group `traces` holds the traces of the chosen points, one group per point.
+
+use super::spec::SweepSpec;
+use super::{Plan, Results};
+use crate::model::params::PARAMS;
+use crate::output::{self, OutputError, ds_attr_str, h5err, ioerr};
+use crate::sim::{self, Trace};
+use ndarray::{ArrayD, IxDyn};
+use rust_hdf5::{H5Dataset, H5File};
+use std::path::Path;
+
+struct Grid {
+    name: &'static str,
+    unit: &'static str,
+    doc: &'static str,
+    data: ArrayD<f64>,
+}
+
+fn ok(r: Option<&sim::RunResult>) -> Option<&sim::RunResult> {
+    r.filter(|r| r.status == crate::ode::Status::Success)
+}
+
+fn status_code(r: Option<&sim::RunResult>) -> f64 {
+    r.map(|r| r.status.code() as f64).unwrap_or(-1.0)
+}
+
+/// Builds the result arrays from the results so far (NaN where not run).
+fn grids(spec: &SweepSpec, plan: &Plan, res: &Results) -> Vec<Grid> {
+    let shape = IxDyn(&spec.shape());
+    let n = plan.points.len();
+    let mut cols: Vec<(&'static str, &'static str, &'static str, Vec<f64>)> = vec![
+        (
+            "r",
+            "1",
+            "reduction coefficient dF/dF_reference (Eq. 5.1)",
+            vec![],
+        ),
+        ("r_stderr", "1", "standard error of r", vec![]),
+        (
+            "dF",
+            "N",
+            "stick-slip amplitude: mean drop of the smoothed drive force per cycle",
+            vec![],
+        ),
+        (
+            "dF_stderr",
+            "N",
+            "standard error of dF over the cycles",
+            vec![],
+        ),
+        (
+            "dF_reference",
+            "N",
+            "dF of the run without vibration",
+            vec![],
+        ),
+        (
+            "mean_force",
+            "N",
+            "mean drive force over the steady window",
+            vec![],
+        ),
+        (
+            "stick_fraction",
+            "1",
+            "share of the steady window spent sticking",
+            vec![],
+        ),
+        ("period", "s", "mean stick-slip period", vec![]),
+        (
+            "peak_force",
+            "N",
+            "mean peak of the smoothed drive force",
+            vec![],
+        ),
+        (
+            "trough_force",
+            "N",
+            "mean trough of the smoothed drive force",
+            vec![],
+        ),
+        (
+            "cycles",
+            "1",
+            "stick-slip cycles counted in the steady window",
+            vec![],
+        ),
+        ("status", "1", "run status", vec![]),
+        ("steps", "1", "accepted steps", vec![]),
+        ("rejected", "1", "rejected steps", vec![]),
+        ("rhs_evals", "1", "right-hand-side evaluations", vec![]),
+        ("jac_evals", "1", "Jacobian evaluations", vec![]),
+        ("lu_decomps", "1", "LU factorisations", vec![]),
+        ("wall_time", "s", "wall time of the run", vec![]),
+        (
+            "u0_grid",
+            "m",
+            "vibration amplitude u0 of the point",
+            vec![],
+        ),
+        (
+            "v_a_grid",
+            "m/s",
+            "vibration velocity amplitude v_a = 2 pi f u0 of the point",
+            vec![],
+        ),
+    ];
+    for c in cols.iter_mut() {
+        c.3.reserve(n);
+    }
+    for i in 0..n {
+        let (own, rf) = res.point(plan, i);
+        let m = own.map(|r| r.measures);
+        let (r, r_se) = match (ok(own), ok(rf)) {
+            (Some(a), Some(b)) if plan.points[i].vibrates() => {
+                sim::reduction(&a.measures, &b.measures)
+            }
+            (Some(_), Some(_)) => (1.0, 0.0),
+            _ => (f64::NAN, f64::NAN),
+        };
+        let g = |f: fn(&crate::measures::Measures) -> f64| m.as_ref().map(f).unwrap_or(f64::NAN);
+        let st = own.map(|r| r.stats);
+        let sv = |f: fn(&crate::ode::Stats) -> u64| st.map(|s| f(&s) as f64).unwrap_or(f64::NAN);
+        let p = &plan.points[i];
+        let vals = [
+            r,
+            r_se,
+            g(|m| m.d_f),
+            g(|m| m.d_f_stderr),
+            rf.map(|r| r.measures.d_f).unwrap_or(f64::NAN),
+            g(|m| m.mean_force),
+            g(|m| m.stick_fraction),
+            g(|m| m.period),
+            g(|m| m.peak_force),
+            g(|m| m.trough_force),
+            g(|m| m.cycles as f64),
+            // A point fails when its run or its reference fails.
+            match (own, rf) {
+                (Some(a), Some(b)) if b.status != crate::ode::Status::Success => {
+                    b.status.code().max(a.status.code()) as f64
+                }
+                _ => status_code(own),
+            },
+            sv(|s| s.steps),
+            sv(|s| s.rejected),
+            sv(|s| s.rhs_evals),
+            sv(|s| s.jac_evals),
+            sv(|s| s.lu_decomps),
+            own.map(|r| r.wall_time).unwrap_or(f64::NAN),
+            p.u0,
+            p.v_a(),
+        ];
+        for (c, v) in cols.iter_mut().zip(vals) {
+            c.3.push(v);
+        }
+    }
+    let keep = |name: &str| {
+        !super::spec::MEASURES.contains(&name) || spec.measures.iter().any(|m| m == name)
+    };
+    cols.into_iter()
+        .filter(|c| keep(c.0))
+        .map(|(name, unit, doc, v)| Grid {
+            name,
+            unit,
+            doc,
+            data: ArrayD::from_shape_vec(shape.clone(), v).expect("shape matches the grid"),
+        })
+        .collect()
+}
+
+/// Writes the sweep file (under a temporary name, renamed into place). `finished` marks it
+/// complete.
+pub fn write(
+    path: &Path,
+    spec: &SweepSpec,
+    plan: &Plan,
+    res: &Results,
+    traces: &[(usize, Trace)],
+    started: &str,
+    finished: Option<&str>,
+) -> Result<(), OutputError> {
+    output::ensure_parent(path)?;
+    let tmp = output::temp_path(path);
+    {
+        let e = h5err(path);
+        let file = H5File::create(&tmp).map_err(&e)?;
+        // Coordinates: one dataset per axis, a dimension scale named after it.
+        let mut scales: Vec<Vec<H5Dataset>> = vec![];
+        for dim in &spec.dims {
+            let mut v = vec![];
+            for &a in &dim.axes {
+                let ax = &spec.axes[a];
+                let ds = output::write_vec(
+                    &file.root_group(),
+                    &ax.name,
+                    &ax.values,
+                    ax.unit,
+                    &axis_doc(&ax.name),
+                    path,
+                )?;
+                ds.set_scale(Some(&ax.name)).map_err(&e)?;
+                v.push(ds);
+            }
+            scales.push(v);
+        }
+        let shape = spec.shape();
+        for g in grids(spec, plan, res) {
+            let ds = file
+                .new_dataset::<f64>()
+                .shape(&shape)
+                .create(g.name)
+                .map_err(&e)?;
+            ds.write_raw(g.data.as_slice().expect("standard layout"))
+                .map_err(&e)?;
+            ds_attr_str(&ds, "units", g.unit, path)?;
+            ds_attr_str(&ds, "long_name", g.doc, path)?;
+            if g.name == "status" {
+                ds_attr_str(
+                    &ds,
+                    "flag_meanings",
+                    "not_run(-1) success(0) step_too_small(1) max_steps(2) newton_failure(3) non_finite(4)",
+                    path,
+                )?;
+            }
+            for (d, sc) in scales.iter().enumerate() {
+                for s in sc {
+                    ds.attach_scale(d, s).map_err(&e)?;
+                }
+            }
+        }
+        file.set_attr_string("program", &output::program())
+            .map_err(&e)?;
+        file.set_attr_string("sweep_name", &spec.name).map_err(&e)?;
+        file.set_attr_string("sweep_description", &spec.description)
+            .map_err(&e)?;
+        file.set_attr_string("sweep_file", &spec.text).map_err(&e)?;
+        file.set_attr_string("started", started).map_err(&e)?;
+        file.set_attr_string("finished", finished.unwrap_or(""))
+            .map_err(&e)?;
+        file.set_attr_string(
+            "sweep_status",
+            if finished.is_some() {
+                "complete"
+            } else {
+                "in_progress"
+            },
+        )
+        .map_err(&e)?;
+        file.set_attr_numeric("complete", &(finished.is_some() as i64))
+            .map_err(&e)?;
+        file.set_attr_string(
+            "dims",
+            &spec
+                .dims
+                .iter()
+                .map(|d| d.name.clone())
+                .collect::<Vec<_>>()
+                .join(","),
+        )
+        .map_err(&e)?;
+        file.set_attr_string("solver", spec.run.method.name())
+            .map_err(&e)?;
+        file.set_attr_numeric("rtol", &spec.run.ode.rtol)
+            .map_err(&e)?;
+        file.set_attr_numeric("atol", &spec.run.ode.atol)
+            .map_err(&e)?;
+        file.set_attr_numeric("min_cycles", &(spec.run.min_cycles as i64))
+            .map_err(&e)?;
+        file.set_attr_numeric("t_end", &spec.run.t_end.unwrap_or(f64::NAN))
+            .map_err(&e)?;
+        file.set_attr_numeric("reference_runs", &(plan.refs.len() as i64))
+            .map_err(&e)?;
+        for p in PARAMS {
+            file.set_attr_numeric(&format!("fixed_{}", p.name), &p.get(&spec.fixed))
+                .map_err(&e)?;
+        }
+        if let Some((k, v)) = &spec.fixed_amplitude {
+            file.set_attr_numeric(&format!("fixed_{k}"), v)
+                .map_err(&e)?;
+        }
+        if !traces.is_empty() {
+            let g = file.create_group("traces").map_err(&e)?;
+            for (i, tr) in traces {
+                let pg = output::write_trace_group(&g, &format!("point_{i}"), tr, path)?;
+                pg.set_attr_string("point", &describe_point(spec, *i))
+                    .map_err(&e)?;
+                pg.set_attr_numeric("index", &(*i as i64)).map_err(&e)?;
+            }
+        }
+        file.close().map_err(&e)?;
+    }
+    std::fs::rename(&tmp, path).map_err(ioerr(path))
+}
+
+fn axis_doc(name: &str) -> String {
+    match name {
+        "v_a" => "vibration velocity amplitude v_a = 2 pi f u0".into(),
+        "va_ratio" => "vibration velocity amplitude over drive velocity, v_a / v_d".into(),
+        n => crate::model::params::info(n)
+            .map(|i| i.doc.to_string())
+            .unwrap_or_default(),
+    }
+}
+
+/// Writes the traces' point coordinates into a CSV-friendly string (for messages).
+pub fn describe_point(spec: &SweepSpec, i: usize) -> String {
+    spec.point_values(i)
+        .iter()
+        .map(|(n, v)| format!("{n}={v}"))
+        .collect::<Vec<_>>()
+        .join(" ")
+}

@@ -1,0 +1,288 @@
+//! The append-only journal of finished runs that makes a sweep resumable: one text line per run,
+//! written and flushed as the run finishes, so a crash, `kill -9` or Ctrl-C loses only the runs
+//! in flight. A torn last line is ignored on reading.
+//!
+//! Format: a header `stickslip-journal 1 <fingerprint>` (the sweep text and program version,
+//! so that a journal is never applied to another sweep), then one record per line:
+//!
+//! ```text
+//! <kind> <index> <status> <t_end> <window_start> <wall_time> <steps> <rejected> <rhs> <jac> <lu>
+//!        <newton> <dF> <dF_stderr> <mean_force> <stick_fraction> <period> <peak> <trough> <cycles>
+//! ```
+//!
+//! with `kind` `ref` or `pt`. Floats use Rust's shortest round-trip form, so resumed results are
+//! bit-identical.
+
+use crate::measures::Measures;
+use crate::ode::{Stats, Status};
+use crate::sim::RunResult;
+use std::fs::{File, OpenOptions};
+use std::io::{BufRead, BufReader, Write};
+use std::path::{Path, PathBuf};
+
+/// Which run a record belongs to.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Task {
+    /// Reference run without vibration number `i`.
+    Ref(usize),
+    /// Grid point `i` (with vibration).
+    Point(usize),
+}
+
+/// Journal path beside the output file.
+pub fn path_for(out: &Path) -> PathBuf {
+    let mut s = out.as_os_str().to_owned();
+    s.push(".journal");
+    PathBuf::from(s)
+}
+
+/// A 64-bit FNV-1a fingerprint of the sweep text and the program version.
+pub fn fingerprint(text: &str) -> String {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for b in text.bytes().chain(crate::output::program().bytes()) {
+        h ^= b as u64;
+        h = h.wrapping_mul(0x0000_0100_0000_01b3);
+    }
+    format!("{h:016x}")
+}
+
+fn header(fp: &str) -> String {
+    format!("stickslip-journal 1 {fp}")
+}
+
+/// Formats one record (without the newline).
+pub fn format_record(task: Task, r: &RunResult) -> String {
+    let (kind, i) = match task {
+        Task::Ref(i) => ("ref", i),
+        Task::Point(i) => ("pt", i),
+    };
+    let s = &r.stats;
+    let m = &r.measures;
+    format!(
+        "{kind} {i} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {}",
+        r.status.code(),
+        r.t_end,
+        r.window_start,
+        r.wall_time,
+        s.steps,
+        s.rejected,
+        s.rhs_evals,
+        s.jac_evals,
+        s.lu_decomps,
+        s.newton_iters,
+        m.d_f,
+        m.d_f_stderr,
+        m.mean_force,
+        m.stick_fraction,
+        m.period,
+        m.peak_force,
+        m.trough_force,
+        m.cycles
+    )
+}
+
+/// Parses one record; `None` for a torn or foreign line.
+pub fn parse_record(line: &str) -> Option<(Task, RunResult)> {
+    let f: Vec<&str> = line.split(' ').collect();
+    if f.len() != 20 {
+        return None;
+    }
+    let i: usize = f[1].parse().ok()?;
+    let task = match f[0] {
+        "ref" => Task::Ref(i),
+        "pt" => Task::Point(i),
+        _ => return None,
+    };
+    let u = |k: usize| f[k].parse::<u64>().ok();
+    let x = |k: usize| f[k].parse::<f64>().ok();
+    Some((
+        task,
+        RunResult {
+            status: Status::from_code(f[2].parse().ok()?)?,
+            t_end: x(3)?,
+            window_start: x(4)?,
+            wall_time: x(5)?,
+            stats: Stats {
+                steps: u(6)?,
+                rejected: u(7)?,
+                rhs_evals: u(8)?,
+                jac_evals: u(9)?,
+                lu_decomps: u(10)?,
+                newton_iters: u(11)?,
+            },
+            measures: Measures {
+                d_f: x(12)?,
+                d_f_stderr: x(13)?,
+                mean_force: x(14)?,
+                stick_fraction: x(15)?,
+                period: x(16)?,
+                peak_force: x(17)?,
+                trough_force: x(18)?,
+                cycles: f[19].parse().ok()?,
+            },
+            trace: None,
+        },
+    ))
+}
+
+/// Reads a journal written for fingerprint `fp`. Errors when the journal belongs to another
+/// sweep. Later records of the same task replace earlier ones.
+pub fn read(path: &Path, fp: &str) -> Result<Vec<(Task, RunResult)>, String> {
+    let f = File::open(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let mut lines = BufReader::new(f).lines();
+    let first = lines
+        .next()
+        .transpose()
+        .map_err(|e| e.to_string())?
+        .unwrap_or_default();
+    if first != header(fp) {
+        return Err(format!(
+            "{} was written for another sweep file or program version (header `{first}`, expected `{}`); \
+             start afresh with --overwrite",
+            path.display(),
+            header(fp)
+        ));
+    }
+    let mut out = vec![];
+    let mut text = String::new();
+    for l in lines {
+        match l {
+            Ok(l) => {
+                text.clear();
+                text.push_str(&l);
+                if let Some(rec) = parse_record(&text) {
+                    out.push(rec);
+                }
+            }
+            Err(_) => break,
+        }
+    }
+    Ok(out)
+}
+
+/// An open journal, appending.
+pub struct Journal {
+    file: File,
+    path: PathBuf,
+}
+
+impl Journal {
+    /// Creates a fresh journal (replacing any old one).
+    pub fn create(path: &Path, fp: &str) -> std::io::Result<Journal> {
+        let mut file = File::create(path)?;
+        writeln!(file, "{}", header(fp))?;
+        file.sync_data()?;
+        Ok(Journal {
+            file,
+            path: path.to_path_buf(),
+        })
+    }
+
+    /// Opens an existing journal for appending; a torn last line is cut off first.
+    pub fn append(path: &Path) -> std::io::Result<Journal> {
+        let text = std::fs::read(path)?;
+        let keep = text
+            .iter()
+            .rposition(|&b| b == b'\n')
+            .map(|p| p + 1)
+            .unwrap_or(0);
+        let file = OpenOptions::new().write(true).open(path)?;
+        file.set_len(keep as u64)?;
+        let mut file = OpenOptions::new().append(true).open(path)?;
+        file.flush()?;
+        Ok(Journal {
+            file,
+            path: path.to_path_buf(),
+        })
+    }
+
+    /// Appends a record and hands it to the operating system at once.
+    pub fn record(&mut self, task: Task, r: &RunResult) -> std::io::Result<()> {
+        let line = format_record(task, r) + "\n";
+        self.file.write_all(line.as_bytes())
+    }
+
+    /// Forces the journal to disk.
+    pub fn sync(&mut self) -> std::io::Result<()> {
+        self.file.sync_data()
+    }
+
+    /// The journal's path.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn records_round_trip_bit_for_bit_including_nan() {
+        let r = RunResult {
+            status: Status::MaxSteps,
+            stats: Stats {
+                steps: 12,
+                rejected: 3,
+                rhs_evals: 99,
+                jac_evals: 4,
+                lu_decomps: 8,
+                newton_iters: 20,
+            },
+            measures: Measures {
+                d_f: 0.1 + 0.2,
+                d_f_stderr: 1e-300,
+                mean_force: f64::NAN,
+                stick_fraction: 1.0 / 3.0,
+                period: f64::INFINITY,
+                peak_force: -0.0,
+                trough_force: 7.25,
+                cycles: 5,
+            },
+            t_end: 9.85,
+            window_start: 4.925,
+            wall_time: 0.123456789,
+            trace: None,
+        };
+        let line = format_record(Task::Point(42), &r);
+        let (t, back) = parse_record(&line).unwrap();
+        assert_eq!(t, Task::Point(42));
+        assert_eq!(back.measures.d_f.to_bits(), r.measures.d_f.to_bits());
+        assert!(back.measures.mean_force.is_nan());
+        assert_eq!(
+            back.measures.stick_fraction.to_bits(),
+            r.measures.stick_fraction.to_bits()
+        );
+        assert_eq!(back.stats, r.stats);
+        assert_eq!(back.status, r.status);
+        // A torn line is rejected.
+        assert!(parse_record(&line[..line.len() - 3]).is_none());
+        assert!(parse_record("pt 1 0 1.0").is_none());
+    }
+
+    #[test]
+    fn a_journal_of_another_sweep_is_refused_and_torn_tails_are_cut() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("j");
+        let r = parse_record("ref 0 0 1 0.5 0.1 1 0 6 1 2 3 6.4 0.01 8.4 0.9 1.1 11.4 5.1 4")
+            .unwrap()
+            .1;
+        {
+            let mut j = Journal::create(&p, "abc").unwrap();
+            j.record(Task::Ref(0), &r).unwrap();
+            j.record(Task::Point(3), &r).unwrap();
+        }
+        // Simulate a kill in the middle of a write.
+        let mut f = OpenOptions::new().append(true).open(&p).unwrap();
+        f.write_all(b"pt 4 0 1 0.5").unwrap();
+        assert_eq!(read(&p, "abc").unwrap().len(), 2);
+        assert!(read(&p, "xyz").unwrap_err().contains("another sweep"));
+        let mut j = Journal::append(&p).unwrap();
+        j.record(Task::Point(5), &r).unwrap();
+        let recs = read(&p, "abc").unwrap();
+        assert_eq!(
+            recs.iter().map(|x| x.0).collect::<Vec<_>>(),
+            vec![Task::Ref(0), Task::Point(3), Task::Point(5)]
+        );
+    }
+}

@@ -1,0 +1,344 @@
+//! Sweeps: plan a grid from a sweep file, run it in parallel (rayon over runs, one solver
+//! workspace per worker), record every finished run in a journal at once, checkpoint the HDF5
+//! file, resume after an interruption.
+//!
+//! The reference runs without vibration that `r` needs are found by the planner: one per
+//! distinct set of non-vibration parameters (`v_d`, `k_d`, load, friction, ...), run once
+//! whatever the size of the `u0` and `f` axes. Grid points without vibration reuse their
+//! reference run. Every run is independent and deterministic, so the results do not depend on
+//! the thread count or on the order in which runs finish.
+
+pub mod boundary;
+pub mod figures;
+pub mod h5;
+pub mod journal;
+pub mod read;
+pub mod spec;
+
+use crate::model::{Params, params::PARAMS};
+use crate::ode::{Solver, Status};
+use crate::progress::Progress;
+use crate::sim::{self, RunOptions, RunResult, Trace};
+use journal::{Journal, Task};
+use rayon::prelude::*;
+use spec::SweepSpec;
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+/// The expanded grid and its reference runs.
+#[derive(Clone, Debug)]
+pub struct Plan {
+    /// Parameters of every grid point, flat in C order.
+    pub points: Vec<Params>,
+    /// Parameters of every distinct reference run (no vibration).
+    pub refs: Vec<Params>,
+    /// For each point, the index of its reference.
+    pub point_ref: Vec<usize>,
+}
+
+/// The bits of every parameter that a run without vibration depends on (all but u0 and f).
+fn reference_key(p: &Params) -> Vec<u64> {
+    PARAMS
+        .iter()
+        .filter(|i| i.name != "u0" && i.name != "f")
+        .map(|i| i.get(p).to_bits())
+        .collect()
+}
+
+impl Plan {
+    /// Expands a validated sweep.
+    pub fn new(spec: &SweepSpec) -> Plan {
+        let n = spec.len();
+        let mut points = Vec::with_capacity(n);
+        let mut refs = vec![];
+        let mut point_ref = Vec::with_capacity(n);
+        let mut index: HashMap<Vec<u64>, usize> = HashMap::new();
+        for i in 0..n {
+            let p = spec
+                .point_params(i)
+                .expect("points were validated when the sweep was read");
+            let key = reference_key(&p);
+            let r = *index.entry(key).or_insert_with(|| {
+                refs.push(p.without_vibration());
+                refs.len() - 1
+            });
+            point_ref.push(r);
+            points.push(p);
+        }
+        Plan {
+            points,
+            refs,
+            point_ref,
+        }
+    }
+
+    /// All runs the sweep needs: every reference, and every point with vibration.
+    pub fn tasks(&self) -> Vec<Task> {
+        let mut t: Vec<Task> = (0..self.refs.len()).map(Task::Ref).collect();
+        t.extend(
+            (0..self.points.len())
+                .filter(|&i| self.points[i].vibrates())
+                .map(Task::Point),
+        );
+        t
+    }
+
+    /// Parameters of a task's run.
+    pub fn params(&self, t: Task) -> &Params {
+        match t {
+            Task::Ref(i) => &self.refs[i],
+            Task::Point(i) => &self.points[i],
+        }
+    }
+}
+
+/// Results collected so far (`None`: not run yet).
+#[derive(Clone, Debug)]
+pub struct Results {
+    /// Reference runs.
+    pub refs: Vec<Option<RunResult>>,
+    /// Grid-point runs (only points with vibration are run; the others use their reference).
+    pub points: Vec<Option<RunResult>>,
+}
+
+impl Results {
+    fn new(plan: &Plan) -> Results {
+        Results {
+            refs: vec![None; plan.refs.len()],
+            points: vec![None; plan.points.len()],
+        }
+    }
+
+    fn store(&mut self, t: Task, r: RunResult) {
+        match t {
+            Task::Ref(i) => self.refs[i] = Some(r),
+            Task::Point(i) => self.points[i] = Some(r),
+        }
+    }
+
+    fn has(&self, t: Task) -> bool {
+        match t {
+            Task::Ref(i) => self.refs[i].is_some(),
+            Task::Point(i) => self.points[i].is_some(),
+        }
+    }
+
+    /// The run that stands for grid point `i` (its own, or its reference when it has no
+    /// vibration) and its reference.
+    pub fn point(&self, plan: &Plan, i: usize) -> (Option<&RunResult>, Option<&RunResult>) {
+        let rf = self.refs[plan.point_ref[i]].as_ref();
+        let own = if plan.points[i].vibrates() {
+            self.points[i].as_ref()
+        } else {
+            rf
+        };
+        (own, rf)
+    }
+}
+
+/// How to run a sweep. Fields document their defaults.
+#[derive(Clone, Debug)]
+pub struct SweepOptions {
+    /// Output HDF5 file.
+    pub out: PathBuf,
+    /// Worker threads; `None` (default): one per core.
+    pub threads: Option<usize>,
+    /// Continue an interrupted sweep from its journal.
+    pub resume: bool,
+    /// Discard an unfinished sweep's journal and start afresh.
+    pub overwrite: bool,
+    /// Show a progress bar (on a terminal only).
+    pub progress: bool,
+    /// Seconds between HDF5 checkpoints. Default 30.
+    pub checkpoint_every: f64,
+}
+
+/// What stopped a sweep.
+#[derive(Debug, thiserror::Error)]
+pub enum SweepError {
+    /// Journal or output-file trouble.
+    #[error("{0}")]
+    State(String),
+    /// File output.
+    #[error(transparent)]
+    Output(#[from] crate::output::OutputError),
+    /// Bad run options.
+    #[error(transparent)]
+    Sim(#[from] sim::SimError),
+}
+
+/// Summary of a finished sweep.
+#[derive(Clone, Debug)]
+pub struct SweepOutcome {
+    /// Grid points.
+    pub points: usize,
+    /// Runs made in this invocation.
+    pub runs_made: usize,
+    /// Runs taken from the journal.
+    pub runs_resumed: usize,
+    /// Points whose run (or reference) did not succeed.
+    pub failed: usize,
+    /// Wall time of this invocation [s].
+    pub wall_time: f64,
+    /// The output file.
+    pub out: PathBuf,
+}
+
+/// Runs one task with the given solver.
+fn run_task(plan: &Plan, t: Task, opts: &RunOptions, solver: &mut Solver) -> RunResult {
+    sim::simulate(plan.params(t), opts, solver).expect("parameters and options were validated")
+}
+
+/// Runs a whole sweep to `opts.out` (see the module docs).
+pub fn run(spec: &SweepSpec, opts: &SweepOptions) -> Result<SweepOutcome, SweepError> {
+    let start = Instant::now();
+    let started = crate::output::now_iso();
+    spec.run.validate().map_err(sim::SimError::from)?;
+    let plan = Plan::new(spec);
+    let mut results = Results::new(&plan);
+    crate::output::ensure_parent(&opts.out)?;
+    let jpath = journal::path_for(&opts.out);
+    let fp = journal::fingerprint(&spec.text);
+    let mut resumed = 0;
+    let mut journal = if jpath.exists() && !opts.overwrite {
+        if !opts.resume {
+            return Err(SweepError::State(format!(
+                "{} holds an unfinished sweep; continue it with --resume or discard it with --overwrite",
+                jpath.display()
+            )));
+        }
+        for (t, r) in journal::read(&jpath, &fp).map_err(SweepError::State)? {
+            let valid = match t {
+                Task::Ref(i) => i < plan.refs.len(),
+                Task::Point(i) => i < plan.points.len(),
+            };
+            if valid && !results.has(t) {
+                results.store(t, r);
+                resumed += 1;
+            }
+        }
+        Journal::append(&jpath)
+            .map_err(|e| SweepError::State(format!("{}: {e}", jpath.display())))?
+    } else {
+        if opts.resume && is_complete(&opts.out) {
+            return Err(SweepError::State(format!(
+                "{} is already complete; nothing to resume",
+                opts.out.display()
+            )));
+        }
+        Journal::create(&jpath, &fp)
+            .map_err(|e| SweepError::State(format!("{}: {e}", jpath.display())))?
+    };
+
+    let all = plan.tasks();
+    let todo: Vec<Task> = all.iter().copied().filter(|t| !results.has(*t)).collect();
+    let mut progress = Progress::new(
+        all.len() as u64,
+        (all.len() - todo.len()) as u64,
+        opts.progress,
+    );
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(opts.threads.unwrap_or(0))
+        .build()
+        .map_err(|e| SweepError::State(e.to_string()))?;
+    let run_opts = RunOptions {
+        trace: false,
+        ..spec.run.clone()
+    };
+    let method = spec.run.method;
+    let mut last_checkpoint = Instant::now();
+    let mut io_error: Option<String> = None;
+    std::thread::scope(|sc| {
+        let (tx, rx) = std::sync::mpsc::channel::<(Task, RunResult)>();
+        let plan_ref = &plan;
+        let todo_ref = &todo;
+        let run_opts = &run_opts;
+        sc.spawn(move || {
+            pool.install(|| {
+                todo_ref.par_iter().for_each_init(
+                    || (tx.clone(), Solver::new(method)),
+                    |(tx, solver), &t| {
+                        let r = run_task(plan_ref, t, run_opts, solver);
+                        // The receiver lives until every sender is gone.
+                        let _ = tx.send((t, r));
+                    },
+                )
+            });
+            drop(tx);
+        });
+        for (t, r) in rx {
+            if let Err(e) = journal.record(t, &r) {
+                io_error.get_or_insert(format!("{}: {e}", journal.path().display()));
+            }
+            progress.inc(r.status != Status::Success);
+            results.store(t, r);
+            if last_checkpoint.elapsed() > Duration::from_secs_f64(opts.checkpoint_every) {
+                let _ = journal.sync();
+                if let Err(e) = h5::write(&opts.out, spec, &plan, &results, &[], &started, None) {
+                    io_error.get_or_insert(e.to_string());
+                }
+                last_checkpoint = Instant::now();
+            }
+        }
+    });
+    progress.finish();
+    if let Some(e) = io_error {
+        return Err(SweepError::State(e));
+    }
+    let _ = journal.sync();
+
+    // Points that keep traces are run once more with tracing on (deterministic: same numbers).
+    let traced: Vec<(usize, Trace)> = spec
+        .trace_points()
+        .into_par_iter()
+        .map_init(
+            || Solver::new(method),
+            |solver, i| {
+                let o = RunOptions {
+                    trace: true,
+                    ..spec.run.clone()
+                };
+                let r = sim::simulate(&plan.points[i], &o, solver).expect("validated");
+                (i, r.trace.unwrap_or_default())
+            },
+        )
+        .collect();
+
+    let finished = crate::output::now_iso();
+    h5::write(
+        &opts.out,
+        spec,
+        &plan,
+        &results,
+        &traced,
+        &started,
+        Some(&finished),
+    )?;
+    // The complete file holds everything the journal did.
+    let _ = std::fs::remove_file(&jpath);
+    let failed = (0..plan.points.len())
+        .filter(|&i| {
+            let (own, rf) = results.point(&plan, i);
+            own.map(|r| r.status != Status::Success).unwrap_or(true)
+                || rf.map(|r| r.status != Status::Success).unwrap_or(true)
+        })
+        .count();
+    Ok(SweepOutcome {
+        points: plan.points.len(),
+        runs_made: todo.len(),
+        runs_resumed: resumed,
+        failed,
+        wall_time: start.elapsed().as_secs_f64(),
+        out: opts.out.clone(),
+    })
+}
+
+/// Whether an HDF5 sweep file exists and is marked complete.
+pub fn is_complete(path: &Path) -> bool {
+    rust_hdf5::H5File::open(path)
+        .ok()
+        .and_then(|f| f.attr_string("sweep_status").ok())
+        .as_deref()
+        == Some("complete")
+}

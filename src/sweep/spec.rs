@@ -1,0 +1,779 @@
+//! Sweep files (TOML): axes, fixed parameters, solver, run policy, output choices.
+//!
+//! ```toml
+//! name = "fig10"              # optional, default: the file's stem
+//! description = "..."         # optional
+//! max_runs = 20000            # cap on the grid's size (default 100 000)
+//!
+//! [fixed]                     # parameters held fixed (SI units), as in a case file
+//! k_d = 11700.0
+//! f = 1500.0
+//!
+//! [[axis]]                    # one table per axis; exactly one of values, linspace, logspace
+//! name = "v_d"
+//! values = [0.5e-3, 1.0e-3, 1.5e-3]
+//!
+//! [[axis]]
+//! name = "va_ratio"           # derived: u0 = va_ratio · v_d / (2π f) per point
+//! linspace = [0.0, 4.0, 41]   # start, stop, count
+//!
+//! [[axis]]
+//! name = "f"
+//! logspace = [50.0, 4000.0, 48]
+//! zip = "u0"                  # optional: vary together with axis u0 (same length, one dimension)
+//!
+//! [solver]                    # as in a case file
+//! [run]                       # as in a case file
+//!
+//! [output]
+//! measures = ["r", "dF", "mean_force"]        # default: all
+//! traces = [{ v_d = 0.5e-3, va_ratio = 0.5 }] # grid points (nearest) that keep their traces
+//! ```
+//!
+//! Axis names are model parameters (`v_d`, `k_d`, `u0`, `f`, `F_s`, `h_d`, ...) or the derived
+//! `v_a` [m/s] and `va_ratio` [-], which set `u0` per point.
+
+use crate::config::{self, ConfigError, Doc};
+use crate::model::{Params, params};
+use crate::sim::RunOptions;
+use std::path::Path;
+
+/// Names of the measures a sweep can keep.
+pub const MEASURES: [&str; 10] = [
+    "r",
+    "r_stderr",
+    "dF",
+    "dF_stderr",
+    "mean_force",
+    "stick_fraction",
+    "period",
+    "peak_force",
+    "trough_force",
+    "cycles",
+];
+
+/// Default cap on the number of grid points.
+pub const DEFAULT_MAX_RUNS: usize = 100_000;
+
+/// One axis of the grid.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Axis {
+    /// Parameter name, `v_a` or `va_ratio`.
+    pub name: String,
+    /// Unit (SI).
+    pub unit: &'static str,
+    /// The values, computed by index.
+    pub values: Vec<f64>,
+    /// Another axis it is zipped with (varies together along one dimension).
+    pub zip: Option<String>,
+}
+
+/// A dimension of the result arrays: one axis, or several zipped axes of equal length.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Dim {
+    /// The dimension's name: its first axis's name.
+    pub name: String,
+    /// Indices into [`SweepSpec::axes`].
+    pub axes: Vec<usize>,
+    /// Length.
+    pub len: usize,
+}
+
+/// A grid point chosen to keep its traces, as axis values (matched to the nearest grid value).
+#[derive(Clone, Debug, PartialEq)]
+pub struct TraceSel(pub Vec<(String, f64)>);
+
+/// A parsed, validated sweep.
+#[derive(Clone, Debug)]
+pub struct SweepSpec {
+    /// Name (file stem by default).
+    pub name: String,
+    /// Free text.
+    pub description: String,
+    /// The sweep file's text, stored in the output.
+    pub text: String,
+    /// Fixed parameters (amplitude not yet resolved when it comes from `fixed_amplitude`).
+    pub fixed: Params,
+    /// `v_a` or `va_ratio` given in `[fixed]`, resolved per point.
+    pub fixed_amplitude: Option<(String, f64)>,
+    /// The axes in file order.
+    pub axes: Vec<Axis>,
+    /// The dimensions (zip groups), in file order of their first axis.
+    pub dims: Vec<Dim>,
+    /// Solver and run policy.
+    pub run: RunOptions,
+    /// Measures to keep.
+    pub measures: Vec<String>,
+    /// Points that keep traces.
+    pub traces: Vec<TraceSel>,
+    /// Cap on the grid size.
+    pub max_runs: usize,
+}
+
+fn unit_of(name: &str) -> Option<&'static str> {
+    match name {
+        "v_a" => Some("m/s"),
+        "va_ratio" => Some("1"),
+        n => params::info(n).map(|i| i.unit),
+    }
+}
+
+/// `count` values from `a` to `b` inclusive, linear, each computed from its index.
+pub fn linspace(a: f64, b: f64, count: usize) -> Vec<f64> {
+    (0..count)
+        .map(|i| {
+            if count == 1 {
+                a
+            } else if i == count - 1 {
+                b
+            } else {
+                a + (b - a) * (i as f64 / (count - 1) as f64)
+            }
+        })
+        .collect()
+}
+
+/// `count` values from `a` to `b` inclusive, geometric, each computed from its index.
+pub fn logspace(a: f64, b: f64, count: usize) -> Vec<f64> {
+    let (la, lb) = (a.ln(), b.ln());
+    (0..count)
+        .map(|i| {
+            if count == 1 {
+                a
+            } else if i == count - 1 {
+                b
+            } else {
+                (la + (lb - la) * (i as f64 / (count - 1) as f64)).exp()
+            }
+        })
+        .collect()
+}
+
+impl SweepSpec {
+    /// Reads and validates a sweep file.
+    pub fn load(path: &Path) -> Result<SweepSpec, ConfigError> {
+        let doc = Doc::read(path)?;
+        let stem = path
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "sweep".into());
+        Self::from_doc(&doc, &stem)
+    }
+
+    /// Parses a sweep from TOML text (for tests); `file` is used in messages.
+    pub fn parse(file: &str, text: &str) -> Result<SweepSpec, ConfigError> {
+        let doc = Doc::parse(file, text.to_string())?;
+        let stem = Path::new(file)
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "sweep".into());
+        Self::from_doc(&doc, &stem)
+    }
+
+    fn from_doc(doc: &Doc, stem: &str) -> Result<SweepSpec, ConfigError> {
+        let mut spec = SweepSpec {
+            name: stem.to_string(),
+            description: String::new(),
+            text: doc.text.clone(),
+            fixed: Params::default(),
+            fixed_amplitude: None,
+            axes: vec![],
+            dims: vec![],
+            run: RunOptions::default(),
+            measures: MEASURES.iter().map(|s| s.to_string()).collect(),
+            traces: vec![],
+            max_runs: DEFAULT_MAX_RUNS,
+        };
+        let mut axis_tables: Vec<&toml::Table> = vec![];
+        let mut output: Option<&toml::Table> = None;
+        for (k, v) in &doc.table {
+            match (k.as_str(), v) {
+                ("name", toml::Value::String(s)) => spec.name = s.clone(),
+                ("description", toml::Value::String(s)) => spec.description = s.clone(),
+                ("max_runs", toml::Value::Integer(n)) if *n > 0 => spec.max_runs = *n as usize,
+                ("max_runs", _) => return Err(doc.err("", k, "expected a whole number >= 1")),
+                ("name" | "description", _) => return Err(doc.err("", k, "expected a string")),
+                ("fixed", toml::Value::Table(t)) => {
+                    // Parameters now; v_a / va_ratio are resolved per point, after the axes.
+                    let mut plain = toml::Table::new();
+                    for (fk, fv) in t {
+                        if fk == "v_a" || fk == "va_ratio" {
+                            let x = doc.number("fixed", fk, fv)?;
+                            if !(x.is_finite() && x >= 0.0) {
+                                return Err(doc.err(
+                                    "fixed",
+                                    fk,
+                                    format!("{fk} = {x} is not allowed: must be finite and >= 0"),
+                                ));
+                            }
+                            if spec.fixed_amplitude.is_some() || t.contains_key("u0") {
+                                return Err(doc.err(
+                                    "fixed",
+                                    fk,
+                                    "give one of u0, v_a and va_ratio",
+                                ));
+                            }
+                            spec.fixed_amplitude = Some((fk.clone(), x));
+                        } else {
+                            plain.insert(fk.clone(), fv.clone());
+                        }
+                    }
+                    let rest = apply_fixed(doc, &plain, &mut spec.fixed)?;
+                    if let Some(bad) = rest.first() {
+                        return Err(doc.err(
+                            "fixed",
+                            bad,
+                            format!(
+                                "unknown parameter; allowed: {}, v_a, va_ratio",
+                                params::names().join(", ")
+                            ),
+                        ));
+                    }
+                }
+                ("axis", toml::Value::Array(arr)) => {
+                    for a in arr {
+                        match a {
+                            toml::Value::Table(t) => axis_tables.push(t),
+                            _ => {
+                                return Err(doc.err(
+                                    "",
+                                    "axis",
+                                    "each axis must be a table: [[axis]]",
+                                ));
+                            }
+                        }
+                    }
+                }
+                ("solver", toml::Value::Table(t)) => config::apply_solver(doc, t, &mut spec.run)?,
+                ("run", toml::Value::Table(t)) => config::apply_run(doc, t, &mut spec.run)?,
+                ("output", toml::Value::Table(t)) => output = Some(t),
+                _ => {
+                    return Err(doc.err(
+                        "",
+                        k,
+                        "unknown key; allowed: name, description, max_runs, [fixed], [[axis]], [solver], [run], [output]",
+                    ));
+                }
+            }
+        }
+        for (i, t) in axis_tables.iter().enumerate() {
+            spec.axes.push(parse_axis(doc, i, t)?);
+        }
+        if spec.axes.is_empty() {
+            return Err(doc.err("", "axis", "a sweep needs at least one [[axis]]"));
+        }
+        spec.check_axes(doc)?;
+        spec.build_dims(doc)?;
+        if let Some(t) = output {
+            spec.parse_output(doc, t)?;
+        }
+        let total: usize = spec.dims.iter().map(|d| d.len).product();
+        if total > spec.max_runs {
+            return Err(doc.err("", "max_runs", format!("the grid has {total} points, over the cap max_runs = {}; raise max_runs or shrink the axes", spec.max_runs)));
+        }
+        // Every point must be a valid case: check them all before anything runs.
+        for i in 0..total {
+            if let Err(msg) = spec.point_params(i) {
+                let coords = spec.coords_text(i);
+                return Err(doc.err(
+                    "",
+                    "axis",
+                    format!("grid point {i} ({coords}) is not a valid case: {msg}"),
+                ));
+            }
+        }
+        Ok(spec)
+    }
+
+    fn check_axes(&self, doc: &Doc) -> Result<(), ConfigError> {
+        let amp: Vec<&Axis> = self
+            .axes
+            .iter()
+            .filter(|a| matches!(a.name.as_str(), "u0" | "v_a" | "va_ratio"))
+            .collect();
+        if amp.len() > 1 {
+            return Err(doc.err(
+                "",
+                "axis",
+                format!(
+                    "axes `{}` and `{}` both set the amplitude u0; keep one",
+                    amp[0].name, amp[1].name
+                ),
+            ));
+        }
+        if !amp.is_empty() && self.fixed_amplitude.is_some() {
+            return Err(doc.err(
+                "fixed",
+                &self.fixed_amplitude.as_ref().unwrap().0,
+                format!(
+                    "the axis `{}` sets the amplitude; remove it from [fixed]",
+                    amp[0].name
+                ),
+            ));
+        }
+        for (i, a) in self.axes.iter().enumerate() {
+            if self.axes[..i].iter().any(|b| b.name == a.name) {
+                return Err(doc.err("", "axis", format!("axis `{}` appears twice", a.name)));
+            }
+        }
+        Ok(())
+    }
+
+    fn build_dims(&mut self, doc: &Doc) -> Result<(), ConfigError> {
+        // Union of zip links, in file order.
+        let n = self.axes.len();
+        let mut group: Vec<usize> = (0..n).collect();
+        for i in 0..n {
+            if let Some(z) = &self.axes[i].zip {
+                let j = self.axes.iter().position(|a| &a.name == z).ok_or_else(|| {
+                    doc.err(
+                        "",
+                        "axis",
+                        format!(
+                            "axis `{}` zips with `{z}`, which is not an axis",
+                            self.axes[i].name
+                        ),
+                    )
+                })?;
+                if self.axes[i].values.len() != self.axes[j].values.len() {
+                    return Err(doc.err("", "axis", format!("zipped axes `{}` ({} values) and `{z}` ({} values) must have the same length", self.axes[i].name, self.axes[i].values.len(), self.axes[j].values.len())));
+                }
+                let (gi, gj) = (group[i], group[j]);
+                let g = gi.min(gj);
+                for x in group.iter_mut() {
+                    if *x == gi || *x == gj {
+                        *x = g;
+                    }
+                }
+            }
+        }
+        for i in 0..n {
+            if group[i] == i {
+                let axes: Vec<usize> = (0..n).filter(|&k| group[k] == i).collect();
+                self.dims.push(Dim {
+                    name: self.axes[i].name.clone(),
+                    len: self.axes[i].values.len(),
+                    axes,
+                });
+            }
+        }
+        Ok(())
+    }
+
+    fn parse_output(&mut self, doc: &Doc, t: &toml::Table) -> Result<(), ConfigError> {
+        for (k, v) in t {
+            match k.as_str() {
+                "measures" => {
+                    let arr = v
+                        .as_array()
+                        .ok_or_else(|| doc.err("output", k, "expected a list of measure names"))?;
+                    let mut list = vec![];
+                    for m in arr {
+                        let s = m.as_str().filter(|s| MEASURES.contains(s)).ok_or_else(|| {
+                            doc.err(
+                                "output",
+                                k,
+                                format!("unknown measure {m}; allowed: {}", MEASURES.join(", ")),
+                            )
+                        })?;
+                        list.push(s.to_string());
+                    }
+                    self.measures = list;
+                }
+                "traces" => {
+                    let arr = v.as_array().ok_or_else(|| {
+                        doc.err(
+                            "output",
+                            k,
+                            "expected a list of points, e.g. [{ v_d = 0.5e-3, va_ratio = 0.5 }]",
+                        )
+                    })?;
+                    for pt in arr {
+                        let tbl = pt.as_table().ok_or_else(|| {
+                            doc.err("output", k, "each point is an inline table of axis values")
+                        })?;
+                        let mut sel = vec![];
+                        for (ak, av) in tbl {
+                            if !self.axes.iter().any(|a| &a.name == ak) {
+                                return Err(doc.err(
+                                    "output",
+                                    k,
+                                    format!("`{ak}` is not an axis of this sweep"),
+                                ));
+                            }
+                            sel.push((ak.clone(), doc.number("output", k, av)?));
+                        }
+                        self.traces.push(TraceSel(sel));
+                    }
+                }
+                _ => return Err(doc.err("output", k, "unknown key; allowed: measures, traces")),
+            }
+        }
+        Ok(())
+    }
+
+    /// Shape of the result arrays.
+    pub fn shape(&self) -> Vec<usize> {
+        self.dims.iter().map(|d| d.len).collect()
+    }
+
+    /// Number of grid points.
+    pub fn len(&self) -> usize {
+        self.shape().iter().product()
+    }
+
+    /// Whether the grid is empty (never, for a validated spec).
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// The multi-index of flat point `i` (C order: the last dimension varies fastest).
+    pub fn unravel(&self, mut i: usize) -> Vec<usize> {
+        let shape = self.shape();
+        let mut idx = vec![0; shape.len()];
+        for d in (0..shape.len()).rev() {
+            idx[d] = i % shape[d];
+            i /= shape[d];
+        }
+        idx
+    }
+
+    /// The axis values of point `i`, in axis order.
+    pub fn point_values(&self, i: usize) -> Vec<(String, f64)> {
+        let idx = self.unravel(i);
+        let mut out = vec![];
+        for (d, dim) in self.dims.iter().enumerate() {
+            for &a in &dim.axes {
+                out.push((self.axes[a].name.clone(), self.axes[a].values[idx[d]]));
+            }
+        }
+        out
+    }
+
+    fn coords_text(&self, i: usize) -> String {
+        self.point_values(i)
+            .iter()
+            .map(|(n, v)| format!("{n} = {v}"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+
+    /// The validated parameters of point `i`.
+    pub fn point_params(&self, i: usize) -> Result<Params, String> {
+        let mut p = self.fixed;
+        let mut amp = self.fixed_amplitude.clone();
+        for (name, v) in self.point_values(i) {
+            match name.as_str() {
+                "v_a" | "va_ratio" => amp = Some((name, v)),
+                _ => p.set(&name, v).map_err(|e| e.to_string())?,
+            }
+        }
+        if let Some((k, x)) = amp {
+            config::resolve_amplitude(&mut p, &k, x)?;
+        }
+        p.validate().map_err(|e| e.to_string())?;
+        Ok(p)
+    }
+
+    /// Flat indices of the points that keep traces (nearest grid value on each named axis; the
+    /// first value on unnamed ones).
+    pub fn trace_points(&self) -> Vec<usize> {
+        let mut out = vec![];
+        for sel in &self.traces {
+            let mut idx = vec![0usize; self.dims.len()];
+            for (name, v) in &sel.0 {
+                for (d, dim) in self.dims.iter().enumerate() {
+                    if let Some(&a) = dim.axes.iter().find(|&&a| &self.axes[a].name == name) {
+                        let vals = &self.axes[a].values;
+                        let best = (0..vals.len())
+                            .min_by(|&x, &y| (vals[x] - v).abs().total_cmp(&(vals[y] - v).abs()))
+                            .unwrap_or(0);
+                        idx[d] = best;
+                    }
+                }
+            }
+            let flat = idx
+                .iter()
+                .zip(self.shape())
+                .fold(0, |acc, (i, n)| acc * n + i);
+            if !out.contains(&flat) {
+                out.push(flat);
+            }
+        }
+        out
+    }
+}
+
+fn apply_fixed<'a>(
+    doc: &Doc,
+    t: &'a toml::Table,
+    p: &mut Params,
+) -> Result<Vec<&'a str>, ConfigError> {
+    let mut rest = vec![];
+    for (k, v) in t {
+        match params::info(k) {
+            Some(info) => info.set(p, doc.number("fixed", k, v)?),
+            None => rest.push(k.as_str()),
+        }
+    }
+    // Relations (F_s >= F_c, f > 0 with u0 > 0) are checked per point, after the axes.
+    for i in params::PARAMS {
+        if t.contains_key(i.name) {
+            let mut q = Params::default();
+            i.set(&mut q, i.get(p));
+            if let Err(e) = q.validate() {
+                if matches!(&e, params::ParamError::OutOfRange { name, .. } if *name == i.name) {
+                    return Err(doc.err("fixed", i.name, e.to_string()));
+                }
+            }
+        }
+    }
+    Ok(rest)
+}
+
+fn parse_axis(doc: &Doc, i: usize, t: &toml::Table) -> Result<Axis, ConfigError> {
+    let sec = format!("axis[{i}]");
+    let here = |key: &str, msg: String| {
+        // Lines: find the i-th "[[axis]]" header, then the key below it.
+        let mut seen = 0;
+        let mut line = 0;
+        let mut inside = false;
+        for (n, l) in doc.text.lines().enumerate() {
+            let l = l.trim();
+            if l.starts_with("[[axis]]") {
+                inside = seen == i;
+                seen += 1;
+                if inside {
+                    line = n + 1;
+                }
+                continue;
+            }
+            if l.starts_with('[') {
+                inside = false;
+            }
+            if inside
+                && l.split_once('=')
+                    .map(|(k, _)| k.trim() == key)
+                    .unwrap_or(false)
+            {
+                line = n + 1;
+                break;
+            }
+        }
+        ConfigError {
+            file: doc.file.clone(),
+            line,
+            key: format!("{sec}.{key}"),
+            msg,
+        }
+    };
+    let name = t
+        .get("name")
+        .and_then(|v| v.as_str())
+        .ok_or_else(|| here("name", "each axis needs name = \"<parameter>\"".into()))?;
+    let unit = unit_of(name).ok_or_else(|| {
+        here(
+            "name",
+            format!(
+                "unknown axis `{name}`; allowed: the parameters {}, v_a, va_ratio",
+                params::names().join(", ")
+            ),
+        )
+    })?;
+    let mut values: Option<Vec<f64>> = None;
+    let mut zip = None;
+    let nums = |key: &str, v: &toml::Value| -> Result<Vec<f64>, ConfigError> {
+        let arr = v
+            .as_array()
+            .ok_or_else(|| here(key, "expected a list of numbers".into()))?;
+        arr.iter()
+            .map(|x| match x {
+                toml::Value::Float(f) => Ok(*f),
+                toml::Value::Integer(n) => Ok(*n as f64),
+                other => Err(here(
+                    key,
+                    format!("expected numbers, found {}", other.type_str()),
+                )),
+            })
+            .collect()
+    };
+    for (k, v) in t {
+        let kind = k.as_str();
+        match kind {
+            "name" => {}
+            "zip" => {
+                zip = Some(
+                    v.as_str()
+                        .ok_or_else(|| here(kind, "expected the name of another axis".into()))?
+                        .to_string(),
+                )
+            }
+            "values" | "linspace" | "logspace" => {
+                if values.is_some() {
+                    return Err(here(
+                        kind,
+                        "give exactly one of values, linspace, logspace".into(),
+                    ));
+                }
+                let x = nums(kind, v)?;
+                let vals = if kind == "values" {
+                    if x.is_empty() {
+                        return Err(here(
+                            kind,
+                            "the list is empty; an axis needs at least one value".into(),
+                        ));
+                    }
+                    x
+                } else {
+                    let (a, b, n) = match x.as_slice() {
+                        [a, b, n] if *n >= 1.0 && n.fract() == 0.0 => (*a, *b, *n as usize),
+                        _ => {
+                            return Err(here(
+                                kind,
+                                format!(
+                                    "expected [start, stop, count] with a whole count >= 1, found {x:?}"
+                                ),
+                            ));
+                        }
+                    };
+                    if !(a.is_finite() && b.is_finite()) {
+                        return Err(here(kind, "start and stop must be finite".into()));
+                    }
+                    if kind == "logspace" {
+                        if !(a > 0.0 && b > 0.0) {
+                            return Err(here(
+                                kind,
+                                format!(
+                                    "a logarithmic range needs start and stop > 0, found [{a}, {b}]"
+                                ),
+                            ));
+                        }
+                        logspace(a, b, n)
+                    } else {
+                        linspace(a, b, n)
+                    }
+                };
+                for &val in &vals {
+                    let ok = match name {
+                        "va_ratio" | "v_a" | "u0" | "f" | "h_t" | "h_v" | "h_d" => {
+                            val.is_finite() && val >= 0.0
+                        }
+                        _ => val.is_finite() && val > 0.0,
+                    };
+                    if !ok {
+                        return Err(here(
+                            kind,
+                            format!("value {val} {unit} is out of range for `{name}`"),
+                        ));
+                    }
+                }
+                values = Some(vals);
+            }
+            _ => {
+                return Err(here(
+                    kind,
+                    "unknown key; allowed: name, values, linspace, logspace, zip".into(),
+                ));
+            }
+        }
+    }
+    let values = values.ok_or_else(|| {
+        here(
+            "name",
+            format!("axis `{name}` needs one of values, linspace, logspace"),
+        )
+    })?;
+    Ok(Axis {
+        name: name.to_string(),
+        unit,
+        values,
+        zip,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn grids_are_computed_by_index_with_exact_ends() {
+        let v = linspace(0.0, 4.0, 41);
+        assert_eq!(v.len(), 41);
+        assert_eq!(v[0], 0.0);
+        assert_eq!(v[40], 4.0);
+        assert_eq!(v[10], 1.0);
+        let l = logspace(50.0, 4000.0, 48);
+        assert_eq!((l[0], l[47]), (50.0, 4000.0));
+        for w in l.windows(2) {
+            assert!((w[1] / w[0] - (80f64).powf(1.0 / 47.0)).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn a_sweep_with_derived_and_zipped_axes_expands() {
+        let s = SweepSpec::parse(
+            "t.toml",
+            "[fixed]\nk_d = 11700\nf = 1500\n[[axis]]\nname = \"v_d\"\nvalues = [0.5e-3, 1e-3]\n[[axis]]\nname = \"va_ratio\"\nlinspace = [0, 2, 3]\n[[axis]]\nname = \"F_s\"\nvalues = [11, 12]\n[[axis]]\nname = \"h_d\"\nvalues = [0, 5]\nzip = \"F_s\"\n",
+        )
+        .unwrap();
+        assert_eq!(s.shape(), vec![2, 3, 2]);
+        assert_eq!(s.dims[2].name, "F_s");
+        assert_eq!(s.dims[2].axes.len(), 2);
+        // Point (v_d = 1e-3, va_ratio = 2, F_s = 12 & h_d = 5): the last one.
+        let p = s.point_params(11).unwrap();
+        assert_eq!((p.v_d, p.f_s, p.h_d), (1e-3, 12.0, 5.0));
+        assert!((p.v_a() - 2e-3).abs() < 1e-15);
+        assert_eq!(s.point_params(0).unwrap().u0, 0.0);
+    }
+
+    #[test]
+    fn errors_name_file_line_key_and_allowed() {
+        let e = SweepSpec::parse(
+            "s.toml",
+            "[[axis]]\nname = \"v_d\"\nlinspace = [1e-3, 2e-3, 0]\n",
+        )
+        .unwrap_err();
+        assert_eq!((e.line, e.key.as_str()), (3, "axis[0].linspace"));
+        let e =
+            SweepSpec::parse("s.toml", "[[axis]]\nname = \"speed\"\nvalues = [1]\n").unwrap_err();
+        assert!(e.msg.contains("unknown axis") && e.line == 2, "{e}");
+        let e = SweepSpec::parse("s.toml", "[[axis]]\nname = \"v_d\"\nvalues = []\n").unwrap_err();
+        assert!(e.msg.contains("empty"), "{e}");
+        let e = SweepSpec::parse("s.toml", "[[axis]]\nname = \"f\"\nlogspace = [0, 100, 5]\n")
+            .unwrap_err();
+        assert!(e.msg.contains("> 0"), "{e}");
+        let e = SweepSpec::parse(
+            "s.toml",
+            "max_runs = 10\n[[axis]]\nname = \"v_d\"\nlinspace = [1e-4, 2e-3, 11]\n",
+        )
+        .unwrap_err();
+        assert!(
+            e.msg.contains("11 points") && e.key == "max_runs" && e.line == 1,
+            "{e}"
+        );
+        let e = SweepSpec::parse(
+            "s.toml",
+            "[fixed]\nk_d = -1\n[[axis]]\nname = \"v_d\"\nvalues = [1e-3]\n",
+        )
+        .unwrap_err();
+        assert!(e.key == "fixed.k_d" && e.line == 2, "{e}");
+        let e = SweepSpec::parse(
+            "s.toml",
+            "[[axis]]\nname = \"va_ratio\"\nvalues = [1]\n[fixed]\nf = 0\n",
+        )
+        .unwrap_err();
+        assert!(e.msg.contains("grid point 0"), "{e}");
+        let e = SweepSpec::parse(
+            "s.toml",
+            "speed = 3\n[[axis]]\nname = \"v_d\"\nvalues = [1e-3]\n",
+        )
+        .unwrap_err();
+        assert!(e.key == "speed" && e.line == 1, "{e}");
+        let e = SweepSpec::parse(
+            "s.toml",
+            "[[axis]]\nname = \"v_d\"\nvalues = [1e-3]\n[output]\nmeasures = [\"r\", \"q\"]\n",
+        )
+        .unwrap_err();
+        assert!(e.key == "output.measures" && e.line == 5, "{e}");
+    }
+}
