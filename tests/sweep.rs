@@ -1,0 +1,344 @@
+//! Sweeps end to end: shipped files validate; the planner shares reference runs; 1 and 2
+//! threads give identical numbers; a sweep killed with SIGKILL resumes to the same numbers; a
+//! failing run is recorded and the sweep goes on; the file reads back in h5py and xarray; the
+//! boundary lies where the physics puts it.
+
+use rust_hdf5::H5File;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+use stickslip::sweep::{self, Plan, SweepOptions, spec::SweepSpec};
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_stickslip"))
+}
+
+fn python(args: &[&str]) {
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/python/check_sweep.py");
+    let out = Command::new("python3")
+        .arg(script)
+        .args(args)
+        .output()
+        .expect("python3 runs");
+    assert!(
+        out.status.success(),
+        "check_sweep.py failed (install the readers: python3 -m pip install -r tests/python/requirements.txt):\n{}\n{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+/// A small, fast grid: a stiff, fast drive (short cycles) over a short fixed time.
+const SMALL: &str = r#"
+name = "small"
+[fixed]
+k_d = 20000.0
+v_d = 1.5e-3
+[[axis]]
+name = "f"
+values = [300.0, 1000.0, 2000.0, 3000.0]
+[[axis]]
+name = "u0"
+logspace = [1e-8, 1e-6, 8]
+[solver]
+method = "dopri5"
+[run]
+t_end = 1.5
+"#;
+
+fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+fn read_all(path: &Path) -> Vec<(String, Vec<u64>)> {
+    let f = H5File::open(path).unwrap();
+    let mut out = vec![];
+    for n in [
+        "r",
+        "r_stderr",
+        "dF",
+        "dF_stderr",
+        "dF_reference",
+        "mean_force",
+        "stick_fraction",
+        "period",
+        "peak_force",
+        "trough_force",
+        "cycles",
+        "status",
+        "steps",
+        "rejected",
+        "rhs_evals",
+    ] {
+        let v = f.dataset(n).unwrap().read_raw::<f64>().unwrap();
+        out.push((n.to_string(), v.iter().map(|x| x.to_bits()).collect()));
+    }
+    out
+}
+
+fn opts(out: &Path, threads: usize) -> SweepOptions {
+    SweepOptions {
+        out: out.to_path_buf(),
+        threads: Some(threads),
+        resume: false,
+        overwrite: false,
+        progress: false,
+        checkpoint_every: 30.0,
+    }
+}
+
+#[test]
+fn shipped_sweeps_validate() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("sweeps");
+    let mut n = 0;
+    for e in std::fs::read_dir(&dir).unwrap() {
+        let p = e.unwrap().path();
+        if p.extension().and_then(|x| x.to_str()) == Some("toml") {
+            let s = SweepSpec::load(&p).unwrap_or_else(|e| panic!("{e}"));
+            assert!(!s.is_empty());
+            n += 1;
+        }
+    }
+    assert!(
+        n >= 6,
+        "expected quick, fig10, fig11a, fig11b, fig11-map and overnight"
+    );
+    // The shipped figures have the sizes the paper's study needs.
+    let map = SweepSpec::load(&dir.join("fig11-map.toml")).unwrap();
+    assert!(map.shape().iter().all(|&k| k >= 48));
+    let fig10 = SweepSpec::load(&dir.join("fig10.toml")).unwrap();
+    assert_eq!(fig10.shape(), vec![3, 41]);
+    let overnight = SweepSpec::load(&dir.join("overnight.toml")).unwrap();
+    assert_eq!(overnight.dims.len(), 4);
+    assert!(overnight.len() >= 65_536);
+}
+
+#[test]
+fn planner_runs_each_reference_once() {
+    let spec =
+        SweepSpec::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("sweeps/fig10.toml")).unwrap();
+    let plan = Plan::new(&spec);
+    // One reference per v_d, whatever the size of the va_ratio axis; the va_ratio = 0 points
+    // reuse it.
+    assert_eq!(plan.refs.len(), 3);
+    assert_eq!(plan.tasks().len(), 3 + 3 * 40);
+    let map = SweepSpec::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("sweeps/fig11-map.toml"))
+        .unwrap();
+    assert_eq!(Plan::new(&map).refs.len(), 1);
+}
+
+#[test]
+fn one_and_two_threads_give_identical_numbers() {
+    let dir = tempfile::tempdir().unwrap();
+    let spec = SweepSpec::parse("small.toml", SMALL).unwrap();
+    let a = dir.path().join("a.h5");
+    let b = dir.path().join("b.h5");
+    sweep::run(&spec, &opts(&a, 1)).unwrap();
+    sweep::run(&spec, &opts(&b, 2)).unwrap();
+    assert_eq!(read_all(&a), read_all(&b));
+}
+
+#[test]
+fn killed_sweep_resumes_to_the_same_numbers_and_reads_in_h5py_and_xarray() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = write(dir.path(), "small.toml", SMALL);
+    let killed = dir.path().join("killed.h5");
+    let clean = dir.path().join("clean.h5");
+    let journal = dir.path().join("killed.h5.journal");
+    // A one-thread sweep, checkpointing every second; kill it once a third of its runs are in.
+    let mut child = bin()
+        .args([
+            "sweep",
+            file.to_str().unwrap(),
+            "-o",
+            killed.to_str().unwrap(),
+            "--threads",
+            "1",
+            "--checkpoint-every",
+            "1",
+            "--no-plot",
+        ])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let t0 = Instant::now();
+    loop {
+        let lines = std::fs::read_to_string(&journal)
+            .map(|s| s.lines().count())
+            .unwrap_or(0);
+        if lines > 9 {
+            break;
+        }
+        assert!(
+            t0.elapsed() < Duration::from_secs(120),
+            "the sweep made no progress"
+        );
+        assert!(
+            child.try_wait().unwrap().is_none(),
+            "the sweep finished before it could be killed"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    child.kill().unwrap(); // SIGKILL
+    child.wait().unwrap();
+    assert!(journal.exists());
+    // Without --resume the unfinished sweep is protected.
+    let out = bin()
+        .args([
+            "sweep",
+            file.to_str().unwrap(),
+            "-o",
+            killed.to_str().unwrap(),
+            "--quiet",
+        ])
+        .output()
+        .unwrap();
+    assert_eq!(
+        out.status.code(),
+        Some(1),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--resume"));
+    // Resume, and compare with an uninterrupted two-thread run.
+    let out = bin()
+        .args([
+            "sweep",
+            file.to_str().unwrap(),
+            "-o",
+            killed.to_str().unwrap(),
+            "--resume",
+            "--quiet",
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    let resumed: usize = text
+        .split(" resumed")
+        .next()
+        .unwrap()
+        .rsplit(' ')
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!(resumed >= 9, "{text}");
+    assert!(!journal.exists(), "a complete sweep leaves no journal");
+    let out = bin()
+        .args([
+            "sweep",
+            file.to_str().unwrap(),
+            "-o",
+            clean.to_str().unwrap(),
+            "--threads",
+            "2",
+            "--quiet",
+        ])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    assert_eq!(read_all(&killed), read_all(&clean));
+    assert!(sweep::is_complete(&clean));
+    python(&[clean.to_str().unwrap(), "f,u0", "4,8"]);
+    // The sweep also drew its figures and its boundary.
+    for s in [
+        "clean_fig11a.png",
+        "clean_fig11b.svg",
+        "clean_map.png",
+        "clean_boundary.csv",
+    ] {
+        assert!(dir.path().join(s).exists(), "{s} missing");
+    }
+}
+
+#[test]
+fn a_failing_run_is_recorded_and_the_sweep_goes_on() {
+    let dir = tempfile::tempdir().unwrap();
+    // Too few steps for the vibrated runs at 3000 Hz, enough for the others.
+    let text = SMALL.replace("[run]", "[run]\n").replace(
+        "method = \"dopri5\"",
+        "method = \"dopri5\"\nmax_steps = 60000",
+    );
+    let spec = SweepSpec::parse("fail.toml", &text).unwrap();
+    let out = dir.path().join("fail.h5");
+    let o = sweep::run(&spec, &opts(&out, 2)).unwrap();
+    assert!(o.failed > 0 && o.failed < o.points, "{o:?}");
+    let f = H5File::open(&out).unwrap();
+    let status = f.dataset("status").unwrap().read_raw::<f64>().unwrap();
+    let r = f.dataset("r").unwrap().read_raw::<f64>().unwrap();
+    let steps = f.dataset("steps").unwrap().read_raw::<f64>().unwrap();
+    for i in 0..status.len() {
+        if status[i] == 2.0 {
+            assert!(r[i].is_nan() && steps[i] > 0.0, "point {i}");
+        } else {
+            assert_eq!(status[i], 0.0);
+            assert!(r[i].is_finite());
+        }
+    }
+    assert_eq!(status.iter().filter(|&&s| s != 0.0).count(), o.failed);
+}
+
+#[test]
+fn boundary_follows_the_rule_of_thumb_at_high_frequency() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = r#"
+[fixed]
+k_d = 11700.0
+v_d = 0.5e-3
+[[axis]]
+name = "f"
+values = [1500.0, 3000.0]
+[[axis]]
+name = "u0"
+logspace = [1e-8, 1e-6, 9]
+[solver]
+method = "dopri5"
+"#;
+    let spec = SweepSpec::parse("b.toml", text).unwrap();
+    let out = dir.path().join("b.h5");
+    sweep::run(&spec, &opts(&out, 2)).unwrap();
+    let (csv, pts) = sweep::boundary::run(&out).unwrap();
+    assert_eq!(pts.len(), 2);
+    for p in &pts {
+        // Fig. 11 at 1500 Hz and above: the boundary lies near v_a = v_d.
+        assert!(p.u0.is_finite() && !p.below_range, "{p:?}");
+        assert!(p.va_ratio > 0.7 && p.va_ratio < 1.6, "{p:?}");
+    }
+    assert!(
+        pts[1].u0 < pts[0].u0,
+        "higher frequency, smaller amplitude: {pts:?}"
+    );
+    let text = std::fs::read_to_string(csv).unwrap();
+    assert!(text.starts_with("f,u0_boundary [m]"), "{text}");
+    // The group is in the HDF5 file too.
+    let f = H5File::open(&out).unwrap();
+    let u = f.dataset("boundary/u0").unwrap().read_raw::<f64>().unwrap();
+    assert_eq!(u, pts.iter().map(|p| p.u0).collect::<Vec<_>>());
+}
+
+#[test]
+fn bad_sweep_files_are_rejected_with_file_line_and_key() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = write(
+        dir.path(),
+        "bad.toml",
+        "[[axis]]\nname = \"v_d\"\nlinspace = [1e-3, 2e-3]\n",
+    );
+    let out = bin().args(["sweep", p.to_str().unwrap()]).output().unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("bad.toml:3")
+            && err.contains("axis[0].linspace")
+            && err.contains("[start, stop, count]"),
+        "{err}"
+    );
+}
