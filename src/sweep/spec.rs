@@ -122,7 +122,7 @@ fn unit_of(name: &str) -> Option<&'static str> {
 pub fn linspace(a: f64, b: f64, count: usize) -> Vec<f64> {
     (0..count)
         .map(|i| {
-            if count == 1 {
+            if i == 0 {
                 a
             } else if i == count - 1 {
                 b
@@ -138,7 +138,7 @@ pub fn logspace(a: f64, b: f64, count: usize) -> Vec<f64> {
     let (la, lb) = (a.ln(), b.ln());
     (0..count)
         .map(|i| {
-            if count == 1 {
+            if i == 0 {
                 a
             } else if i == count - 1 {
                 b
