@@ -95,14 +95,16 @@ impl Dopri5 {
             reject: false,
         }
     }
-
-    pub(crate) fn set_tolerances(&mut self, rtol: f64, atol: &[f64]) {
-        self.rtol = rtol;
-        self.atol.copy_from_slice(atol);
-    }
 }
 
 impl Stepper for Dopri5 {
+    const ORDER: f64 = 4.0;
+
+    fn set_tolerances(&mut self, rtol: f64, atol: &[f64]) {
+        self.rtol = rtol;
+        self.atol.copy_from_slice(atol);
+    }
+
     fn start<S: OdeSystem>(&mut self, sys: &S, t0: f64, y0: &[f64], h: f64, st: &mut Stats) {
         self.t = t0;
         self.h = h;

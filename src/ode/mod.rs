@@ -346,6 +346,10 @@ pub(crate) enum StepOutcome {
 
 /// Internal interface between the shared driver and one method.
 pub(crate) trait Stepper {
+    /// Order used to choose the initial step.
+    const ORDER: f64;
+    /// Sets the tolerances (per-component absolute ones already scaled).
+    fn set_tolerances(&mut self, rtol: f64, atol: &[f64]);
     /// Prepares for a run from `(t0, y0)` with the given first step.
     fn start<S: OdeSystem>(&mut self, sys: &S, t0: f64, y0: &[f64], h: f64, st: &mut Stats);
     /// Current time and state.
@@ -409,9 +413,20 @@ fn initial_step<S: OdeSystem>(
 pub struct Solver {
     method: Method,
     dim: usize,
-    radau: Option<radau5::Radau5>,
-    rodas: Option<rodas::Rodas4>,
-    dopri: Option<dopri5::Dopri5>,
+    ws: Workspace,
+    shared: Shared,
+}
+
+/// The method's own buffers and controller state.
+enum Workspace {
+    Empty,
+    Radau5(radau5::Radau5),
+    Rodas4(rodas::Rodas4),
+    Dopri5(dopri5::Dopri5),
+}
+
+/// Buffers the driver needs whatever the method.
+struct Shared {
     atol: Vec<f64>,
     out: Vec<f64>,
     init: [Vec<f64>; 3],
@@ -423,12 +438,12 @@ impl Solver {
         Solver {
             method,
             dim: 0,
-            radau: None,
-            rodas: None,
-            dopri: None,
-            atol: Vec::new(),
-            out: Vec::new(),
-            init: [Vec::new(), Vec::new(), Vec::new()],
+            ws: Workspace::Empty,
+            shared: Shared {
+                atol: vec![],
+                out: vec![],
+                init: [vec![], vec![], vec![]],
+            },
         }
     }
 
@@ -442,17 +457,16 @@ impl Solver {
             return;
         }
         self.dim = n;
-        self.radau = None;
-        self.rodas = None;
-        self.dopri = None;
-        match self.method {
-            Method::Radau5 => self.radau = Some(radau5::Radau5::new(n)),
-            Method::Rodas4 => self.rodas = Some(rodas::Rodas4::new(n)),
-            Method::Dopri5 => self.dopri = Some(dopri5::Dopri5::new(n)),
-        }
-        self.atol = vec![0.0; n];
-        self.out = vec![0.0; n];
-        self.init = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
+        self.ws = match self.method {
+            Method::Radau5 => Workspace::Radau5(radau5::Radau5::new(n)),
+            Method::Rodas4 => Workspace::Rodas4(rodas::Rodas4::new(n)),
+            Method::Dopri5 => Workspace::Dopri5(dopri5::Dopri5::new(n)),
+        };
+        self.shared = Shared {
+            atol: vec![0.0; n],
+            out: vec![0.0; n],
+            init: [vec![0.0; n], vec![0.0; n], vec![0.0; n]],
+        };
     }
 
     /// Integrates `sys` from `(t0, y0)` to `t1 > t0`, calling `observe(t, y)` at every time of
@@ -475,67 +489,14 @@ impl Solver {
         assert_eq!(y0.len(), n, "initial state has the wrong length");
         self.ensure(n);
         for i in 0..n {
-            self.atol[i] = opts.atol * sys.scale(i);
+            self.shared.atol[i] = opts.atol * sys.scale(i);
         }
-        let mut stats = Stats::default();
-        match self.method {
-            Method::Radau5 => {
-                let m = self.radau.as_mut().unwrap();
-                m.set_tolerances(opts.rtol, &self.atol);
-                drive(
-                    m,
-                    sys,
-                    t0,
-                    t1,
-                    y0,
-                    opts,
-                    grid,
-                    &mut observe,
-                    &mut self.out,
-                    &mut self.init,
-                    &self.atol,
-                    &mut stats,
-                    3.0,
-                )
-            }
-            Method::Rodas4 => {
-                let m = self.rodas.as_mut().unwrap();
-                m.set_tolerances(opts.rtol, &self.atol);
-                drive(
-                    m,
-                    sys,
-                    t0,
-                    t1,
-                    y0,
-                    opts,
-                    grid,
-                    &mut observe,
-                    &mut self.out,
-                    &mut self.init,
-                    &self.atol,
-                    &mut stats,
-                    3.0,
-                )
-            }
-            Method::Dopri5 => {
-                let m = self.dopri.as_mut().unwrap();
-                m.set_tolerances(opts.rtol, &self.atol);
-                drive(
-                    m,
-                    sys,
-                    t0,
-                    t1,
-                    y0,
-                    opts,
-                    grid,
-                    &mut observe,
-                    &mut self.out,
-                    &mut self.init,
-                    &self.atol,
-                    &mut stats,
-                    4.0,
-                )
-            }
+        let sh = &mut self.shared;
+        match &mut self.ws {
+            Workspace::Radau5(m) => drive(m, sys, t0, t1, y0, opts, grid, &mut observe, sh),
+            Workspace::Rodas4(m) => drive(m, sys, t0, t1, y0, opts, grid, &mut observe, sh),
+            Workspace::Dopri5(m) => drive(m, sys, t0, t1, y0, opts, grid, &mut observe, sh),
+            Workspace::Empty => unreachable!("ensure() sized the workspace"),
         }
     }
 }
@@ -552,12 +513,12 @@ fn drive<M: Stepper, S: OdeSystem>(
     opts: &Options,
     grid: OutputGrid,
     observe: &mut impl FnMut(f64, &[f64]),
-    out: &mut [f64],
-    init: &mut [Vec<f64>; 3],
-    atol: &[f64],
-    stats: &mut Stats,
-    order: f64,
+    sh: &mut Shared,
 ) -> RunReport {
+    let Shared { atol, out, init } = sh;
+    m.set_tolerances(opts.rtol, atol);
+    let mut st = Stats::default();
+    let stats = &mut st;
     let finish = |status, t, y0: &mut [f64], y: &[f64], stats: &Stats| {
         y0.copy_from_slice(y);
         RunReport {
@@ -598,7 +559,7 @@ fn drive<M: Stepper, S: OdeSystem>(
             sys,
             t0,
             y0,
-            order,
+            M::ORDER,
             atol,
             opts.rtol.max(1e-12),
             h_max,

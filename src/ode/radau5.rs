@@ -157,17 +157,6 @@ impl Radau5 {
         }
     }
 
-    pub(crate) fn set_tolerances(&mut self, rtol: f64, atol: &[f64]) {
-        // RADAU5's transformation (its error estimate is of order 3, the method of order 5).
-        let r = 0.1 * rtol.powf(2.0 / 3.0);
-        for i in 0..self.n {
-            self.atol[i] = r * atol[i] / rtol;
-        }
-        self.rtol = r;
-        let uround = f64::EPSILON;
-        self.fnewt = (10.0 * uround / r).max(0.03f64.min(r.sqrt()));
-    }
-
     fn update_scal(&mut self) {
         for i in 0..self.n {
             self.scal[i] = self.atol[i] + self.rtol * self.y[i].abs();
@@ -227,6 +216,19 @@ impl Radau5 {
 }
 
 impl Stepper for Radau5 {
+    const ORDER: f64 = 3.0;
+
+    fn set_tolerances(&mut self, rtol: f64, atol: &[f64]) {
+        // RADAU5's transformation (its error estimate is of order 3, the method of order 5).
+        let r = 0.1 * rtol.powf(2.0 / 3.0);
+        for i in 0..self.n {
+            self.atol[i] = r * atol[i] / rtol;
+        }
+        self.rtol = r;
+        let uround = f64::EPSILON;
+        self.fnewt = (10.0 * uround / r).max(0.03f64.min(r.sqrt()));
+    }
+
     fn start<S: OdeSystem>(&mut self, sys: &S, t0: f64, y0: &[f64], h: f64, st: &mut Stats) {
         self.t = t0;
         self.h = h;

@@ -122,11 +122,6 @@ impl Rodas4 {
         }
     }
 
-    pub(crate) fn set_tolerances(&mut self, rtol: f64, atol: &[f64]) {
-        self.rtol = rtol;
-        self.atol.copy_from_slice(atol);
-    }
-
     fn failure(&mut self, st: &mut Stats) -> StepOutcome {
         st.rejected += 1;
         self.fail_streak += 1;
@@ -140,6 +135,13 @@ impl Rodas4 {
 }
 
 impl Stepper for Rodas4 {
+    const ORDER: f64 = 3.0;
+
+    fn set_tolerances(&mut self, rtol: f64, atol: &[f64]) {
+        self.rtol = rtol;
+        self.atol.copy_from_slice(atol);
+    }
+
     fn start<Sys: OdeSystem>(&mut self, sys: &Sys, t0: f64, y0: &[f64], h: f64, st: &mut Stats) {
         self.t = t0;
         self.h = h;
