@@ -163,7 +163,8 @@ pub fn write(d: &SweepData, pts: &[BoundaryPoint]) -> Result<PathBuf, OutputErro
         if let Some(first) = pts.first() {
             for (k, (name, _)) in first.coords.iter().enumerate() {
                 let v: Vec<f64> = pts.iter().map(|p| p.coords[k].1).collect();
-                output::write_vec(&g, name, &v, "", "coordinate of the boundary point", path)?;
+                let unit = super::spec::unit_of(name).unwrap_or("");
+                output::write_vec(&g, name, &v, unit, "coordinate of the boundary point", path)?;
             }
         }
         let col = |f: fn(&BoundaryPoint) -> f64| pts.iter().map(f).collect::<Vec<f64>>();

@@ -110,7 +110,8 @@ pub struct SweepSpec {
     pub max_runs: usize,
 }
 
-fn unit_of(name: &str) -> Option<&'static str> {
+/// The SI unit of an axis name (a parameter, `v_a` or `va_ratio`).
+pub fn unit_of(name: &str) -> Option<&'static str> {
     match name {
         "v_a" => Some("m/s"),
         "va_ratio" => Some("1"),
