@@ -1,6 +1,6 @@
 //! The commands, as library calls: each takes a resolved configuration and does the work.
 
-use crate::cli::{BoundaryArgs, CliError, Command, PlotArgs, RunArgs, SweepArgs};
+use crate::cli::{BenchArgs, BoundaryArgs, CliError, Command, PlotArgs, RunArgs, SweepArgs};
 use crate::ode::Solver;
 use crate::output::{self, OutputError};
 use crate::plot::{self, PlotError};
@@ -48,7 +48,33 @@ pub fn execute(cmd: Command) -> Result<(), AppError> {
         Command::Sweep(a) => sweep_cmd(&a),
         Command::Plot(a) => plot_cmd(&a),
         Command::Boundary(a) => boundary_cmd(&a),
+        Command::Bench(a) => bench_cmd(&a),
     }
+}
+
+/// `stickslip bench`.
+pub fn bench_cmd(a: &BenchArgs) -> Result<(), AppError> {
+    let o = a.resolve()?;
+    let (cases, refs, rows) = crate::bench::run(&o, |line| eprintln!("{line}"))?;
+    crate::bench::write_h5(&a.out, &cases, &refs, &rows, &o)?;
+    println!("wrote {}", a.out.display());
+    for f in crate::bench::plot(&a.out.with_extension(""), &cases, &rows)? {
+        println!("wrote {}", f.display());
+    }
+    // The fastest setting of each method that meets the accuracy target, per case.
+    for c in &cases {
+        for m in &o.methods {
+            let best = rows
+                .iter()
+                .filter(|r| r.case == c.name && r.method == *m && r.err_r <= 0.01 && r.err_mean <= 0.005 && r.status == crate::ode::Status::Success)
+                .min_by(|x, y| x.time.total_cmp(&y.time));
+            match best {
+                Some(r) => println!("{:13} {:7} fastest within |dr| <= 0.01, |dmean| <= 0.5 %: tol {:.0e}, {:.2} ms", c.name, m.name(), r.tol, r.time * 1e3),
+                None => println!("{:13} {:7} no tolerance of the ladder meets the accuracy target", c.name, m.name()),
+            }
+        }
+    }
+    Ok(())
 }
 
 /// `stickslip sweep`.

@@ -34,6 +34,68 @@ pub enum Command {
     /// Compute the elimination boundary of a sweep file (for each f, the smallest u0 with
     /// r < 0.05), store it in the file (group `boundary`) and write it as CSV.
     Boundary(BoundaryArgs),
+    /// Work-precision benchmark of the integrators: for each case and method a ladder of
+    /// tolerances, error against a tight reference (r, mean force, dF) and time, RHS
+    /// evaluations, steps, Jacobians; to HDF5 and work-precision diagrams.
+    Bench(BenchArgs),
+}
+
+/// Arguments of `stickslip bench`.
+#[derive(Args, Debug)]
+pub struct BenchArgs {
+    /// Cases (comma-separated): no_vibration, partial, eliminated, slow_corner, low_frequency.
+    /// Default: all.
+    #[arg(long, value_delimiter = ',')]
+    pub cases: Vec<String>,
+    /// Methods (comma-separated). Default: radau5,rodas4,dopri5.
+    #[arg(long, value_delimiter = ',')]
+    pub methods: Vec<Method>,
+    /// Tolerance ladder, rtol = atol (comma-separated). Default: 1e-3,...,1e-8.
+    #[arg(long, value_delimiter = ',')]
+    pub tolerances: Vec<f64>,
+    /// Tolerance of the reference runs (1e-13 to 1e-6). Default 1e-11.
+    #[arg(long, default_value_t = 1e-11)]
+    pub reference_tolerance: f64,
+    /// Timed repeats per point (median reported), 1 to 100.
+    #[arg(long, default_value_t = 3)]
+    pub repeats: usize,
+    /// Output HDF5 file; diagrams go beside it (<stem>_<case>.png/.svg).
+    #[arg(short, long, default_value = "results/bench.h5")]
+    pub out: PathBuf,
+}
+
+impl BenchArgs {
+    /// Validates and resolves the benchmark options.
+    pub fn resolve(&self) -> Result<crate::bench::BenchOptions, CliError> {
+        let mut o = crate::bench::BenchOptions::default();
+        let known: Vec<&str> = crate::bench::cases().iter().map(|c| c.name).collect();
+        for c in &self.cases {
+            if !known.contains(&c.as_str()) {
+                return Err(CliError::Flag { flag: "cases".into(), value: c.clone(), msg: format!("unknown case; allowed: {}", known.join(", ")) });
+            }
+        }
+        o.cases = self.cases.clone();
+        if !self.methods.is_empty() {
+            o.methods = self.methods.clone();
+        }
+        if !self.tolerances.is_empty() {
+            for &t in &self.tolerances {
+                if !(1e-13..=0.1).contains(&t) {
+                    return Err(CliError::Flag { flag: "tolerances".into(), value: t.to_string(), msg: "each tolerance must lie in 1e-13 to 0.1".into() });
+                }
+            }
+            o.tolerances = self.tolerances.clone();
+        }
+        if !(1e-13..=1e-6).contains(&self.reference_tolerance) {
+            return Err(CliError::Flag { flag: "reference-tolerance".into(), value: self.reference_tolerance.to_string(), msg: "must lie in 1e-13 to 1e-6".into() });
+        }
+        o.reference_tolerance = self.reference_tolerance;
+        if !(1..=100).contains(&self.repeats) {
+            return Err(CliError::Flag { flag: "repeats".into(), value: self.repeats.to_string(), msg: "must be from 1 to 100".into() });
+        }
+        o.repeats = self.repeats;
+        Ok(o)
+    }
 }
 
 /// Arguments of `stickslip sweep`.

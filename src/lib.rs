@@ -15,3 +15,4 @@ pub mod plot;
 pub mod progress;
 pub mod sim;
 pub mod sweep;
+pub mod bench;
