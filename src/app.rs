@@ -66,11 +66,27 @@ pub fn bench_cmd(a: &BenchArgs) -> Result<(), AppError> {
         for m in &o.methods {
             let best = rows
                 .iter()
-                .filter(|r| r.case == c.name && r.method == *m && r.err_r <= 0.01 && r.err_mean <= 0.005 && r.status == crate::ode::Status::Success)
+                .filter(|r| {
+                    r.case == c.name
+                        && r.method == *m
+                        && r.err_r <= 0.01
+                        && r.err_mean <= 0.005
+                        && r.status == crate::ode::Status::Success
+                })
                 .min_by(|x, y| x.time.total_cmp(&y.time));
             match best {
-                Some(r) => println!("{:13} {:7} fastest within |dr| <= 0.01, |dmean| <= 0.5 %: tol {:.0e}, {:.2} ms", c.name, m.name(), r.tol, r.time * 1e3),
-                None => println!("{:13} {:7} no tolerance of the ladder meets the accuracy target", c.name, m.name()),
+                Some(r) => println!(
+                    "{:13} {:7} fastest within |dr| <= 0.01, |dmean| <= 0.5 %: tol {:.0e}, {:.2} ms",
+                    c.name,
+                    m.name(),
+                    r.tol,
+                    r.time * 1e3
+                ),
+                None => println!(
+                    "{:13} {:7} no tolerance of the ladder meets the accuracy target",
+                    c.name,
+                    m.name()
+                ),
             }
         }
     }

@@ -40,17 +40,46 @@ fn with_ratio(mut p: Params, ratio: f64) -> Params {
 /// The cases: no vibration, partial reduction, elimination, the slow corner of the paper's
 /// ranges, and low frequency with large amplitude.
 pub fn cases() -> Vec<BenchCase> {
-    let base = Params { k_d: 11_700.0, v_d: 0.5e-3, f: 1500.0, ..Params::default() };
+    let base = Params {
+        k_d: 11_700.0,
+        v_d: 0.5e-3,
+        f: 1500.0,
+        ..Params::default()
+    };
     vec![
-        BenchCase { name: "no_vibration", doc: "k_d = 11 700 N/m, v_d = 0.5 mm/s, u0 = 0", params: base },
-        BenchCase { name: "partial", doc: "v_a/v_d = 0.4 at 1500 Hz (partial reduction)", params: with_ratio(base, 0.4) },
-        BenchCase { name: "eliminated", doc: "v_a/v_d = 2 at 1500 Hz (eliminated)", params: with_ratio(base, 2.0) },
+        BenchCase {
+            name: "no_vibration",
+            doc: "k_d = 11 700 N/m, v_d = 0.5 mm/s, u0 = 0",
+            params: base,
+        },
+        BenchCase {
+            name: "partial",
+            doc: "v_a/v_d = 0.4 at 1500 Hz (partial reduction)",
+            params: with_ratio(base, 0.4),
+        },
+        BenchCase {
+            name: "eliminated",
+            doc: "v_a/v_d = 2 at 1500 Hz (eliminated)",
+            params: with_ratio(base, 2.0),
+        },
         BenchCase {
             name: "slow_corner",
             doc: "v_d = 0.1 mm/s, k_d = 1000 N/m, v_a/v_d = 2 at 500 Hz",
-            params: with_ratio(Params { k_d: 1000.0, v_d: 0.1e-3, f: 500.0, ..base }, 2.0),
+            params: with_ratio(
+                Params {
+                    k_d: 1000.0,
+                    v_d: 0.1e-3,
+                    f: 500.0,
+                    ..base
+                },
+                2.0,
+            ),
         },
-        BenchCase { name: "low_frequency", doc: "v_a/v_d = 3 at 100 Hz (large amplitude, not eliminated)", params: with_ratio(Params { f: 100.0, ..base }, 3.0) },
+        BenchCase {
+            name: "low_frequency",
+            doc: "v_a/v_d = 3 at 100 Hz (large amplitude, not eliminated)",
+            params: with_ratio(Params { f: 100.0, ..base }, 3.0),
+        },
     ]
 }
 
@@ -122,25 +151,56 @@ pub struct Reference {
 }
 
 fn tight(method: Method, tol: f64) -> RunOptions {
-    RunOptions { method, ode: Options { rtol: tol, atol: tol, ..Options::default() }, ..RunOptions::default() }
+    RunOptions {
+        method,
+        ode: Options {
+            rtol: tol,
+            atol: tol,
+            ..Options::default()
+        },
+        ..RunOptions::default()
+    }
 }
 
 /// Runs the benchmark; `progress` is called with a line per finished point.
-pub fn run(o: &BenchOptions, mut progress: impl FnMut(&str)) -> Result<(Vec<BenchCase>, Vec<Reference>, Vec<BenchRow>), sim::SimError> {
+pub fn run(
+    o: &BenchOptions,
+    mut progress: impl FnMut(&str),
+) -> Result<(Vec<BenchCase>, Vec<Reference>, Vec<BenchRow>), sim::SimError> {
     let all = cases();
-    let chosen: Vec<BenchCase> = all.into_iter().filter(|c| o.cases.is_empty() || o.cases.iter().any(|n| n == c.name)).collect();
+    let chosen: Vec<BenchCase> = all
+        .into_iter()
+        .filter(|c| o.cases.is_empty() || o.cases.iter().any(|n| n == c.name))
+        .collect();
     let mut refs = vec![];
     let mut rows = vec![];
     for c in &chosen {
         let t0 = Instant::now();
-        let ss = sim::simulate(&c.params.without_vibration(), &tight(Method::Radau5, o.reference_tolerance), &mut Solver::new(Method::Radau5))?;
+        let ss = sim::simulate(
+            &c.params.without_vibration(),
+            &tight(Method::Radau5, o.reference_tolerance),
+            &mut Solver::new(Method::Radau5),
+        )?;
         let run = if c.params.vibrates() {
-            sim::simulate(&c.params, &tight(Method::Dopri5, o.reference_tolerance), &mut Solver::new(Method::Dopri5))?
+            sim::simulate(
+                &c.params,
+                &tight(Method::Dopri5, o.reference_tolerance),
+                &mut Solver::new(Method::Dopri5),
+            )?
         } else {
             ss.clone()
         };
-        progress(&format!("{}: reference r = {:.4}, mean force {:.4} N ({:.1} s)", c.name, run.measures.d_f / ss.measures.d_f, run.measures.mean_force, t0.elapsed().as_secs_f64()));
-        let reference = Reference { d_f_ss: ss.measures.d_f, run };
+        progress(&format!(
+            "{}: reference r = {:.4}, mean force {:.4} N ({:.1} s)",
+            c.name,
+            run.measures.d_f / ss.measures.d_f,
+            run.measures.mean_force,
+            t0.elapsed().as_secs_f64()
+        ));
+        let reference = Reference {
+            d_f_ss: ss.measures.d_f,
+            run,
+        };
         for &m in &o.methods {
             let mut solver = Solver::new(m);
             for &tol in &o.tolerances {
@@ -193,7 +253,13 @@ pub fn run(o: &BenchOptions, mut progress: impl FnMut(&str)) -> Result<(Vec<Benc
 }
 
 /// Writes the table to HDF5: one 1-D dataset per column (`case` and `method` as strings).
-pub fn write_h5(path: &Path, cases: &[BenchCase], refs: &[Reference], rows: &[BenchRow], o: &BenchOptions) -> Result<(), OutputError> {
+pub fn write_h5(
+    path: &Path,
+    cases: &[BenchCase],
+    refs: &[Reference],
+    rows: &[BenchRow],
+    o: &BenchOptions,
+) -> Result<(), OutputError> {
     output::ensure_parent(path)?;
     let tmp = output::temp_path(path);
     {
@@ -207,34 +273,113 @@ pub fn write_h5(path: &Path, cases: &[BenchCase], refs: &[Reference], rows: &[Be
         let col = |g: fn(&BenchRow) -> f64| rows.iter().map(g).collect::<Vec<f64>>();
         for (name, unit, doc, v) in [
             ("tolerance", "1", "rtol = atol of the run", col(|r| r.tol)),
-            ("time", "s", "median wall time of the vibrated run", col(|r| r.time)),
+            (
+                "time",
+                "s",
+                "median wall time of the vibrated run",
+                col(|r| r.time),
+            ),
             ("time_min", "s", "fastest repeat", col(|r| r.time_min)),
             ("r", "1", "reduction coefficient", col(|r| r.r)),
             ("mean_force", "N", "mean drive force", col(|r| r.mean_force)),
             ("dF", "N", "stick-slip amplitude", col(|r| r.d_f)),
             ("err_r", "1", "|r - r_reference|", col(|r| r.err_r)),
-            ("err_mean_force", "1", "relative error of the mean drive force", col(|r| r.err_mean)),
+            (
+                "err_mean_force",
+                "1",
+                "relative error of the mean drive force",
+                col(|r| r.err_mean),
+            ),
             ("err_dF", "1", "relative error of dF", col(|r| r.err_d_f)),
-            ("status", "1", "run status code", col(|r| r.status.code() as f64)),
-            ("steps", "1", "accepted steps", col(|r| r.stats.steps as f64)),
-            ("rejected", "1", "rejected steps", col(|r| r.stats.rejected as f64)),
-            ("rhs_evals", "1", "right-hand-side evaluations", col(|r| r.stats.rhs_evals as f64)),
-            ("jac_evals", "1", "Jacobian evaluations", col(|r| r.stats.jac_evals as f64)),
-            ("lu_decomps", "1", "LU factorisations", col(|r| r.stats.lu_decomps as f64)),
+            (
+                "status",
+                "1",
+                "run status code",
+                col(|r| r.status.code() as f64),
+            ),
+            (
+                "steps",
+                "1",
+                "accepted steps",
+                col(|r| r.stats.steps as f64),
+            ),
+            (
+                "rejected",
+                "1",
+                "rejected steps",
+                col(|r| r.stats.rejected as f64),
+            ),
+            (
+                "rhs_evals",
+                "1",
+                "right-hand-side evaluations",
+                col(|r| r.stats.rhs_evals as f64),
+            ),
+            (
+                "jac_evals",
+                "1",
+                "Jacobian evaluations",
+                col(|r| r.stats.jac_evals as f64),
+            ),
+            (
+                "lu_decomps",
+                "1",
+                "LU factorisations",
+                col(|r| r.stats.lu_decomps as f64),
+            ),
         ] {
             output::write_vec(&root, name, &v, unit, doc, path)?;
         }
         let g = f.create_group("reference").map_err(&e)?;
         let names: Vec<&str> = cases.iter().map(|c| c.name).collect();
         g.write_vlen_strings("case", &names).map_err(&e)?;
-        output::write_vec(&g, "r", &refs.iter().map(|r| r.run.measures.d_f / r.d_f_ss).collect::<Vec<_>>(), "1", "reference r", path)?;
-        output::write_vec(&g, "mean_force", &refs.iter().map(|r| r.run.measures.mean_force).collect::<Vec<_>>(), "N", "reference mean force", path)?;
-        output::write_vec(&g, "dF", &refs.iter().map(|r| r.run.measures.d_f).collect::<Vec<_>>(), "N", "reference dF", path)?;
-        f.set_attr_numeric("reference_tolerance", &o.reference_tolerance).map_err(&e)?;
-        f.set_attr_numeric("repeats", &(o.repeats as i64)).map_err(&e)?;
-        f.set_attr_string("program", &output::program()).map_err(&e)?;
-        f.set_attr_string("created", &output::now_iso()).map_err(&e)?;
-        f.set_attr_string("cases", &cases.iter().map(|c| format!("{}: {}", c.name, c.doc)).collect::<Vec<_>>().join("; ")).map_err(&e)?;
+        output::write_vec(
+            &g,
+            "r",
+            &refs
+                .iter()
+                .map(|r| r.run.measures.d_f / r.d_f_ss)
+                .collect::<Vec<_>>(),
+            "1",
+            "reference r",
+            path,
+        )?;
+        output::write_vec(
+            &g,
+            "mean_force",
+            &refs
+                .iter()
+                .map(|r| r.run.measures.mean_force)
+                .collect::<Vec<_>>(),
+            "N",
+            "reference mean force",
+            path,
+        )?;
+        output::write_vec(
+            &g,
+            "dF",
+            &refs.iter().map(|r| r.run.measures.d_f).collect::<Vec<_>>(),
+            "N",
+            "reference dF",
+            path,
+        )?;
+        f.set_attr_numeric("reference_tolerance", &o.reference_tolerance)
+            .map_err(&e)?;
+        f.set_attr_numeric("repeats", &(o.repeats as i64))
+            .map_err(&e)?;
+        f.set_attr_string("program", &output::program())
+            .map_err(&e)?;
+        f.set_attr_string("created", &output::now_iso())
+            .map_err(&e)?;
+        f.set_attr_string(
+            "cases",
+            &cases
+                .iter()
+                .map(|c| format!("{}: {}", c.name, c.doc))
+                .collect::<Vec<_>>()
+                .join("; "),
+        )
+        .map_err(&e)?;
         f.close().map_err(&e)?;
     }
     std::fs::rename(&tmp, path).map_err(output::ioerr(path))
@@ -249,20 +394,38 @@ struct WorkPrecision<'a> {
 impl Figure for WorkPrecision<'_> {
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), String> {
         let e = |x: DrawingAreaErrorKind<DB::ErrorType>| x.to_string();
-        let root = root.titled(&format!("work-precision: {} ({})", self.case.name, self.case.doc), ("sans-serif", 22)).map_err(e)?;
+        let root = root
+            .titled(
+                &format!("work-precision: {} ({})", self.case.name, self.case.doc),
+                ("sans-serif", 22),
+            )
+            .map_err(e)?;
         let (left, right) = root.split_horizontally(crate::plot::SIZE.0 / 2);
-        let panels: [(&DrawingArea<DB, Shift>, &str, fn(&BenchRow) -> f64, f64); 2] =
-            [(&left, "|r - r_ref|", |r| r.err_r, 0.01), (&right, "|mean F_d - ref| / ref", |r| r.err_mean, 0.005)];
+        let panels: [(&DrawingArea<DB, Shift>, &str, fn(&BenchRow) -> f64, f64); 2] = [
+            (&left, "|r - r_ref|", |r| r.err_r, 0.01),
+            (&right, "|mean F_d - ref| / ref", |r| r.err_mean, 0.005),
+        ];
         let floor = 1e-7;
         for (area, label, err, target) in panels {
-            let pts: Vec<(f64, f64)> = self.rows.iter().map(|r| (r.time.max(1e-6), err(r).max(floor))).collect();
-            let (t0, t1) = pts.iter().fold((f64::INFINITY, 0.0f64), |(a, b), p| (a.min(p.0), b.max(p.0)));
-            let (e0, e1) = pts.iter().fold((target, target), |(a, b), p| (a.min(p.1), b.max(p.1)));
+            let pts: Vec<(f64, f64)> = self
+                .rows
+                .iter()
+                .map(|r| (r.time.max(1e-6), err(r).max(floor)))
+                .collect();
+            let (t0, t1) = pts.iter().fold((f64::INFINITY, 0.0f64), |(a, b), p| {
+                (a.min(p.0), b.max(p.0))
+            });
+            let (e0, e1) = pts
+                .iter()
+                .fold((target, target), |(a, b), p| (a.min(p.1), b.max(p.1)));
             let mut c = ChartBuilder::on(area)
                 .margin(14)
                 .x_label_area_size(45)
                 .y_label_area_size(75)
-                .build_cartesian_2d((t0 / 1.5..t1 * 1.5).log_scale(), (e0 / 2.0..e1 * 2.0).log_scale())
+                .build_cartesian_2d(
+                    (t0 / 1.5..t1 * 1.5).log_scale(),
+                    (e0 / 2.0..e1 * 2.0).log_scale(),
+                )
                 .map_err(e)?;
             c.configure_mesh()
                 .x_desc("time per run [s]")
@@ -274,32 +437,58 @@ impl Figure for WorkPrecision<'_> {
                 .map_err(e)?;
             for (k, m) in Method::ALL.iter().enumerate() {
                 let col = [BLUE, RED, RGBColor(30, 140, 30)][k];
-                let line: Vec<(f64, f64)> = self.rows.iter().filter(|r| r.method == *m).map(|r| (r.time.max(1e-6), err(r).max(floor))).collect();
+                let line: Vec<(f64, f64)> = self
+                    .rows
+                    .iter()
+                    .filter(|r| r.method == *m)
+                    .map(|r| (r.time.max(1e-6), err(r).max(floor)))
+                    .collect();
                 if line.is_empty() {
                     continue;
                 }
                 c.draw_series(LineSeries::new(line.clone(), col.stroke_width(2)))
                     .map_err(e)?
                     .label(m.name())
-                    .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], col.stroke_width(2)));
-                c.draw_series(line.iter().map(|&p| Circle::new(p, 4, col.filled()))).map_err(e)?;
+                    .legend(move |(x, y)| {
+                        PathElement::new([(x, y), (x + 20, y)], col.stroke_width(2))
+                    });
+                c.draw_series(line.iter().map(|&p| Circle::new(p, 4, col.filled())))
+                    .map_err(e)?;
             }
-            c.draw_series(LineSeries::new([(t0 / 1.5, target), (t1 * 1.5, target)], BLACK.stroke_width(1)))
-                .map_err(e)?
-                .label("accuracy target")
-                .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], BLACK));
-            c.configure_series_labels().background_style(WHITE.mix(0.85)).border_style(BLACK).label_font(("sans-serif", 14)).draw().map_err(e)?;
+            c.draw_series(LineSeries::new(
+                [(t0 / 1.5, target), (t1 * 1.5, target)],
+                BLACK.stroke_width(1),
+            ))
+            .map_err(e)?
+            .label("accuracy target")
+            .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], BLACK));
+            c.configure_series_labels()
+                .background_style(WHITE.mix(0.85))
+                .border_style(BLACK)
+                .label_font(("sans-serif", 14))
+                .draw()
+                .map_err(e)?;
         }
         Ok(())
     }
 }
 
 /// Draws one work-precision diagram per case as `<stem>_<case>.png/.svg`.
-pub fn plot(stem: &Path, cases: &[BenchCase], rows: &[BenchRow]) -> Result<Vec<PathBuf>, PlotError> {
+pub fn plot(
+    stem: &Path,
+    cases: &[BenchCase],
+    rows: &[BenchRow],
+) -> Result<Vec<PathBuf>, PlotError> {
     let mut files = vec![];
     for c in cases {
-        let fig = WorkPrecision { case: c, rows: rows.iter().filter(|r| r.case == c.name).collect() };
-        files.extend(render(&PathBuf::from(format!("{}_{}", stem.display(), c.name)), &fig)?);
+        let fig = WorkPrecision {
+            case: c,
+            rows: rows.iter().filter(|r| r.case == c.name).collect(),
+        };
+        files.extend(render(
+            &PathBuf::from(format!("{}_{}", stem.display(), c.name)),
+            &fig,
+        )?);
     }
     Ok(files)
 }

@@ -71,7 +71,11 @@ impl BenchArgs {
         let known: Vec<&str> = crate::bench::cases().iter().map(|c| c.name).collect();
         for c in &self.cases {
             if !known.contains(&c.as_str()) {
-                return Err(CliError::Flag { flag: "cases".into(), value: c.clone(), msg: format!("unknown case; allowed: {}", known.join(", ")) });
+                return Err(CliError::Flag {
+                    flag: "cases".into(),
+                    value: c.clone(),
+                    msg: format!("unknown case; allowed: {}", known.join(", ")),
+                });
             }
         }
         o.cases = self.cases.clone();
@@ -81,17 +85,29 @@ impl BenchArgs {
         if !self.tolerances.is_empty() {
             for &t in &self.tolerances {
                 if !(1e-13..=0.1).contains(&t) {
-                    return Err(CliError::Flag { flag: "tolerances".into(), value: t.to_string(), msg: "each tolerance must lie in 1e-13 to 0.1".into() });
+                    return Err(CliError::Flag {
+                        flag: "tolerances".into(),
+                        value: t.to_string(),
+                        msg: "each tolerance must lie in 1e-13 to 0.1".into(),
+                    });
                 }
             }
             o.tolerances = self.tolerances.clone();
         }
         if !(1e-13..=1e-6).contains(&self.reference_tolerance) {
-            return Err(CliError::Flag { flag: "reference-tolerance".into(), value: self.reference_tolerance.to_string(), msg: "must lie in 1e-13 to 1e-6".into() });
+            return Err(CliError::Flag {
+                flag: "reference-tolerance".into(),
+                value: self.reference_tolerance.to_string(),
+                msg: "must lie in 1e-13 to 1e-6".into(),
+            });
         }
         o.reference_tolerance = self.reference_tolerance;
         if !(1..=100).contains(&self.repeats) {
-            return Err(CliError::Flag { flag: "repeats".into(), value: self.repeats.to_string(), msg: "must be from 1 to 100".into() });
+            return Err(CliError::Flag {
+                flag: "repeats".into(),
+                value: self.repeats.to_string(),
+                msg: "must be from 1 to 100".into(),
+            });
         }
         o.repeats = self.repeats;
         Ok(o)
@@ -241,6 +257,10 @@ pub struct RunArgs {
     #[arg(long)]
     pub min_cycles: Option<u32>,
 
+    /// Run the whole automatic simulated time even once steady sliding is established.
+    #[arg(long)]
+    pub no_early_stop: bool,
+
     /// Print the results as one JSON object on stdout (no other output there).
     #[arg(long)]
     pub json: bool,
@@ -382,6 +402,9 @@ impl RunArgs {
         }
         if let Some(v) = self.min_cycles {
             o.min_cycles = v;
+        }
+        if self.no_early_stop {
+            o.early_stop = false;
         }
         o.trace = true;
         o.validate().map_err(|e| CliError::Flag {

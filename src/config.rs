@@ -19,6 +19,7 @@
 //! t_end = 12.0       # s; omitted: chosen from the run
 //! min_cycles = 3
 //! samples_per_period = 16
+//! early_stop = true  # end once steady sliding is established
 //! ```
 
 use crate::model::{Params, params};

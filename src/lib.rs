@@ -5,6 +5,7 @@
 //! integrators ([`ode`]), measures the stick-slip amplitude, the reduction coefficient `r` and the
 //! mean drive force ([`measures`], [`sim`]).
 pub mod app;
+pub mod bench;
 pub mod cli;
 pub mod config;
 pub mod measures;
@@ -15,4 +16,3 @@ pub mod plot;
 pub mod progress;
 pub mod sim;
 pub mod sweep;
-pub mod bench;

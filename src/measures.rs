@@ -47,10 +47,41 @@ pub struct Measures {
     pub cycles: u32,
 }
 
+/// Statistics of one block of smoothed samples (for windows chosen after the fact).
+#[derive(Clone, Copy, Debug)]
+struct Block {
+    start: f64,
+    min: f64,
+    max: f64,
+    sum_raw: f64,
+    n: u32,
+    stick: u32,
+}
+
+impl Block {
+    fn new(start: f64) -> Block {
+        Block {
+            start,
+            min: f64::INFINITY,
+            max: f64::NEG_INFINITY,
+            sum_raw: 0.0,
+            n: 0,
+            stick: 0,
+        }
+    }
+}
+
 /// A streaming analyser: feed it samples `(t, F_d, v_r)` at uniform spacing; ask for the
-/// [`Measures`] at the end. Allocates its period buffer once.
+/// [`Measures`] at the end. Allocates its buffers once.
+///
+/// Besides the fixed steady window it keeps block statistics (min, max and mean of the smoothed
+/// force per block of time) from the start, so that [`Analyzer::steady_sliding`] can judge a
+/// window `[t/2, t]` for any `t` reached so far.
 #[derive(Clone, Debug)]
 pub struct Analyzer {
+    block_width: f64,
+    blocks: Vec<Block>,
+    cur: Block,
     window_start: f64,
     threshold: f64,
     stick_speed: f64,
@@ -81,8 +112,31 @@ impl Analyzer {
     /// An analyser for samples `period_samples` per vibration period (1: no smoothing), a steady
     /// window from `window_start`, drop threshold `threshold` [N] and stick speed [m/s].
     pub fn new(period_samples: usize, window_start: f64, threshold: f64, stick_speed: f64) -> Self {
+        Self::with_blocks(
+            period_samples,
+            window_start,
+            threshold,
+            stick_speed,
+            f64::INFINITY,
+            0,
+        )
+    }
+
+    /// As [`Analyzer::new`], also keeping block statistics over blocks of `block_width` seconds
+    /// (about `capacity` of them).
+    pub fn with_blocks(
+        period_samples: usize,
+        window_start: f64,
+        threshold: f64,
+        stick_speed: f64,
+        block_width: f64,
+        capacity: usize,
+    ) -> Self {
         let k = period_samples.max(1);
         Analyzer {
+            block_width,
+            blocks: Vec::with_capacity(capacity),
+            cur: Block::new(0.0),
             window_start,
             threshold,
             stick_speed,
@@ -127,6 +181,20 @@ impl Analyzer {
         }
         let sf = self.sum_f / k as f64;
         let sv = self.sum_v / k as f64;
+        if self.block_width.is_finite() {
+            if self.cur.n == 0 {
+                self.cur.start = t;
+            } else if t >= self.cur.start + self.block_width {
+                self.blocks.push(self.cur);
+                self.cur = Block::new(t);
+            }
+            let b = &mut self.cur;
+            b.min = b.min.min(sf);
+            b.max = b.max.max(sf);
+            b.sum_raw += force;
+            b.n += 1;
+            b.stick += u32::from(sv.abs() < self.stick_speed);
+        }
         if t >= self.window_start {
             self.n += 1;
             self.sum_raw += force;
@@ -166,6 +234,61 @@ impl Analyzer {
             self.ext = f;
             self.ext_t = t;
         }
+    }
+
+    /// Whether the window `[t/2, t]` (whole blocks) shows steady sliding: the smoothed force
+    /// stays within `range` [N] (so no stick-slip drop of that size), its range does not grow
+    /// from the third quarter to the last, and the mean force of the window's two halves differ
+    /// by less than `drift` (relative). Then returns the measures of that window, as
+    /// [`Analyzer::finish`] would give them for a run ending at `t`.
+    pub fn steady_sliding(&self, t: f64, range: f64, drift: f64) -> Option<Measures> {
+        let start = 0.5 * t;
+        let first = self.blocks.iter().position(|b| b.start >= start)?;
+        let w = &self.blocks[first..];
+        if w.len() < 8 {
+            return None;
+        }
+        let stats = |bs: &[Block]| {
+            bs.iter().fold(
+                (f64::INFINITY, f64::NEG_INFINITY, 0.0, 0u64, 0u64),
+                |(lo, hi, s, n, st), b| {
+                    (
+                        lo.min(b.min),
+                        hi.max(b.max),
+                        s + b.sum_raw,
+                        n + b.n as u64,
+                        st + b.stick as u64,
+                    )
+                },
+            )
+        };
+        let (lo, hi, sum, n, stick) = stats(w);
+        if !(hi - lo < range) || n == 0 {
+            return None;
+        }
+        let h = w.len() / 2;
+        let q = w.len() / 4;
+        let (_, _, s1, n1, _) = stats(&w[..h]);
+        let (_, _, s2, n2, _) = stats(&w[h..]);
+        let (m1, m2) = (s1 / n1.max(1) as f64, s2 / n2.max(1) as f64);
+        if !((m1 - m2).abs() < drift * m2.abs()) {
+            return None;
+        }
+        let (l3, h3, ..) = stats(&w[h..h + q]);
+        let (l4, h4, ..) = stats(&w[h + q..]);
+        if h4 - l4 > 1.1 * (h3 - l3) + 1e-12 {
+            return None;
+        }
+        Some(Measures {
+            d_f: hi - lo,
+            d_f_stderr: 0.0,
+            mean_force: sum / n as f64,
+            stick_fraction: stick as f64 / n as f64,
+            period: f64::NAN,
+            peak_force: hi,
+            trough_force: lo,
+            cycles: 0,
+        })
     }
 
     /// The measures over the window seen so far.

@@ -172,3 +172,54 @@ fn default_tolerances_are_converged() {
         }
     });
 }
+
+/// Early stop (steady sliding established) changes r by less than MODEL.md's 0.005 and the mean
+/// force by less than 0.1 %, and leaves runs with stick-slip alone.
+#[test]
+fn early_stop_agrees_with_the_full_run() {
+    [
+        (0.5e-3, 2.0, true),
+        (1.0e-3, 4.0, true),
+        (0.5e-3, 0.5, false),
+    ]
+    .par_iter()
+    .for_each(|&(v_d, ratio, stops)| {
+        let early = case(
+            v_d,
+            1500.0,
+            ratio,
+            &RunOptions {
+                method: Method::Dopri5,
+                ..RunOptions::default()
+            },
+        );
+        let full = case(
+            v_d,
+            1500.0,
+            ratio,
+            &RunOptions {
+                method: Method::Dopri5,
+                early_stop: false,
+                ..RunOptions::default()
+            },
+        );
+        assert_eq!(
+            early.run.t_end < full.run.t_end,
+            stops,
+            "v_d {v_d} ratio {ratio}: {} vs {}",
+            early.run.t_end,
+            full.run.t_end
+        );
+        assert!(
+            (early.r - full.r).abs() < 0.005,
+            "r {} vs {}",
+            early.r,
+            full.r
+        );
+        let (a, b) = (early.run.measures.mean_force, full.run.measures.mean_force);
+        assert!(((a - b) / b).abs() < 1e-3, "mean force {a} vs {b}");
+        if stops {
+            assert!(early.run.stats.rhs_evals < full.run.stats.rhs_evals);
+        }
+    });
+}

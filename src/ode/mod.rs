@@ -484,6 +484,25 @@ impl Solver {
         grid: OutputGrid,
         mut observe: impl FnMut(f64, &[f64]),
     ) -> RunReport {
+        self.solve_until(sys, t0, t1, y0, opts, grid, |t, y| {
+            observe(t, y);
+            true
+        })
+    }
+
+    /// As [`Solver::solve`], but `observe` returns whether to go on: the run ends with
+    /// [`Status::Success`] at the first output time where it returns `false` (`RunReport::t`
+    /// tells where), and `y0` holds the state there.
+    pub fn solve_until<S: OdeSystem>(
+        &mut self,
+        sys: &S,
+        t0: f64,
+        t1: f64,
+        y0: &mut [f64],
+        opts: &Options,
+        grid: OutputGrid,
+        mut observe: impl FnMut(f64, &[f64]) -> bool,
+    ) -> RunReport {
         debug_assert!(opts.validate().is_ok());
         let n = sys.dim();
         assert_eq!(y0.len(), n, "initial state has the wrong length");
@@ -512,7 +531,7 @@ fn drive<M: Stepper, S: OdeSystem>(
     y0: &mut [f64],
     opts: &Options,
     grid: OutputGrid,
-    observe: &mut impl FnMut(f64, &[f64]),
+    observe: &mut impl FnMut(f64, &[f64]) -> bool,
     sh: &mut Shared,
 ) -> RunReport {
     let Shared { atol, out, init } = sh;
@@ -540,8 +559,14 @@ fn drive<M: Stepper, S: OdeSystem>(
         k += 1;
     }
     while k < grid.count && grid.time(k) == t0 {
-        observe(t0, y0);
         k += 1;
+        if !observe(t0, y0) {
+            return RunReport {
+                status: Status::Success,
+                t: t0,
+                stats: *stats,
+            };
+        }
     }
     let span = t1 - t0;
     if span <= 0.0 {
@@ -609,8 +634,15 @@ fn drive<M: Stepper, S: OdeSystem>(
                         break;
                     }
                     m.dense(tk.min(t_new), out);
-                    observe(tk, out);
                     k += 1;
+                    if !observe(tk, out) {
+                        y0.copy_from_slice(out);
+                        return RunReport {
+                            status: Status::Success,
+                            t: tk,
+                            stats: *stats,
+                        };
+                    }
                 }
             }
             StepOutcome::Rejected => {}
