@@ -144,3 +144,34 @@ fn bad_input_is_named_with_its_range_and_exit_code_2() {
         assert!(!err.contains("panicked"), "{args:?}: {err}");
     }
 }
+
+#[test]
+fn bench_writes_a_work_precision_table_whose_error_falls_with_the_tolerance() {
+    let dir = tempfile::tempdir().unwrap();
+    let h5 = dir.path().join("bench.h5");
+    let out = stickslip(&[
+        "bench", "--cases", "no_vibration", "--methods", "radau5,dopri5", "--tolerances", "1e-3,1e-7", "--repeats", "1",
+        "--reference-tolerance", "1e-10", "-o", h5.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let f = rust_hdf5::H5File::open(&h5).unwrap();
+    let err = f.dataset("err_mean_force").unwrap().read_raw::<f64>().unwrap();
+    let tol = f.dataset("tolerance").unwrap().read_raw::<f64>().unwrap();
+    let time = f.dataset("time").unwrap().read_raw::<f64>().unwrap();
+    let methods = f.dataset("method").unwrap().read_strings().unwrap();
+    assert_eq!(methods, vec!["radau5", "radau5", "dopri5", "dopri5"]);
+    assert_eq!(tol, vec![1e-3, 1e-7, 1e-3, 1e-7]);
+    for m in 0..2 {
+        // Tighter tolerance: smaller error, more time.
+        assert!(err[2 * m + 1] < err[2 * m], "{err:?}");
+        assert!(time[2 * m + 1] > 0.0);
+    }
+    for ext in ["png", "svg"] {
+        assert!(dir.path().join(format!("bench_no_vibration.{ext}")).exists());
+    }
+    let s = String::from_utf8_lossy(&out.stdout);
+    assert!(s.contains("fastest within"), "{s}");
+    let bad = stickslip(&["bench", "--cases", "nope"]);
+    assert_eq!(bad.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("no_vibration"));
+}
