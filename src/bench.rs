@@ -151,11 +151,13 @@ pub struct Reference {
 }
 
 fn tight(method: Method, tol: f64) -> RunOptions {
+    // No step cap: the slow corner at a tight tolerance takes about 10^8 steps.
     RunOptions {
         method,
         ode: Options {
             rtol: tol,
             atol: tol,
+            max_steps: u64::MAX,
             ..Options::default()
         },
         ..RunOptions::default()

@@ -119,8 +119,9 @@ pub fn simulated_time(p: &Params, min_cycles: u32) -> f64 {
 
 /// The sampling of a run: spacing [s] and samples per vibration period (1 without vibration).
 pub fn sampling(p: &Params, samples_per_period: usize) -> (f64, usize) {
-    // Fine enough for the slip (100 samples per slip) and for the cycle (2000 per cycle).
-    let dt0 = (p.cycle_estimate() / 2000.0).min(p.slip_duration() / 100.0);
+    // Fine enough for the slip (40 samples per slip: a trough error below 0.05 % of dF) and for
+    // the cycle (2000 per cycle).
+    let dt0 = (p.cycle_estimate() / 2000.0).min(p.slip_duration() / 40.0);
     if !p.vibrates() {
         return (dt0, 1);
     }

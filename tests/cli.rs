@@ -150,12 +150,31 @@ fn bench_writes_a_work_precision_table_whose_error_falls_with_the_tolerance() {
     let dir = tempfile::tempdir().unwrap();
     let h5 = dir.path().join("bench.h5");
     let out = stickslip(&[
-        "bench", "--cases", "no_vibration", "--methods", "radau5,dopri5", "--tolerances", "1e-3,1e-7", "--repeats", "1",
-        "--reference-tolerance", "1e-10", "-o", h5.to_str().unwrap(),
+        "bench",
+        "--cases",
+        "no_vibration",
+        "--methods",
+        "radau5,dopri5",
+        "--tolerances",
+        "1e-3,1e-7",
+        "--repeats",
+        "1",
+        "--reference-tolerance",
+        "1e-10",
+        "-o",
+        h5.to_str().unwrap(),
     ]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let f = rust_hdf5::H5File::open(&h5).unwrap();
-    let err = f.dataset("err_mean_force").unwrap().read_raw::<f64>().unwrap();
+    let err = f
+        .dataset("err_mean_force")
+        .unwrap()
+        .read_raw::<f64>()
+        .unwrap();
     let tol = f.dataset("tolerance").unwrap().read_raw::<f64>().unwrap();
     let time = f.dataset("time").unwrap().read_raw::<f64>().unwrap();
     let methods = f.dataset("method").unwrap().read_strings().unwrap();
@@ -167,7 +186,11 @@ fn bench_writes_a_work_precision_table_whose_error_falls_with_the_tolerance() {
         assert!(time[2 * m + 1] > 0.0);
     }
     for ext in ["png", "svg"] {
-        assert!(dir.path().join(format!("bench_no_vibration.{ext}")).exists());
+        assert!(
+            dir.path()
+                .join(format!("bench_no_vibration.{ext}"))
+                .exists()
+        );
     }
     let s = String::from_utf8_lossy(&out.stdout);
     assert!(s.contains("fastest within"), "{s}");

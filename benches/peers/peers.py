@@ -150,7 +150,7 @@ def grid(ratio, t_end):
     """stickslip's sampling (sim::sampling): spacing and samples per vibration period."""
     tc = 2 * (F_S - F_C) / (K_D * V_D)
     slip = math.pi * math.sqrt(M / K_D)
-    dt0 = min(tc / 2000, slip / 100)
+    dt0 = min(tc / 2000, slip / 40)
     if ratio == 0:
         dt, k = dt0, 1
     else:
