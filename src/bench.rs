@@ -432,6 +432,8 @@ impl Figure for WorkPrecision<'_> {
             c.configure_mesh()
                 .x_desc("time per run [s]")
                 .y_desc(label)
+                .x_labels(5)
+                .y_labels(6)
                 .x_label_formatter(&|v| format!("{v:.0e}"))
                 .y_label_formatter(&|v| format!("{v:.0e}"))
                 .label_style(("sans-serif", 14))
