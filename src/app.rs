@@ -127,7 +127,8 @@ pub fn sweep_cmd(a: &SweepArgs) -> Result<(), AppError> {
         for f in sweep::figures::plot_all(&d, &outcome.out.with_extension(""))? {
             println!("wrote {}", f.display());
         }
-        if sweep::boundary::compute(&d).is_ok() && (d.dim("f").is_some()) {
+        let has_amplitude = ["u0", "v_a", "va_ratio"].iter().any(|n| d.dim(n).is_some());
+        if has_amplitude && d.dim("f").is_some() {
             let (csv, _) = sweep::boundary::run(&outcome.out)?;
             println!("wrote {} (elimination boundary)", csv.display());
         }
