@@ -163,10 +163,9 @@ pub fn apply_params<'a>(
 ) -> Result<Vec<&'a str>, ConfigError> {
     let mut rest = Vec::new();
     let mut amplitude: Option<(&str, f64)> = None;
-    for (k, v) in table {
-        if let Some(info) = params::info(k) {
-            info.set(p, doc.number(section, k, v)?);
-        } else if k == "v_a" || k == "va_ratio" {
+    for k in set_params(doc, section, table, p)? {
+        if k == "v_a" || k == "va_ratio" {
+            let v = &table[k];
             let x = doc.number(section, k, v)?;
             if let Some((other, _)) = amplitude {
                 return Err(doc.err(
@@ -175,9 +174,9 @@ pub fn apply_params<'a>(
                     format!("give one of u0, v_a and va_ratio, not both `{other}` and `{k}`"),
                 ));
             }
-            amplitude = Some((k.as_str(), x));
+            amplitude = Some((k, x));
         } else {
-            rest.push(k.as_str());
+            rest.push(k);
         }
     }
     if let Some((k, x)) = amplitude {
@@ -193,6 +192,30 @@ pub fn apply_params<'a>(
         };
         doc.err(section, &key, e.to_string())
     })?;
+    Ok(rest)
+}
+
+/// Sets the model parameters named in `table`, each checked against its own bound (relations
+/// between parameters are left to [`Params::validate`]); returns the keys that are not
+/// parameters.
+pub fn set_params<'a>(
+    doc: &Doc,
+    section: &str,
+    table: &'a toml::Table,
+    p: &mut Params,
+) -> Result<Vec<&'a str>, ConfigError> {
+    let mut rest = Vec::new();
+    for (k, v) in table {
+        match params::info(k) {
+            Some(info) => {
+                let x = doc.number(section, k, v)?;
+                info.check(x)
+                    .map_err(|e| doc.err(section, k, e.to_string()))?;
+                info.set(p, x);
+            }
+            None => rest.push(k.as_str()),
+        }
+    }
     Ok(rest)
 }
 

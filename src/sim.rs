@@ -427,28 +427,6 @@ pub fn run_case(
     })
 }
 
-/// The reference run without vibration alone, as sweeps share it between many points.
-pub fn run_reference(
-    p: &Params,
-    opts: &RunOptions,
-    solver: &mut Solver,
-) -> Result<RunResult, SimError> {
-    let q = p.without_vibration();
-    let t_end = opts
-        .t_end
-        .unwrap_or_else(|| simulated_time(p, opts.min_cycles));
-    opts.validate()?;
-    Ok(integrate(
-        &Rig::new(q)?,
-        t_end,
-        &RunOptions {
-            trace: false,
-            ..opts.clone()
-        },
-        solver,
-    ))
-}
-
 /// Bad parameters or options.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum SimError {

@@ -176,7 +176,9 @@ impl ParamInfo {
     pub fn set(&self, p: &mut Params, v: f64) {
         (self.set)(p, v)
     }
-    fn check(&self, v: f64) -> Result<(), ParamError> {
+    /// Checks a value against this parameter's own bound (relations between parameters are
+    /// [`Params::validate`]'s).
+    pub fn check(&self, v: f64) -> Result<(), ParamError> {
         let (ok, allowed) = match self.bound {
             Bound::Positive => (
                 v.is_finite() && v > 0.0,

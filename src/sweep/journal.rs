@@ -143,21 +143,11 @@ pub fn read(path: &Path, fp: &str) -> Result<Vec<(Task, RunResult)>, String> {
             header(fp)
         ));
     }
-    let mut out = vec![];
-    let mut text = String::new();
-    for l in lines {
-        match l {
-            Ok(l) => {
-                text.clear();
-                text.push_str(&l);
-                if let Some(rec) = parse_record(&text) {
-                    out.push(rec);
-                }
-            }
-            Err(_) => break,
-        }
-    }
-    Ok(out)
+    // A read error (a torn, non-UTF-8 tail) ends the journal like a torn line does.
+    Ok(lines
+        .map_while(Result::ok)
+        .filter_map(|l| parse_record(&l))
+        .collect())
 }
 
 /// An open journal, appending.

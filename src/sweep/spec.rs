@@ -219,7 +219,8 @@ impl SweepSpec {
                             plain.insert(fk.clone(), fv.clone());
                         }
                     }
-                    let rest = apply_fixed(doc, &plain, &mut spec.fixed)?;
+                    // Relations (F_s >= F_c, f > 0 with u0 > 0) are checked per point, after the axes.
+                    let rest = config::set_params(doc, "fixed", &plain, &mut spec.fixed)?;
                     if let Some(bad) = rest.first() {
                         return Err(doc.err(
                             "fixed",
@@ -503,33 +504,6 @@ impl SweepSpec {
         }
         out
     }
-}
-
-fn apply_fixed<'a>(
-    doc: &Doc,
-    t: &'a toml::Table,
-    p: &mut Params,
-) -> Result<Vec<&'a str>, ConfigError> {
-    let mut rest = vec![];
-    for (k, v) in t {
-        match params::info(k) {
-            Some(info) => info.set(p, doc.number("fixed", k, v)?),
-            None => rest.push(k.as_str()),
-        }
-    }
-    // Relations (F_s >= F_c, f > 0 with u0 > 0) are checked per point, after the axes.
-    for i in params::PARAMS {
-        if t.contains_key(i.name) {
-            let mut q = Params::default();
-            i.set(&mut q, i.get(p));
-            if let Err(e) = q.validate() {
-                if matches!(&e, params::ParamError::OutOfRange { name, .. } if *name == i.name) {
-                    return Err(doc.err("fixed", i.name, e.to_string()));
-                }
-            }
-        }
-    }
-    Ok(rest)
 }
 
 fn parse_axis(doc: &Doc, i: usize, t: &toml::Table) -> Result<Axis, ConfigError> {
