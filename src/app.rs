@@ -191,7 +191,7 @@ pub fn boundary_cmd(a: &BoundaryArgs) -> Result<(), AppError> {
 pub fn run(a: &RunArgs) -> Result<(), AppError> {
     let case = a.resolve()?;
     let mut solver = Solver::new(case.run.method);
-    let res = sim::run_case(&case.params, &case.run, &mut solver)?;
+    let res = sim::run_case_with(&case.params, &case.effects, &case.run, &mut solver)?;
     output::write_case_h5(&a.out, &res, &case.run)?;
     let mut written = vec![a.out.clone()];
     if let (Some(path), Some(tr)) = (&a.csv, &res.run.trace) {

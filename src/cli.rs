@@ -222,6 +222,13 @@ pub struct RunArgs {
     #[command(flatten)]
     pub params: ParamArgs,
 
+    /// Switch on a model extension, with optional parameters: `--effect aging` or
+    /// `--effect aging:b=0.05,theta_0=0.01`. Repeatable. Effects: aging, actuator_response,
+    /// normal_coupling, sensor_dynamics, drive_ripple, viscous, stribeck_shape, presliding,
+    /// frictional_lag, track.
+    #[arg(long = "effect", value_name = "NAME[:k=v,..]")]
+    pub effects: Vec<String>,
+
     /// Vibration velocity amplitude v_a = 2 pi f u0 [m/s], instead of --u0.
     #[arg(long, value_name = "m/s", conflicts_with_all = ["u0", "va_ratio"], allow_negative_numbers = true)]
     pub v_a: Option<f64>,
@@ -345,9 +352,17 @@ impl RunArgs {
             None => Case {
                 params: Params::default(),
                 run: RunOptions::default(),
+                effects: crate::model::Effects::none(),
                 path: None,
             },
         };
+        for spec in &self.effects {
+            case.effects.apply_spec(spec).map_err(|e| CliError::Flag {
+                flag: "effect".into(),
+                value: spec.clone(),
+                msg: e.to_string(),
+            })?;
+        }
         let p = &mut case.params;
         for (name, v) in &self.params.values {
             p.set(name, *v).expect("flag names are parameter names");

@@ -22,6 +22,7 @@
 //! early_stop = true  # end once steady sliding is established
 //! ```
 
+use crate::model::effects::{self, EffectKind, Effects};
 use crate::model::{Params, params};
 use crate::ode::Method;
 use crate::sim::RunOptions;
@@ -305,6 +306,35 @@ pub fn apply_run(doc: &Doc, table: &toml::Table, o: &mut RunOptions) -> Result<(
         .map_err(|e| doc.err(sec, e.field, e.to_string()))
 }
 
+/// Applies an `[effects]` table: one sub-table per effect (`[effects.aging]` with `b = 0.03`),
+/// an empty sub-table switching the effect on with its defaults.
+pub fn apply_effects(doc: &Doc, table: &toml::Table, fx: &mut Effects) -> Result<(), ConfigError> {
+    for (name, v) in table {
+        let kind = EffectKind::from_name(name).ok_or_else(|| {
+            doc.err(
+                "effects",
+                name,
+                format!("unknown effect; allowed: {}", effects::names().join(", ")),
+            )
+        })?;
+        let toml::Value::Table(t) = v else {
+            return Err(doc.err(
+                "effects",
+                name,
+                "expected a table of the effect's parameters, e.g. [effects.aging] b = 0.03",
+            ));
+        };
+        fx.enable(kind);
+        let sec = format!("effects.{name}");
+        for (k, v) in t {
+            let x = doc.number(&sec, k, v)?;
+            fx.set(kind, k, x)
+                .map_err(|e| doc.err(&sec, k, e.to_string()))?;
+        }
+    }
+    Ok(())
+}
+
 /// A case: parameters and run options.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Case {
@@ -312,6 +342,8 @@ pub struct Case {
     pub params: Params,
     /// Validated run options.
     pub run: RunOptions,
+    /// Model extensions (`[effects.NAME]` tables).
+    pub effects: Effects,
     /// The file it came from.
     pub path: Option<PathBuf>,
 }
@@ -322,8 +354,10 @@ pub fn load_case(path: &Path) -> Result<Case, ConfigError> {
     let mut p = Params::default();
     let mut o = RunOptions::default();
     let mut top = toml::Table::new();
+    let mut fx = Effects::none();
     for (k, v) in &doc.table {
         match (k.as_str(), v) {
+            ("effects", toml::Value::Table(t)) => apply_effects(&doc, t, &mut fx)?,
             ("solver", toml::Value::Table(t)) => apply_solver(&doc, t, &mut o)?,
             ("run", toml::Value::Table(t)) => apply_run(&doc, t, &mut o)?,
             _ => {
@@ -336,12 +370,13 @@ pub fn load_case(path: &Path) -> Result<Case, ConfigError> {
         return Err(doc.err(
             "",
             k,
-            format!("unknown key; allowed: the parameters {}, v_a, va_ratio, and the tables [solver] and [run]", params::names().join(", ")),
+            format!("unknown key; allowed: the parameters {}, v_a, va_ratio, and the tables [solver], [run] and [effects.NAME]", params::names().join(", ")),
         ));
     }
     Ok(Case {
         params: p,
         run: o,
+        effects: fx,
         path: Some(path.to_path_buf()),
     })
 }

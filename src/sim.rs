@@ -2,7 +2,7 @@
 //! and the reduction coefficient `r` against the automatic run without vibration.
 
 use crate::measures::{Analyzer, DROP_THRESHOLD, Measures, STICK_VELOCITY};
-use crate::model::{ParamError, Params, Rig, S, V, X};
+use crate::model::{Effects, Params, Rig, RigError, V, X};
 use crate::ode::{Method, OdeSystem, OptionError, Options, OutputGrid, Solver, Stats, Status};
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
@@ -218,8 +218,18 @@ pub struct RunResult {
 
 /// Simulates the rig once (no reference run) with the given solver.
 pub fn simulate(p: &Params, opts: &RunOptions, solver: &mut Solver) -> Result<RunResult, SimError> {
+    simulate_with(p, &Effects::none(), opts, solver)
+}
+
+/// [`simulate`] with model extensions.
+pub fn simulate_with(
+    p: &Params,
+    fx: &Effects,
+    opts: &RunOptions,
+    solver: &mut Solver,
+) -> Result<RunResult, SimError> {
     opts.validate()?;
-    let rig = Rig::new(*p)?;
+    let rig = Rig::with_effects(*p, fx)?;
     let t_end = opts
         .t_end
         .unwrap_or_else(|| simulated_time(p, opts.min_cycles));
@@ -281,7 +291,8 @@ fn integrate(rig: &Rig, t_end: f64, opts: &RunOptions, solver: &mut Solver) -> R
     };
     let mut idx = 0u64;
     let rep = solver.solve_until(rig, 0.0, t_end, &mut y, &opts.ode, grid, |t, y| {
-        let f = rig.drive_force(t, y);
+        // The force the sensor records (the drive force itself without sensor dynamics).
+        let f = rig.measured_force(t, y);
         let v_r = rig.relative_velocity(t, y);
         let smooth = an.push(t, f, v_r);
         if let Some(tr) = trace.as_mut() {
@@ -291,7 +302,7 @@ fn integrate(rig: &Rig, t_end: f64, opts: &RunOptions, solver: &mut Solver) -> R
                 tr.f_d_smooth.push(if k > 1 { smooth } else { f });
                 tr.x_s.push(y[X]);
                 tr.x_d.push(rig.drive_displacement(t));
-                tr.s.push(y[S]);
+                tr.s.push(rig.deformation(y));
                 tr.v_r.push(v_r);
                 tr.v.push(y[V]);
                 tr.u.push(rig.substrate_displacement(t));
@@ -396,8 +407,18 @@ pub fn run_case(
     opts: &RunOptions,
     solver: &mut Solver,
 ) -> Result<CaseResult, SimError> {
+    run_case_with(p, &Effects::none(), opts, solver)
+}
+
+/// [`run_case`] with model extensions (the reference run carries the same effects).
+pub fn run_case_with(
+    p: &Params,
+    fx: &Effects,
+    opts: &RunOptions,
+    solver: &mut Solver,
+) -> Result<CaseResult, SimError> {
     opts.validate()?;
-    let rig = Rig::new(*p)?;
+    let rig = Rig::with_effects(*p, fx)?;
     let t_end = opts
         .t_end
         .unwrap_or_else(|| simulated_time(p, opts.min_cycles));
@@ -416,7 +437,7 @@ pub fn run_case(
         trace: false,
         ..opts.clone()
     };
-    let reference = integrate(&Rig::new(p.without_vibration())?, t_end, &ref_opts, solver);
+    let reference = integrate(&rig.without_vibration(), t_end, &ref_opts, solver);
     let (r, r_stderr) = reduction(&run.measures, &reference.measures);
     Ok(CaseResult {
         params: *p,
@@ -430,9 +451,9 @@ pub fn run_case(
 /// Bad parameters or options.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum SimError {
-    /// A model parameter is out of range.
+    /// A model or effect parameter is out of range.
     #[error(transparent)]
-    Param(#[from] ParamError),
+    Model(#[from] RigError),
     /// A solver or run option is out of range.
     #[error(transparent)]
     Option(#[from] OptionError),

@@ -18,9 +18,13 @@
 //! Jacobian and an analytic `∂f/∂t`; model extensions add state components after these three
 //! and terms to the same right-hand side, so the integrators never change.
 
+pub mod effects;
 pub mod params;
 
+pub use effects::{EffectError, EffectKind, Effects};
 pub use params::{ParamError, Params};
+
+use effects::Resolved;
 
 use crate::ode::OdeSystem;
 
@@ -86,36 +90,70 @@ pub fn contact(p: &Params, v_r: f64, s: f64) -> Contact {
     }
 }
 
-/// The rig as an ODE system. Build it once per run from validated [`Params`].
+/// Largest state dimension of the rig with every effect on.
+pub const MAX_DIM: usize = 16;
+
+/// The rig as an ODE system. Build it once per run from validated [`Params`] (and, optionally,
+/// [`Effects`]).
 #[derive(Clone, Debug)]
 pub struct Rig {
     /// The parameters (validated by [`Rig::new`]).
     pub p: Params,
     omega: f64,
+    /// Actuated amplitude `A u0` [m] (`u0` without the actuator effect).
+    u0: f64,
+    fx: Resolved,
 }
 
 impl Rig {
-    /// A rig from validated parameters.
+    /// A rig from validated parameters: MODEL.md's model.
     pub fn new(p: Params) -> Result<Self, ParamError> {
         p.validate()?;
         Ok(Rig {
             p,
             omega: p.omega(),
+            u0: p.u0,
+            fx: Resolved::new(&Effects::none(), p.f, p.f_n),
         })
     }
 
-    /// The initial state of MODEL.md: all zero (spring relaxed, body at rest, contact unloaded).
-    pub fn initial_state(&self) -> [f64; BASE_DIM] {
-        [0.0; BASE_DIM]
+    /// A rig with model extensions (see [`effects`]).
+    pub fn with_effects(p: Params, fx: &Effects) -> Result<Self, RigError> {
+        p.validate()?;
+        fx.validate()?;
+        let r = Resolved::new(fx, p.f, p.f_n);
+        Ok(Rig {
+            p,
+            omega: p.omega(),
+            u0: p.u0 * r.gain,
+            fx: r,
+        })
+    }
+
+    /// The same rig without vibration (`u0 = 0`), with the same effects.
+    pub fn without_vibration(&self) -> Rig {
+        let p = self.p.without_vibration();
+        Rig {
+            p,
+            omega: p.omega(),
+            u0: 0.0,
+            fx: self.fx,
+        }
+    }
+
+    /// The initial state: all zero (spring relaxed, body at rest, contact unloaded; with the
+    /// extensions: a fresh contact, a sensor at rest, no lag).
+    pub fn initial_state(&self) -> Vec<f64> {
+        vec![0.0; self.fx.dim]
     }
 
     /// Substrate displacement `u(t) = u0 sin(ω t)` [m] (4.1).
     #[inline]
     pub fn substrate_displacement(&self, t: f64) -> f64 {
-        if self.p.u0 == 0.0 {
+        if self.u0 == 0.0 {
             0.0
         } else {
-            self.p.u0 * (self.omega * t).sin()
+            self.u0 * (self.omega * t).sin()
         }
     }
 
@@ -123,23 +161,134 @@ impl Rig {
     #[inline]
     pub fn substrate_velocity(&self, t: f64) -> f64 {
         // Without vibration there is no cosine to pay for (half the cost of a sample).
-        if self.p.u0 == 0.0 {
+        if self.u0 == 0.0 {
             0.0
         } else {
-            self.p.u0 * self.omega * (self.omega * t).cos()
+            self.u0 * self.omega * (self.omega * t).cos()
         }
     }
 
-    /// Drive displacement `x_d = v_d t` [m].
+    /// Drive displacement `x_d = v_d t` [m] (plus the ripple when that effect is on).
     #[inline]
     pub fn drive_displacement(&self, t: f64) -> f64 {
-        self.p.v_d * t
+        match self.fx.ripple {
+            None => self.p.v_d * t,
+            Some((a, k)) => self.p.v_d * t + a * (k * self.p.v_d * t).sin(),
+        }
     }
 
-    /// Drive force `F_d = k_d (v_d t − x) + h_d (v_d − v)` [N] (4.3, 4.4).
+    /// Drive velocity `x_d'` [m/s].
+    #[inline]
+    fn drive_velocity(&self, t: f64) -> f64 {
+        match self.fx.ripple {
+            None => self.p.v_d,
+            Some((a, k)) => self.p.v_d * (1.0 + a * k * (k * self.p.v_d * t).cos()),
+        }
+    }
+
+    /// Drive force `F_d = k_d (x_d − x) + h_d (x_d' − v)` [N] (4.3, 4.4).
     #[inline]
     pub fn drive_force(&self, t: f64, y: &[f64]) -> f64 {
-        self.p.k_d * (self.p.v_d * t - y[X]) + self.p.h_d * (self.p.v_d - y[V])
+        if self.fx.ripple.is_none() {
+            return self.p.k_d * (self.p.v_d * t - y[X]) + self.p.h_d * (self.p.v_d - y[V]);
+        }
+        self.p.k_d * (self.drive_displacement(t) - y[X])
+            + self.p.h_d * (self.drive_velocity(t) - y[V])
+    }
+
+    /// The drive force as the force sensor records it: the sensor's output with the
+    /// `sensor_dynamics` effect, the drive force itself otherwise [N].
+    #[inline]
+    pub fn measured_force(&self, t: f64, y: &[f64]) -> f64 {
+        match self.fx.sensor {
+            Some((_, _, i)) => y[i],
+            None => self.drive_force(t, y),
+        }
+    }
+
+    /// The mean contact deformation over the presliding elements [m] (`s` of the base model).
+    pub fn deformation(&self, y: &[f64]) -> f64 {
+        let n = self.fx.elements;
+        if n == 1 {
+            return y[S];
+        }
+        let extra: f64 = y[self.fx.first_extra..self.fx.first_extra + n - 1]
+            .iter()
+            .sum();
+        (y[S] + extra) / n as f64
+    }
+
+    /// Whether any effect is on.
+    pub fn has_effects(&self) -> bool {
+        self.fx.any
+    }
+
+    /// The right-hand side with the effects (see [`effects`] for the equations).
+    fn rhs_effects(&self, t: f64, y: &[f64], dy: &mut [f64]) {
+        let p = &self.p;
+        let fx = &self.fx;
+        let v_r = self.relative_velocity(t, y);
+        let a = v_r.abs();
+        // Load factor: normal coupling and friction along the track scale F_c and F_s.
+        let mut nu = 1.0;
+        if let Some((c, phi)) = fx.normal {
+            nu = (1.0 + c * self.u0 * (self.omega * t + phi).sin()).max(0.0);
+        }
+        if let Some((amp, k, x0)) = fx.track {
+            nu *= 1.0 + amp * (k * (y[X] + x0)).sin();
+        }
+        let mut f_s = p.f_s;
+        if let Some((b, theta0, dc, i)) = fx.aging {
+            let theta = y[i].max(0.0);
+            f_s *= 1.0 + b * (theta / theta0).ln_1p();
+            dy[i] = 1.0 - a * y[i] / dc;
+        }
+        // Stribeck curve (4.7), evaluated at the lagged velocity with frictional lag.
+        let w = match fx.lag {
+            Some((tau, i)) => {
+                dy[i] = (v_r - y[i]) / tau;
+                y[i]
+            }
+            None => v_r,
+        };
+        let q = (w / p.v_s).abs();
+        let e_s = if fx.delta == 2.0 {
+            (-q * q).exp()
+        } else {
+            (-q.powf(fx.delta)).exp()
+        };
+        let g = nu * (p.f_c + (f_s - p.f_c) * e_s) / p.k_t;
+        // Contact damping (4.9).
+        let qd = v_r / p.v_d;
+        let h = p.h_t * (-qd * qd).exp();
+        // Bristles (4.6): one, or N Maxwell-slip elements of stiffness k_t/N.
+        let n = fx.elements;
+        let (mut sum_s, mut sum_sd) = (0.0, 0.0);
+        for e in 0..n {
+            let i = if e == 0 { S } else { fx.first_extra + e - 1 };
+            let alpha = if n == 1 {
+                1.0
+            } else {
+                1.0 + fx.spread * (2.0 * e as f64 / (n - 1) as f64 - 1.0)
+            };
+            let sd = if g > 0.0 {
+                v_r - a * y[i] / (alpha * g)
+            } else {
+                v_r
+            };
+            dy[i] = sd;
+            sum_s += y[i];
+            sum_sd += sd;
+        }
+        let nf = n as f64;
+        let force = p.k_t * sum_s / nf + h * sum_sd / nf + (p.h_v + fx.h_v) * v_r;
+        let f_d = self.drive_force(t, y);
+        dy[X] = y[V];
+        dy[V] = (f_d - force) / p.m; // (4.2)
+        if let Some((wn, zeta, i)) = fx.sensor {
+            dy[i] = y[i + 1];
+            dy[i + 1] = wn * wn * (f_d - y[i]) - 2.0 * zeta * wn * y[i + 1];
+        }
     }
 
     /// Relative velocity `v_r = v − u'(t)` [m/s] (4.7).
@@ -149,12 +298,26 @@ impl Rig {
     }
 }
 
+/// Bad parameters of the model or of an effect.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum RigError {
+    /// A model parameter.
+    #[error(transparent)]
+    Param(#[from] ParamError),
+    /// An effect parameter.
+    #[error(transparent)]
+    Effect(#[from] EffectError),
+}
+
 impl OdeSystem for Rig {
     fn dim(&self) -> usize {
-        BASE_DIM
+        self.fx.dim
     }
 
     fn rhs(&self, t: f64, y: &[f64], dy: &mut [f64]) {
+        if self.fx.any {
+            return self.rhs_effects(t, y, dy);
+        }
         let v_r = self.relative_velocity(t, y);
         let c = contact(&self.p, v_r, y[S]);
         dy[X] = y[V];
@@ -163,6 +326,25 @@ impl OdeSystem for Rig {
     }
 
     fn jacobian(&self, t: f64, y: &[f64], j: &mut [f64]) {
+        if self.fx.any {
+            // Extensions: forward differences, column by column, on stack buffers.
+            let n = self.fx.dim;
+            let mut f0 = [0.0; MAX_DIM];
+            let mut f1 = [0.0; MAX_DIM];
+            let mut yp = [0.0; MAX_DIM];
+            yp[..n].copy_from_slice(y);
+            self.rhs(t, y, &mut f0[..n]);
+            for c in 0..n {
+                let h = f64::EPSILON.sqrt() * y[c].abs().max(1e-3 * self.scale(c));
+                yp[c] = y[c] + h;
+                self.rhs(t, &yp[..n], &mut f1[..n]);
+                yp[c] = y[c];
+                for r in 0..n {
+                    j[r * n + c] = (f1[r] - f0[r]) / h;
+                }
+            }
+            return;
+        }
         let p = &self.p;
         let v_r = self.relative_velocity(t, y);
         let c = contact(p, v_r, y[S]);
@@ -179,7 +361,16 @@ impl OdeSystem for Rig {
         j[S * n + S] = c.ds_dot_ds;
     }
 
-    fn time_derivative(&self, t: f64, y: &[f64], dfdt: &mut [f64], _scratch: &mut [f64]) {
+    fn time_derivative(&self, t: f64, y: &[f64], dfdt: &mut [f64], scratch: &mut [f64]) {
+        if self.fx.any {
+            let dt = f64::EPSILON.sqrt() * t.abs().max(1e-3);
+            self.rhs(t, y, scratch);
+            self.rhs(t + dt, y, dfdt);
+            for (d, s) in dfdt.iter_mut().zip(scratch.iter()) {
+                *d = (*d - *s) / dt;
+            }
+            return;
+        }
         let p = &self.p;
         let v_r = self.relative_velocity(t, y);
         let c = contact(p, v_r, y[S]);
@@ -194,9 +385,14 @@ impl OdeSystem for Rig {
     /// `v_d + v_a`, `s` on the contact's breakaway deformation `F_s/k_t`.
     fn scale(&self, i: usize) -> f64 {
         let p = &self.p;
+        let fx = &self.fx;
         match i {
             X => p.f_s / p.k_d,
-            V => p.v_d + p.v_a(),
+            V => p.v_d + self.u0 * self.omega,
+            _ if fx.aging.is_some_and(|a| a.3 == i) => fx.aging.unwrap().1,
+            _ if fx.sensor.is_some_and(|s| s.2 == i) => p.f_s,
+            _ if fx.sensor.is_some_and(|s| s.2 + 1 == i) => p.f_s * fx.sensor.unwrap().0,
+            _ if fx.lag.is_some_and(|l| l.1 == i) => p.v_d + self.u0 * self.omega,
             _ => p.f_s / p.k_t,
         }
     }

@@ -1,0 +1,718 @@
+//! Physical effects the base model of MODEL.md leaves out, as switchable model extensions.
+//!
+//! Each effect has a name (part of the file and command interface: `[effects.aging]` in a case
+//! or sweep file), a few parameters with units, defaults and physical bounds, and a precise
+//! place in the equations of [`crate::model`]. With no effect switched on the model is exactly
+//! MODEL.md's. With effects on, the state grows after `[x, v, s]` and the equations read
+//! (`ν` the normal-load factor, `A` the actuator gain; every symbol below is an effect parameter):
+//!
+//! ```text
+//! aging              θ' = 1 − |v_r| θ / D_c                       (Dieterich's ageing law, θ = contact age)
+//!                    F_s → F_s (1 + b ln(1 + θ/θ_0))
+//! actuator_response  u0 → A u0,  A = 1 / √((1 − (f/f_r)²)² + (2 ζ f/f_r)²)   (piezo + saddle resonance)
+//! normal_coupling    ν(t) = max(0, 1 + k_n A u0 sin(ω t + φ) / F_N);  F_c, F_s → ν F_c, ν F_s
+//! sensor_dynamics    F_m'' = ω_n² (F_d − F_m) − 2 ζ ω_n F_m'      (recorded force F_m, ω_n = 2π f_n)
+//! drive_ripple       x_d = v_d t + a sin(2π v_d t / λ)            (screw or stepper periodic error)
+//! viscous            F_F → F_F + h_v v_r                          (adds to the parameter h_v)
+//! stribeck_shape     exp(−(v_r/v_s)²) → exp(−|v_r/v_s|^δ)
+//! presliding         N Maxwell-slip elements of stiffness k_t/N, breakaway deformations
+//!                    α_i g(v_r), α_i = 1 + spread (2i/(N−1) − 1):  s_i' = v_r − |v_r| s_i/(α_i g),
+//!                    F_F = Σ_i (k_t s_i + h_t(v_r) s_i')/N + h_v v_r
+//! frictional_lag     τ w' = v_r − w;  the Stribeck curve g is evaluated at the lagged velocity w
+//! track              F_c, F_s → (1 + a sin(2π (x + x_0)/λ)) F_c, ...   (friction varying along the
+//!                    track; a test effect, not a diagnosis candidate)
+//! ```
+//!
+//! Bounds are physical: a resonance between 100 Hz and 100 kHz, a Stribeck exponent from 0.2 to
+//! 10, a presliding spread below 0.95 (no element may break away at zero force), and so on; see
+//! [`EFFECTS`].
+
+use std::fmt;
+
+/// One switchable effect.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum EffectKind {
+    /// Static friction grows with the time the contact has been stuck.
+    Aging,
+    /// The substrate's real vibration amplitude departs from the nominal one with frequency.
+    ActuatorResponse,
+    /// The tangential vibration modulates the normal load, and so `F_c` and `F_s`.
+    NormalCoupling,
+    /// A lightly damped second-order force sensor between the true and the recorded force.
+    SensorDynamics,
+    /// A periodic error in the drive's motion.
+    DriveRipple,
+    /// Friction proportional to the slip velocity.
+    Viscous,
+    /// A Stribeck exponent other than 2.
+    StribeckShape,
+    /// Multi-element (Maxwell-slip) presliding in place of the single LuGre bristle.
+    Presliding,
+    /// The friction force lags behind changes of the slip velocity.
+    FrictionalLag,
+    /// Friction varying with position along the track (not a diagnosis candidate).
+    Track,
+}
+
+/// One parameter of an effect.
+#[derive(Clone, Copy, Debug)]
+pub struct EffectParam {
+    /// Name in `[effects.NAME]` tables.
+    pub name: &'static str,
+    /// SI unit.
+    pub unit: &'static str,
+    /// Meaning.
+    pub doc: &'static str,
+    /// Smallest allowed value.
+    pub min: f64,
+    /// Largest allowed value.
+    pub max: f64,
+    /// Value when the table leaves it out.
+    pub default: f64,
+    /// Fitted by `calibrate`/`diagnose` (the others stay at their given value).
+    pub fitted: bool,
+    /// Fitted on a log scale (positive quantities spanning decades).
+    pub log: bool,
+}
+
+/// An effect's name, meaning and parameters.
+#[derive(Clone, Copy, Debug)]
+pub struct EffectInfo {
+    /// The effect.
+    pub kind: EffectKind,
+    /// Name in files and on the command line.
+    pub name: &'static str,
+    /// One line of physics.
+    pub doc: &'static str,
+    /// Its parameters.
+    pub params: &'static [EffectParam],
+    /// Whether `diagnose` tries it as an explanation of a gap.
+    pub candidate: bool,
+}
+
+const fn ep(
+    name: &'static str,
+    unit: &'static str,
+    doc: &'static str,
+    min: f64,
+    max: f64,
+    default: f64,
+    fitted: bool,
+    log: bool,
+) -> EffectParam {
+    EffectParam {
+        name,
+        unit,
+        doc,
+        min,
+        max,
+        default,
+        fitted,
+        log,
+    }
+}
+
+/// The library of effects, in a fixed order.
+pub static EFFECTS: [EffectInfo; 10] = [
+    EffectInfo {
+        kind: EffectKind::Aging,
+        name: "aging",
+        doc: "static friction grows with the time the contact has been stuck (dwell-time ageing)",
+        params: &[
+            ep(
+                "b",
+                "-",
+                "ageing rate: relative growth of F_s per e-fold of contact age",
+                0.0,
+                0.5,
+                0.03,
+                true,
+                false,
+            ),
+            ep(
+                "theta_0",
+                "s",
+                "contact age at which ageing sets in",
+                1e-5,
+                10.0,
+                0.01,
+                false,
+                true,
+            ),
+            ep(
+                "d_c",
+                "m",
+                "memory slip distance that renews the contact",
+                1e-9,
+                1e-3,
+                1e-6,
+                false,
+                true,
+            ),
+        ],
+        candidate: true,
+    },
+    EffectInfo {
+        kind: EffectKind::ActuatorResponse,
+        name: "actuator_response",
+        doc: "the substrate's vibration amplitude follows a resonance of the piezo and saddle",
+        params: &[
+            ep(
+                "f_r",
+                "Hz",
+                "resonance frequency of actuator and saddle",
+                100.0,
+                1e5,
+                4000.0,
+                true,
+                true,
+            ),
+            ep(
+                "zeta",
+                "-",
+                "damping ratio of that resonance",
+                0.01,
+                2.0,
+                0.2,
+                true,
+                true,
+            ),
+        ],
+        candidate: true,
+    },
+    EffectInfo {
+        kind: EffectKind::NormalCoupling,
+        name: "normal_coupling",
+        doc: "the tangential vibration modulates the normal load and so F_c and F_s",
+        params: &[
+            ep(
+                "k_n",
+                "N/m",
+                "normal load change per metre of tangential substrate displacement",
+                1e3,
+                1e9,
+                2e7,
+                true,
+                true,
+            ),
+            ep(
+                "phase",
+                "deg",
+                "phase of the load change ahead of the displacement (90: with the velocity)",
+                -180.0,
+                180.0,
+                90.0,
+                false,
+                false,
+            ),
+        ],
+        candidate: true,
+    },
+    EffectInfo {
+        kind: EffectKind::SensorDynamics,
+        name: "sensor_dynamics",
+        doc: "a lightly damped second-order force sensor lies between the true and recorded force",
+        params: &[
+            ep(
+                "f_n",
+                "Hz",
+                "natural frequency of the sensor",
+                10.0,
+                1e5,
+                250.0,
+                true,
+                true,
+            ),
+            ep(
+                "zeta",
+                "-",
+                "damping ratio of the sensor",
+                0.005,
+                2.0,
+                0.05,
+                true,
+                true,
+            ),
+        ],
+        candidate: true,
+    },
+    EffectInfo {
+        kind: EffectKind::DriveRipple,
+        name: "drive_ripple",
+        doc: "a periodic error in the drive's motion (screw or stepper motor)",
+        params: &[
+            ep(
+                "a",
+                "m",
+                "amplitude of the drive position error",
+                0.0,
+                1e-3,
+                5e-6,
+                true,
+                false,
+            ),
+            ep(
+                "wavelength",
+                "m",
+                "drive travel per period of the error",
+                1e-6,
+                0.1,
+                0.3e-3,
+                true,
+                true,
+            ),
+        ],
+        candidate: true,
+    },
+    EffectInfo {
+        kind: EffectKind::Viscous,
+        name: "viscous",
+        doc: "friction proportional to the slip velocity",
+        params: &[ep(
+            "h_v",
+            "N s/m",
+            "viscous friction coefficient (added to the model's h_v)",
+            0.0,
+            1e4,
+            50.0,
+            true,
+            false,
+        )],
+        candidate: true,
+    },
+    EffectInfo {
+        kind: EffectKind::StribeckShape,
+        name: "stribeck_shape",
+        doc: "a Stribeck exponent other than 2",
+        params: &[ep(
+            "delta",
+            "-",
+            "Stribeck exponent",
+            0.2,
+            10.0,
+            1.0,
+            true,
+            true,
+        )],
+        candidate: true,
+    },
+    EffectInfo {
+        kind: EffectKind::Presliding,
+        name: "presliding",
+        doc: "Maxwell-slip presliding: several elements that break away one after another",
+        params: &[
+            ep(
+                "spread",
+                "-",
+                "spread of the elements' breakaway deformations about the mean",
+                0.0,
+                0.95,
+                0.5,
+                true,
+                false,
+            ),
+            ep(
+                "elements",
+                "-",
+                "number of elements (whole number)",
+                1.0,
+                8.0,
+                4.0,
+                false,
+                false,
+            ),
+        ],
+        candidate: true,
+    },
+    EffectInfo {
+        kind: EffectKind::FrictionalLag,
+        name: "frictional_lag",
+        doc: "the friction force lags behind changes of the slip velocity",
+        params: &[ep(
+            "tau",
+            "s",
+            "time constant of the lag",
+            1e-6,
+            1.0,
+            1e-3,
+            true,
+            true,
+        )],
+        candidate: true,
+    },
+    EffectInfo {
+        kind: EffectKind::Track,
+        name: "track",
+        doc: "friction varying with position along the track (for testing; not a diagnosis candidate)",
+        params: &[
+            ep(
+                "a",
+                "-",
+                "relative amplitude of the friction variation",
+                0.0,
+                0.5,
+                0.1,
+                false,
+                false,
+            ),
+            ep(
+                "wavelength",
+                "m",
+                "period of the variation along the track",
+                1e-6,
+                1.0,
+                0.7e-3,
+                false,
+                true,
+            ),
+            ep(
+                "offset",
+                "m",
+                "track position at x = 0",
+                0.0,
+                1.0,
+                0.0,
+                false,
+                false,
+            ),
+        ],
+        candidate: false,
+    },
+];
+
+impl EffectKind {
+    /// Its entry in [`EFFECTS`].
+    pub fn info(self) -> &'static EffectInfo {
+        EFFECTS
+            .iter()
+            .find(|e| e.kind == self)
+            .expect("every kind is listed")
+    }
+
+    /// Its name in files.
+    pub fn name(self) -> &'static str {
+        self.info().name
+    }
+
+    /// The effect of a name.
+    pub fn from_name(name: &str) -> Option<EffectKind> {
+        EFFECTS.iter().find(|e| e.name == name).map(|e| e.kind)
+    }
+
+    /// The effects `diagnose` tries.
+    pub fn candidates() -> Vec<EffectKind> {
+        EFFECTS
+            .iter()
+            .filter(|e| e.candidate)
+            .map(|e| e.kind)
+            .collect()
+    }
+}
+
+impl fmt::Display for EffectKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// An effect parameter out of range or unknown.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum EffectError {
+    /// No such effect.
+    #[error("unknown effect `{0}`; allowed: {list}", list = names().join(", "))]
+    UnknownEffect(String),
+    /// No such parameter of the effect.
+    #[error("effect `{effect}` has no parameter `{name}`; allowed: {allowed}")]
+    UnknownParam {
+        /// The effect.
+        effect: &'static str,
+        /// The key given.
+        name: String,
+        /// Its parameters.
+        allowed: String,
+    },
+    /// A value out of its physical range.
+    #[error("{effect}.{name} = {value} {unit} is not allowed: must lie in [{min}, {max}]")]
+    OutOfRange {
+        /// The effect.
+        effect: &'static str,
+        /// The parameter.
+        name: &'static str,
+        /// The value given.
+        value: f64,
+        /// Its unit.
+        unit: &'static str,
+        /// Lower bound.
+        min: f64,
+        /// Upper bound.
+        max: f64,
+    },
+}
+
+/// Names of all effects.
+pub fn names() -> Vec<&'static str> {
+    EFFECTS.iter().map(|e| e.name).collect()
+}
+
+/// The switched-on effects and their parameter values (in the order of [`EffectInfo::params`]).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Effects {
+    /// At most one entry per kind, sorted by kind.
+    pub list: Vec<(EffectKind, Vec<f64>)>,
+}
+
+impl Effects {
+    /// No effects: the base model.
+    pub fn none() -> Effects {
+        Effects::default()
+    }
+
+    /// Whether no effect is on.
+    pub fn is_empty(&self) -> bool {
+        self.list.is_empty()
+    }
+
+    /// Switches an effect on with its default parameters (or keeps it as it is).
+    pub fn enable(&mut self, kind: EffectKind) -> &mut Vec<f64> {
+        if let Some(i) = self.list.iter().position(|(k, _)| *k == kind) {
+            return &mut self.list[i].1;
+        }
+        let vals = kind.info().params.iter().map(|p| p.default).collect();
+        self.list.push((kind, vals));
+        self.list.sort_by_key(|(k, _)| *k);
+        let i = self.list.iter().position(|(k, _)| *k == kind).unwrap();
+        &mut self.list[i].1
+    }
+
+    /// Sets one parameter (switching the effect on), checking its range.
+    pub fn set(&mut self, kind: EffectKind, name: &str, value: f64) -> Result<(), EffectError> {
+        let info = kind.info();
+        let Some(i) = info.params.iter().position(|p| p.name == name) else {
+            return Err(EffectError::UnknownParam {
+                effect: info.name,
+                name: name.to_string(),
+                allowed: info
+                    .params
+                    .iter()
+                    .map(|p| p.name)
+                    .collect::<Vec<_>>()
+                    .join(", "),
+            });
+        };
+        check(info, &info.params[i], value)?;
+        self.enable(kind)[i] = value;
+        Ok(())
+    }
+
+    /// The value of one parameter, if the effect is on.
+    pub fn get(&self, kind: EffectKind, name: &str) -> Option<f64> {
+        let (_, vals) = self.list.iter().find(|(k, _)| *k == kind)?;
+        let i = kind.info().params.iter().position(|p| p.name == name)?;
+        Some(vals[i])
+    }
+
+    /// Whether an effect is on.
+    pub fn has(&self, kind: EffectKind) -> bool {
+        self.list.iter().any(|(k, _)| *k == kind)
+    }
+
+    /// Checks every value against its bounds.
+    pub fn validate(&self) -> Result<(), EffectError> {
+        for (k, vals) in &self.list {
+            let info = k.info();
+            for (p, &v) in info.params.iter().zip(vals) {
+                check(info, p, v)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Applies a command-line specification `NAME` or `NAME:key=value,key=value`.
+    pub fn apply_spec(&mut self, spec: &str) -> Result<(), EffectError> {
+        let (name, rest) = spec.split_once(':').unwrap_or((spec, ""));
+        let kind = EffectKind::from_name(name.trim())
+            .ok_or_else(|| EffectError::UnknownEffect(name.trim().to_string()))?;
+        self.enable(kind);
+        for kv in rest.split(',').filter(|s| !s.trim().is_empty()) {
+            let (k, v) = kv.split_once('=').unwrap_or((kv, ""));
+            let x: f64 = v.trim().parse().map_err(|_| EffectError::OutOfRange {
+                effect: kind.name(),
+                name: kind
+                    .info()
+                    .params
+                    .iter()
+                    .find(|p| p.name == k.trim())
+                    .map(|p| p.name)
+                    .unwrap_or("?"),
+                value: f64::NAN,
+                unit: "",
+                min: f64::NAN,
+                max: f64::NAN,
+            })?;
+            self.set(kind, k.trim(), x)?;
+        }
+        Ok(())
+    }
+
+    /// `name` or `name(k=v, ...)` for each effect, joined by `+`; `base` when empty.
+    pub fn describe(&self) -> String {
+        if self.list.is_empty() {
+            return "base".into();
+        }
+        self.list
+            .iter()
+            .map(|(k, v)| {
+                let ps: Vec<String> = k
+                    .info()
+                    .params
+                    .iter()
+                    .zip(v)
+                    .map(|(p, x)| format!("{}={x:.4e}", p.name))
+                    .collect();
+                format!("{}({})", k.name(), ps.join(", "))
+            })
+            .collect::<Vec<_>>()
+            .join(" + ")
+    }
+}
+
+fn check(info: &EffectInfo, p: &EffectParam, v: f64) -> Result<(), EffectError> {
+    let whole = p.name == "elements" && v.fract() != 0.0;
+    if !(v.is_finite() && v >= p.min && v <= p.max) || whole {
+        return Err(EffectError::OutOfRange {
+            effect: info.name,
+            name: p.name,
+            value: v,
+            unit: p.unit,
+            min: p.min,
+            max: p.max,
+        });
+    }
+    Ok(())
+}
+
+/// The effects resolved into the numbers the right-hand side uses, with the positions of the
+/// extra state components.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Resolved {
+    /// Any effect on (else the analytic base path is used).
+    pub any: bool,
+    /// State dimension.
+    pub dim: usize,
+    /// Actuator gain `A` (1 without the effect).
+    pub gain: f64,
+    /// Ageing: `(b, θ_0, D_c, index of θ)`.
+    pub aging: Option<(f64, f64, f64, usize)>,
+    /// Normal coupling: `(k_n / F_N, φ [rad])`.
+    pub normal: Option<(f64, f64)>,
+    /// Sensor: `(ω_n, ζ, index of F_m)` (F_m' follows).
+    pub sensor: Option<(f64, f64, usize)>,
+    /// Drive ripple: `(a, 2π/λ)`.
+    pub ripple: Option<(f64, f64)>,
+    /// Extra viscous coefficient [N s/m].
+    pub h_v: f64,
+    /// Stribeck exponent.
+    pub delta: f64,
+    /// Presliding: number of elements, spread, index of the second element.
+    pub elements: usize,
+    pub spread: f64,
+    pub first_extra: usize,
+    /// Frictional lag: `(τ, index of w)`.
+    pub lag: Option<(f64, usize)>,
+    /// Track: `(a, 2π/λ, x_0)`.
+    pub track: Option<(f64, f64, f64)>,
+}
+
+impl Resolved {
+    pub fn new(fx: &Effects, f: f64, f_n: f64) -> Resolved {
+        let mut r = Resolved {
+            any: !fx.is_empty(),
+            dim: super::BASE_DIM,
+            gain: 1.0,
+            aging: None,
+            normal: None,
+            sensor: None,
+            ripple: None,
+            h_v: 0.0,
+            delta: 2.0,
+            elements: 1,
+            spread: 0.0,
+            first_extra: super::BASE_DIM,
+            lag: None,
+            track: None,
+        };
+        let tau = std::f64::consts::TAU;
+        // Presliding elements come first so the contact states stay together.
+        if let Some(n) = fx.get(EffectKind::Presliding, "elements") {
+            r.elements = n as usize;
+            r.spread = fx.get(EffectKind::Presliding, "spread").unwrap_or(0.0);
+            r.dim += r.elements - 1;
+        }
+        for (k, v) in &fx.list {
+            match k {
+                EffectKind::Aging => {
+                    r.aging = Some((v[0], v[1], v[2], r.dim));
+                    r.dim += 1;
+                }
+                EffectKind::ActuatorResponse => {
+                    let q = f / v[0];
+                    r.gain = 1.0 / ((1.0 - q * q).powi(2) + (2.0 * v[1] * q).powi(2)).sqrt();
+                }
+                EffectKind::NormalCoupling => r.normal = Some((v[0] / f_n, v[1].to_radians())),
+                EffectKind::SensorDynamics => {
+                    r.sensor = Some((tau * v[0], v[1], r.dim));
+                    r.dim += 2;
+                }
+                EffectKind::DriveRipple => r.ripple = Some((v[0], tau / v[1])),
+                EffectKind::Viscous => r.h_v = v[0],
+                EffectKind::StribeckShape => r.delta = v[0],
+                EffectKind::Presliding => {}
+                EffectKind::FrictionalLag => {
+                    r.lag = Some((v[0], r.dim));
+                    r.dim += 1;
+                }
+                EffectKind::Track => r.track = Some((v[0], tau / v[1], v[2])),
+            }
+        }
+        r
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn table_is_consistent() {
+        for e in &EFFECTS {
+            assert_eq!(EffectKind::from_name(e.name), Some(e.kind));
+            for p in e.params {
+                assert!(
+                    p.min <= p.default && p.default <= p.max,
+                    "{}.{}",
+                    e.name,
+                    p.name
+                );
+                assert!(!p.log || p.min > 0.0, "{}.{}", e.name, p.name);
+            }
+        }
+        assert_eq!(EffectKind::candidates().len(), 9);
+    }
+
+    #[test]
+    fn bad_values_are_named() {
+        let mut fx = Effects::none();
+        let e = fx
+            .set(EffectKind::StribeckShape, "delta", 20.0)
+            .unwrap_err();
+        assert!(
+            e.to_string().contains("stribeck_shape.delta = 20") && e.to_string().contains("10]"),
+            "{e}"
+        );
+        let e = fx.set(EffectKind::Aging, "rate", 0.1).unwrap_err();
+        assert!(e.to_string().contains("b, theta_0, d_c"), "{e}");
+        let e = fx.set(EffectKind::Presliding, "elements", 2.5).unwrap_err();
+        assert!(e.to_string().contains("elements"), "{e}");
+        assert!(fx.is_empty());
+    }
+}
