@@ -1,6 +1,10 @@
 //! The commands, as library calls: each takes a resolved configuration and does the work.
 
-use crate::cli::{BenchArgs, BoundaryArgs, CliError, Command, PlotArgs, RunArgs, SweepArgs};
+use crate::campaign::{self, Campaign, CampaignError};
+use crate::cli::{
+    BenchArgs, BoundaryArgs, CalibrateArgs, CliError, Command, DiagnoseArgs, PlotArgs, RunArgs,
+    SweepArgs, SynthArgs,
+};
 use crate::ode::Solver;
 use crate::output::{self, OutputError};
 use crate::plot::{self, PlotError};
@@ -26,6 +30,9 @@ pub enum AppError {
     /// A sweep could not go on.
     #[error(transparent)]
     Sweep(#[from] SweepError),
+    /// A campaign could not be read or written.
+    #[error(transparent)]
+    Campaign(#[from] CampaignError),
     /// The simulation ran but did not succeed.
     #[error("the integration stopped early: {0}")]
     Failed(String),
@@ -36,6 +43,7 @@ impl AppError {
     pub fn exit_code(&self) -> i32 {
         match self {
             AppError::Cli(_) | AppError::Sim(_) => 2,
+            AppError::Campaign(CampaignError::Malformed { .. } | CampaignError::Config(_)) => 2,
             _ => 1,
         }
     }
@@ -49,7 +57,137 @@ pub fn execute(cmd: Command) -> Result<(), AppError> {
         Command::Plot(a) => plot_cmd(&a),
         Command::Boundary(a) => boundary_cmd(&a),
         Command::Bench(a) => bench_cmd(&a),
+        Command::Synth(a) => synth_cmd(&a),
+        Command::Calibrate(a) => calibrate_cmd(&a),
+        Command::Diagnose(a) => diagnose_cmd(&a),
     }
+}
+
+/// `stickslip synth`.
+pub fn synth_cmd(a: &SynthArgs) -> Result<(), AppError> {
+    let spec = a.resolve()?;
+    if !a.overwrite && a.dir.is_dir() {
+        let has = std::fs::read_dir(&a.dir)
+            .map(|d| {
+                d.flatten()
+                    .any(|e| e.path().extension().is_some_and(|x| x == "csv"))
+            })
+            .unwrap_or(false);
+        if has {
+            return Err(CliError::Flag {
+                flag: "dir".into(),
+                value: a.dir.display().to_string(),
+                msg: "already holds recordings; pass --overwrite to replace them".into(),
+            }
+            .into());
+        }
+    }
+    let start = std::time::Instant::now();
+    let recs = campaign::synth::synth(&a.dir, &spec)?;
+    if let Some(path) = &a.truth {
+        let effects: serde_json::Map<String, serde_json::Value> = spec
+            .effects
+            .list
+            .iter()
+            .map(|(k, v)| {
+                let ps: serde_json::Map<String, serde_json::Value> = k
+                    .info()
+                    .params
+                    .iter()
+                    .zip(v)
+                    .map(|(p, x)| (p.name.to_string(), serde_json::json!(x)))
+                    .collect();
+                (k.name().to_string(), ps.into())
+            })
+            .collect();
+        let truth = serde_json::json!({"effects": effects, "base": spec.base, "seed": spec.seed});
+        output::ensure_parent(path)?;
+        std::fs::write(
+            path,
+            serde_json::to_string_pretty(&truth).unwrap_or_default(),
+        )
+        .map_err(|e| CampaignError::Io {
+            path: path.display().to_string(),
+            msg: e.to_string(),
+        })?;
+    }
+    println!(
+        "wrote {} recordings to {} in {:.1} s (effects: {})",
+        recs.len(),
+        a.dir.display(),
+        start.elapsed().as_secs_f64(),
+        spec.effects.describe()
+    );
+    Ok(())
+}
+
+/// `stickslip calibrate`.
+pub fn calibrate_cmd(a: &CalibrateArgs) -> Result<(), AppError> {
+    let effect = a.resolve()?;
+    let c = Campaign::load(&a.campaign)?;
+    let target = campaign::fit::Target::new(c.recordings.iter().collect());
+    let opts = campaign::fit::FitOptions {
+        max_iter: a.max_iter,
+        ..Default::default()
+    };
+    let base = campaign::fit::fit(&target, &campaign::fit::Model::default(), None, opts);
+    let f = match effect {
+        None => base,
+        Some(k) => {
+            let (start, _) = campaign::fit::starts(&target, &base.model, k);
+            campaign::fit::fit(&target, &start, Some(k), opts)
+        }
+    };
+    print!("{}", campaign::report::calibration_summary(&c, &f));
+    if let Some(path) = &a.json {
+        output::ensure_parent(path)?;
+        let text = serde_json::to_string_pretty(&campaign::report::calibration_json(&c, &f))
+            .unwrap_or_default();
+        std::fs::write(path, text).map_err(|e| CampaignError::Io {
+            path: path.display().to_string(),
+            msg: e.to_string(),
+        })?;
+        println!("wrote {}", path.display());
+    }
+    Ok(())
+}
+
+/// `stickslip diagnose`.
+pub fn diagnose_cmd(a: &DiagnoseArgs) -> Result<(), AppError> {
+    let opts = a.resolve()?;
+    let c = Campaign::load(&a.campaign)?;
+    let name = a
+        .campaign
+        .file_name()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "campaign".into());
+    let out = a
+        .out
+        .clone()
+        .unwrap_or_else(|| std::path::PathBuf::from("results").join(format!("diagnose-{name}")));
+    let d = campaign::diagnose::diagnose(&c, &opts);
+    std::fs::create_dir_all(&out).map_err(|e| CampaignError::Io {
+        path: out.display().to_string(),
+        msg: e.to_string(),
+    })?;
+    let json_path = a.json.clone().unwrap_or_else(|| out.join("diagnosis.json"));
+    output::ensure_parent(&json_path)?;
+    let text = serde_json::to_string_pretty(&campaign::report::json(&c, &d)).unwrap_or_default();
+    std::fs::write(&json_path, text).map_err(|e| CampaignError::Io {
+        path: json_path.display().to_string(),
+        msg: e.to_string(),
+    })?;
+    let h5 = out.join("diagnosis.h5");
+    campaign::report::write_h5(&h5, &c, &d)?;
+    let mut written = vec![json_path, h5];
+    if !a.no_plots {
+        written.extend(campaign::report::plots(&out, &c, &d)?);
+    }
+    print!("{}", campaign::report::summary(&c, &d));
+    for w in written {
+        println!("wrote {}", w.display());
+    }
+    Ok(())
 }
 
 /// `stickslip bench`.

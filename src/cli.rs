@@ -38,6 +38,193 @@ pub enum Command {
     /// tolerances, error against a tight reference (r, mean force, dF) and time, RHS
     /// evaluations, steps, Jacobians; to HDF5 and work-precision diagrams.
     Bench(BenchArgs),
+    /// Write a synthetic campaign: the model plus chosen effects, recorded with sensor noise at
+    /// a sampling rate, over a design of drive and vibration conditions.
+    Synth(SynthArgs),
+    /// Fit the uncertain base parameters (F_s, F_c, v_s, h_d; and an effect's with --effect) to
+    /// a campaign's recordings by least squares on their features; report them with
+    /// uncertainties.
+    Calibrate(CalibrateArgs),
+    /// Diagnose the sim-to-real gap of a campaign: calibrate on a split, locate the gap by
+    /// feature, phase and condition, rank the candidate effects by held-out gap reduction,
+    /// decide, quantify; terminal summary, JSON, HDF5 and plots.
+    Diagnose(DiagnoseArgs),
+}
+
+/// Arguments of `stickslip synth`.
+#[derive(Args, Debug)]
+pub struct SynthArgs {
+    /// Campaign directory to write (created if needed).
+    pub dir: PathBuf,
+    /// Inject an effect with given parameters: `--effect aging:b=0.03`. Repeatable.
+    #[arg(long = "effect", value_name = "NAME[:k=v,..]")]
+    pub effects: Vec<String>,
+    /// Inject an effect with magnitudes drawn from its realistic range (with --seed).
+    #[arg(long, value_name = "NAME")]
+    pub draw: Option<String>,
+    /// Conditions: full (30 recordings: 5 drives x 6 vibrations) or small (16: 4 x 4).
+    #[arg(long, default_value = "full")]
+    pub design: String,
+    /// Sampling rate [Hz] (1000 to 1e6).
+    #[arg(long, default_value_t = 10_000.0)]
+    pub rate: f64,
+    /// Force sensor noise, standard deviation [N] (0 to 1).
+    #[arg(long, default_value_t = 0.02)]
+    pub noise: f64,
+    /// Displacement sensor noise, standard deviation [m] (0 to 1e-5).
+    #[arg(long, default_value_t = 5e-8)]
+    pub noise_x: f64,
+    /// Stick-slip cycles in the second half of each recording (1 to 100).
+    #[arg(long, default_value_t = 3)]
+    pub min_cycles: u32,
+    /// Random seed (noise, drawn magnitudes, track offsets).
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Also write the injected truth (effects, base parameters) as JSON to this file.
+    #[arg(long, value_name = "FILE")]
+    pub truth: Option<PathBuf>,
+    /// Replace recordings already in the directory.
+    #[arg(long)]
+    pub overwrite: bool,
+    #[command(flatten)]
+    pub params: ParamArgs,
+}
+
+/// Arguments of `stickslip calibrate`.
+#[derive(Args, Debug)]
+pub struct CalibrateArgs {
+    /// Campaign directory.
+    pub campaign: PathBuf,
+    /// Also fit this effect's parameters.
+    #[arg(long, value_name = "NAME")]
+    pub effect: Option<String>,
+    /// Levenberg-Marquardt iterations at most (1 to 100).
+    #[arg(long, default_value_t = 10)]
+    pub max_iter: usize,
+    /// Write the estimates as JSON to this file.
+    #[arg(long, value_name = "FILE")]
+    pub json: Option<PathBuf>,
+}
+
+/// Arguments of `stickslip diagnose`.
+#[derive(Args, Debug)]
+pub struct DiagnoseArgs {
+    /// Campaign directory.
+    pub campaign: PathBuf,
+    /// Output directory for the HDF5 details and the plots. Default results/diagnose-NAME.
+    #[arg(long, value_name = "DIR")]
+    pub out: Option<PathBuf>,
+    /// JSON verdict file. Default OUT/diagnosis.json.
+    #[arg(long, value_name = "FILE")]
+    pub json: Option<PathBuf>,
+    /// Candidate effects (comma-separated). Default: all nine.
+    #[arg(long, value_delimiter = ',')]
+    pub candidates: Vec<String>,
+    /// Levenberg-Marquardt iterations at most per fit (1 to 100).
+    #[arg(long, default_value_t = 8)]
+    pub max_iter: usize,
+    /// Skip the plots.
+    #[arg(long)]
+    pub no_plots: bool,
+}
+
+fn effect_flag(flag: &str, name: &str) -> Result<crate::model::EffectKind, CliError> {
+    crate::model::EffectKind::from_name(name).ok_or_else(|| CliError::Flag {
+        flag: flag.into(),
+        value: name.into(),
+        msg: format!(
+            "unknown effect; allowed: {}",
+            crate::model::effects::names().join(", ")
+        ),
+    })
+}
+
+fn iter_flag(n: usize) -> Result<(), CliError> {
+    if !(1..=100).contains(&n) {
+        return Err(CliError::Flag {
+            flag: "max-iter".into(),
+            value: n.to_string(),
+            msg: "must be from 1 to 100".into(),
+        });
+    }
+    Ok(())
+}
+
+impl SynthArgs {
+    /// Resolves the flags into a validated synthesis.
+    pub fn resolve(&self) -> Result<crate::campaign::synth::SynthSpec, CliError> {
+        use crate::campaign::synth::{SynthSpec, draw};
+        let mut spec = SynthSpec {
+            design: self.design.parse().map_err(|msg| CliError::Flag {
+                flag: "design".into(),
+                value: self.design.clone(),
+                msg,
+            })?,
+            rate: self.rate,
+            noise_force: self.noise,
+            noise_x: self.noise_x,
+            min_cycles: self.min_cycles,
+            seed: self.seed,
+            ..SynthSpec::default()
+        };
+        for (name, v) in &self.params.values {
+            spec.base
+                .set(name, *v)
+                .expect("flag names are parameter names");
+        }
+        spec.base.validate().map_err(|e| CliError::Flag {
+            flag: "params".into(),
+            value: String::new(),
+            msg: e.to_string(),
+        })?;
+        if let Some(name) = &self.draw {
+            let kind = effect_flag("draw", name)?;
+            use rand::SeedableRng;
+            let mut rng = rand::rngs::StdRng::seed_from_u64(self.seed ^ 0x5eed);
+            spec.effects = draw(kind, &mut rng);
+        }
+        for e in &self.effects {
+            spec.effects.apply_spec(e).map_err(|err| CliError::Flag {
+                flag: "effect".into(),
+                value: e.clone(),
+                msg: err.to_string(),
+            })?;
+        }
+        spec.validate().map_err(|e| CliError::Flag {
+            flag: e.field.replace('_', "-"),
+            value: e.value.to_string(),
+            msg: e.allowed.to_string(),
+        })?;
+        Ok(spec)
+    }
+}
+
+impl CalibrateArgs {
+    /// The effect to fit with the base parameters, checked.
+    pub fn resolve(&self) -> Result<Option<crate::model::EffectKind>, CliError> {
+        iter_flag(self.max_iter)?;
+        self.effect
+            .as_deref()
+            .map(|n| effect_flag("effect", n))
+            .transpose()
+    }
+}
+
+impl DiagnoseArgs {
+    /// Candidates and fit options, checked.
+    pub fn resolve(&self) -> Result<crate::campaign::diagnose::DiagnoseOptions, CliError> {
+        iter_flag(self.max_iter)?;
+        let mut o = crate::campaign::diagnose::DiagnoseOptions::default();
+        if !self.candidates.is_empty() {
+            o.candidates = self
+                .candidates
+                .iter()
+                .map(|n| effect_flag("candidates", n))
+                .collect::<Result<_, _>>()?;
+        }
+        o.fit.max_iter = self.max_iter;
+        Ok(o)
+    }
 }
 
 /// Arguments of `stickslip bench`.

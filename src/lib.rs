@@ -6,6 +6,7 @@
 //! mean drive force ([`measures`], [`sim`]).
 pub mod app;
 pub mod bench;
+pub mod campaign;
 pub mod cli;
 pub mod config;
 pub mod measures;

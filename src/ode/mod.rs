@@ -236,10 +236,13 @@ impl OutputGrid {
 }
 
 /// How a run ended.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
+#[derive(
+    Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize,
+)]
 #[serde(rename_all = "snake_case")]
 pub enum Status {
     /// Reached the end of the span.
+    #[default]
     Success,
     /// The step size fell below the round-off limit of `t`.
     StepTooSmall,

@@ -35,6 +35,8 @@ pub struct Plan {
     pub refs: Vec<Params>,
     /// For each point, the index of its reference.
     pub point_ref: Vec<usize>,
+    /// Model extensions of every run.
+    pub effects: crate::model::Effects,
 }
 
 /// The bits of every parameter that a run without vibration depends on (all but u0 and f).
@@ -70,6 +72,7 @@ impl Plan {
             points,
             refs,
             point_ref,
+            effects: spec.effects.clone(),
         }
     }
 
@@ -187,7 +190,8 @@ pub struct SweepOutcome {
 
 /// Runs one task with the given solver.
 fn run_task(plan: &Plan, t: Task, opts: &RunOptions, solver: &mut Solver) -> RunResult {
-    sim::simulate(plan.params(t), opts, solver).expect("parameters and options were validated")
+    sim::simulate_with(plan.params(t), &plan.effects, opts, solver)
+        .expect("parameters and options were validated")
 }
 
 /// Runs a whole sweep to `opts.out` (see the module docs).
@@ -299,7 +303,8 @@ pub fn run(spec: &SweepSpec, opts: &SweepOptions) -> Result<SweepOutcome, SweepE
                     trace: true,
                     ..spec.run.clone()
                 };
-                let r = sim::simulate(&plan.points[i], &o, solver).expect("validated");
+                let r = sim::simulate_with(&plan.points[i], &plan.effects, &o, solver)
+                    .expect("validated");
                 (i, r.trace.unwrap_or_default())
             },
         )

@@ -108,6 +108,8 @@ pub struct SweepSpec {
     pub traces: Vec<TraceSel>,
     /// Cap on the grid size.
     pub max_runs: usize,
+    /// Model extensions for every run (`[effects.NAME]` tables).
+    pub effects: crate::model::Effects,
 }
 
 /// The SI unit of an axis name (a parameter, `v_a` or `va_ratio`).
@@ -184,6 +186,7 @@ impl SweepSpec {
             measures: MEASURES.iter().map(|s| s.to_string()).collect(),
             traces: vec![],
             max_runs: DEFAULT_MAX_RUNS,
+            effects: crate::model::Effects::none(),
         };
         let mut axis_tables: Vec<&toml::Table> = vec![];
         let mut output: Option<&toml::Table> = None;
@@ -247,13 +250,16 @@ impl SweepSpec {
                     }
                 }
                 ("solver", toml::Value::Table(t)) => config::apply_solver(doc, t, &mut spec.run)?,
+                ("effects", toml::Value::Table(t)) => {
+                    config::apply_effects(doc, t, &mut spec.effects)?
+                }
                 ("run", toml::Value::Table(t)) => config::apply_run(doc, t, &mut spec.run)?,
                 ("output", toml::Value::Table(t)) => output = Some(t),
                 _ => {
                     return Err(doc.err(
                         "",
                         k,
-                        "unknown key; allowed: name, description, max_runs, [fixed], [[axis]], [solver], [run], [output]",
+                        "unknown key; allowed: name, description, max_runs, [fixed], [[axis]], [solver], [run], [output], [effects.NAME]",
                     ));
                 }
             }

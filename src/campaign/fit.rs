@@ -1,0 +1,602 @@
+//! Least-squares fits of the model (base parameters, and optionally one effect) to the features
+//! of a set of recordings.
+//!
+//! The residuals are the standardised feature differences
+//! `z = (simulated − measured) / σ`, `σ² = se_measured² + se_simulated² + floor²`
+//! ([`super::features::Feature::floor`]), over every feature the recording defines. The gap of a
+//! model on a set of recordings is `E = √(mean z²)`: about 1 when the model explains the data to
+//! within their noise and the floors.
+//!
+//! The minimiser is Levenberg–Marquardt with Marquardt's diagonal scaling; each step solves the
+//! damped normal equations as the least-squares problem `[J; √λ D] δ = [−z; 0]` with faer's
+//! column-pivoted QR. The Jacobian is a forward difference with steps of a few per cent in the
+//! fitted coordinates (logarithms of positive quantities): the vibrated runs are sensitive to
+//! initial conditions, so finer steps would differentiate noise. Parameter uncertainties are
+//! `s √diag((JᵀJ)⁻¹)` with `s² = Σz² / (m − p)`.
+
+use super::features::{FEATURES, Feature, FeatureSet, extract};
+use super::{Recording, Solvers, simulate_grid};
+use crate::model::{EffectKind, Effects, Params};
+use faer::Mat;
+use faer::linalg::solvers::{Solve, SolveLstsq};
+use rayon::prelude::*;
+
+/// The base parameters a calibration fits.
+pub const BASE_FITTED: [&str; 4] = ["F_s", "F_c", "v_s", "h_d"];
+
+/// A model to compare with recordings: base parameters (the fitted ones replace the
+/// recording's) and effects.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Model {
+    /// `F_s` [N].
+    pub f_s: f64,
+    /// `F_c` [N].
+    pub f_c: f64,
+    /// `v_s` [m/s].
+    pub v_s: f64,
+    /// `h_d` [N s/m].
+    pub h_d: f64,
+    /// Effects.
+    pub effects: Effects,
+}
+
+impl Default for Model {
+    fn default() -> Self {
+        let p = Params::default();
+        Model {
+            f_s: p.f_s,
+            f_c: p.f_c,
+            v_s: p.v_s,
+            h_d: p.h_d,
+            effects: Effects::none(),
+        }
+    }
+}
+
+impl Model {
+    /// The parameters of one recording under this model.
+    pub fn params_for(&self, rec: &Recording) -> Params {
+        let mut p = rec.params;
+        p.f_s = self.f_s;
+        p.f_c = self.f_c;
+        p.v_s = self.v_s;
+        p.h_d = self.h_d;
+        p
+    }
+}
+
+/// One fitted coordinate.
+#[derive(Clone, Debug)]
+struct Coord {
+    name: String,
+    unit: &'static str,
+    /// Effect parameter (kind, index) or base parameter (index into BASE_FITTED).
+    target: Result<(EffectKind, usize), usize>,
+    log: bool,
+    lo: f64,
+    hi: f64,
+    step: f64,
+}
+
+impl Coord {
+    fn get(&self, m: &Model) -> f64 {
+        let x = match self.target {
+            Err(0) => m.f_s,
+            Err(1) => m.f_c,
+            Err(2) => m.v_s,
+            Err(_) => m.h_d,
+            Ok((k, i)) => m.effects.get(k, k.info().params[i].name).unwrap_or(0.0),
+        };
+        if self.log { x.ln() } else { x }
+    }
+
+    fn set(&self, m: &mut Model, theta: f64) {
+        let th = theta.clamp(self.lo, self.hi);
+        let x = if self.log { th.exp() } else { th };
+        match self.target {
+            Err(0) => m.f_s = x,
+            Err(1) => m.f_c = x,
+            Err(2) => m.v_s = x,
+            Err(_) => m.h_d = x,
+            Ok((k, i)) => {
+                let name = k.info().params[i].name;
+                m.effects.set(k, name, x).expect("clamped to the bounds");
+            }
+        }
+    }
+}
+
+/// The fitted coordinates: `F_s`, `F_c`, `v_s`, and `h_d` for the base calibration; with an
+/// effect, its fitted parameters with `F_s`, `F_c` and `v_s` (`h_d` stays at its start).
+fn coords(effect: Option<EffectKind>) -> Vec<Coord> {
+    let base = |i: usize, name: &str, unit, log, lo: f64, hi: f64, step| Coord {
+        name: name.to_string(),
+        unit,
+        target: Err(i),
+        log,
+        lo,
+        hi,
+        step,
+    };
+    let mut c = vec![
+        base(0, "F_s", "N", true, 0.5f64.ln(), 200f64.ln(), 0.01),
+        base(1, "F_c", "N", true, 0.5f64.ln(), 200f64.ln(), 0.01),
+        base(2, "v_s", "m/s", true, 1e-6f64.ln(), 0.1f64.ln(), 0.05),
+        base(3, "h_d", "N s/m", false, 0.0, 200.0, 1.0),
+    ];
+    if let Some(k) = effect {
+        c.pop();
+        for (i, p) in k.info().params.iter().enumerate() {
+            if !p.fitted {
+                continue;
+            }
+            let (lo, hi) = if p.log {
+                (p.min.ln(), p.max.ln())
+            } else {
+                (p.min, p.max)
+            };
+            let step = if p.log {
+                0.05
+            } else {
+                0.05 * p.default.abs().max(1e-3 * (p.max - p.min))
+            };
+            c.push(Coord {
+                name: format!("{}.{}", k.name(), p.name),
+                unit: p.unit,
+                target: Ok((k, i)),
+                log: p.log,
+                lo,
+                hi,
+                step,
+            });
+        }
+    }
+    c
+}
+
+/// A set of recordings with their measured features, ready for fitting.
+pub struct Target<'a> {
+    /// The recordings.
+    pub recs: Vec<&'a Recording>,
+    /// Their measured features (with `r` where a reference recording is in the set).
+    pub measured: Vec<FeatureSet>,
+    /// For each recording, the index of its reference (no vibration, same drive) in the set.
+    pub reference: Vec<Option<usize>>,
+}
+
+fn same_drive(a: &Params, b: &Params) -> bool {
+    a.v_d == b.v_d && a.k_d == b.k_d && a.f_n == b.f_n && a.m == b.m
+}
+
+/// Fills `r` of every vibrated recording that has a reference.
+fn fill_r(fs: &mut [FeatureSet], reference: &[Option<usize>]) {
+    for i in 0..fs.len() {
+        if let Some(j) = reference[i] {
+            let (d, d0) = (fs[i].get(Feature::DF), fs[j].get(Feature::DF));
+            let (s, s0) = (
+                fs[i].stderr[Feature::DF as usize],
+                fs[j].stderr[Feature::DF as usize],
+            );
+            let r = d / d0;
+            fs[i].value[Feature::R as usize] = r;
+            let rel = (s / d).powi(2) + (s0 / d0).powi(2);
+            fs[i].stderr[Feature::R as usize] = if rel.is_finite() {
+                r * rel.sqrt()
+            } else {
+                f64::NAN
+            };
+        }
+    }
+}
+
+/// Features of a recording's measured signals.
+pub fn measured_features(rec: &Recording) -> FeatureSet {
+    let f = if rec.vibrates() { rec.params.f } else { 0.0 };
+    extract(&rec.f_d, &rec.x_d, rec.dt(), f)
+}
+
+impl<'a> Target<'a> {
+    /// Prepares recordings for fitting.
+    pub fn new(recs: Vec<&'a Recording>) -> Target<'a> {
+        let reference: Vec<Option<usize>> = recs
+            .iter()
+            .map(|r| {
+                if !r.vibrates() {
+                    return None;
+                }
+                recs.iter()
+                    .position(|q| !q.vibrates() && same_drive(&q.params, &r.params))
+            })
+            .collect();
+        let mut measured: Vec<FeatureSet> = recs.par_iter().map(|r| measured_features(r)).collect();
+        fill_r(&mut measured, &reference);
+        Target {
+            recs,
+            measured,
+            reference,
+        }
+    }
+
+    /// Simulated features of every recording under `model` (NaN features when a run fails).
+    pub fn predict(&self, model: &Model) -> Vec<FeatureSet> {
+        let mut out: Vec<FeatureSet> = self
+            .recs
+            .par_iter()
+            .map_init(Solvers::default, |s, r| predict_one(model, r, s))
+            .collect();
+        fill_r(&mut out, &self.reference);
+        out
+    }
+
+    /// The standardised differences, one per (recording, feature) that the measurement
+    /// defines, in a fixed layout; a feature the model does not produce (no cycles) counts 0,
+    /// since dF carries that difference.
+    pub fn residuals(&self, pred: &[FeatureSet]) -> Vec<f64> {
+        let mut z = vec![];
+        for (m, p) in self.measured.iter().zip(pred) {
+            for f in FEATURES {
+                if let Some(v) = zscore(m, p, f) {
+                    z.push(v);
+                }
+            }
+        }
+        z
+    }
+}
+
+/// The standardised difference of one feature (None where the measurement does not define it).
+pub fn zscore(m: &FeatureSet, p: &FeatureSet, f: Feature) -> Option<f64> {
+    let i = f as usize;
+    let mv = m.value[i];
+    if !mv.is_finite() {
+        return None;
+    }
+    let pv = p.value[i];
+    if !pv.is_finite() {
+        return Some(if p.value[Feature::DF as usize].is_finite() {
+            0.0
+        } else {
+            1e3
+        });
+    }
+    let se = |s: f64| if s.is_finite() { s * s } else { 0.0 };
+    let fl = f.floor(mv);
+    let sigma = (se(m.stderr[i]) + se(p.stderr[i]) + fl * fl).sqrt();
+    Some((pv - mv) / sigma)
+}
+
+fn predict_one(model: &Model, rec: &Recording, solvers: &mut Solvers) -> FeatureSet {
+    let p = model.params_for(rec);
+    let nan = FeatureSet {
+        value: [f64::NAN; 11],
+        stderr: [f64::NAN; 11],
+        cycles: 0,
+    };
+    match simulate_grid(&p, &model.effects, rec.t[0], rec.dt(), rec.t.len(), solvers) {
+        Ok(tr) if tr.status == crate::ode::Status::Success => {
+            let f = if rec.vibrates() { p.f } else { 0.0 };
+            extract(&tr.f_d, &tr.x_d, rec.dt(), f)
+        }
+        _ => nan,
+    }
+}
+
+/// `√(mean z²)`.
+pub fn gap(z: &[f64]) -> f64 {
+    if z.is_empty() {
+        return 0.0;
+    }
+    (z.iter().map(|v| v * v).sum::<f64>() / z.len() as f64).sqrt()
+}
+
+/// Options of a fit.
+#[derive(Clone, Copy, Debug)]
+pub struct FitOptions {
+    /// Levenberg–Marquardt iterations at most. Default 8.
+    pub max_iter: usize,
+    /// Stop when an iteration lowers the cost by less than this share. Default 1e-3.
+    pub rel_tol: f64,
+}
+
+impl Default for FitOptions {
+    fn default() -> Self {
+        FitOptions {
+            max_iter: 8,
+            rel_tol: 1e-3,
+        }
+    }
+}
+
+/// A fitted parameter.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Estimate {
+    /// `F_s`, or `effect.param`.
+    pub name: String,
+    /// Unit.
+    pub unit: &'static str,
+    /// Value.
+    pub value: f64,
+    /// Standard uncertainty (NaN when not estimable).
+    pub stderr: f64,
+}
+
+/// The outcome of a fit.
+#[derive(Clone, Debug)]
+pub struct FitResult {
+    /// The fitted model.
+    pub model: Model,
+    /// The fitted parameters with uncertainties.
+    pub estimates: Vec<Estimate>,
+    /// Gap on the fitted recordings.
+    pub gap: f64,
+    /// Number of residuals.
+    pub residuals: usize,
+    /// Model evaluations (each a simulation of every recording).
+    pub evaluations: usize,
+    /// Number of fitted coordinates belonging to the effect.
+    pub effect_params: usize,
+}
+
+fn cost_of(target: &Target, model: &Model) -> (f64, Vec<f64>) {
+    if model.f_c > model.f_s {
+        return (f64::INFINITY, vec![]);
+    }
+    let z = target.residuals(&target.predict(model));
+    (z.iter().map(|v| v * v).sum(), z)
+}
+
+/// Fits the base parameters, and `effect`'s fitted parameters when given, starting from
+/// `start` (whose effects give the starting values; missing ones start at their defaults).
+pub fn fit(
+    target: &Target,
+    start: &Model,
+    effect: Option<EffectKind>,
+    opts: FitOptions,
+) -> FitResult {
+    let cs = coords(effect);
+    let mut model = start.clone();
+    if let Some(k) = effect {
+        model.effects.enable(k);
+    }
+    let p = cs.len();
+    let mut theta: Vec<f64> = cs.iter().map(|c| c.get(&model)).collect();
+    let build = |th: &[f64]| {
+        let mut m = model.clone();
+        for (c, &t) in cs.iter().zip(th) {
+            c.set(&mut m, t);
+        }
+        m
+    };
+    let (mut cost, mut z) = cost_of(target, &build(&theta));
+    let mut evaluations = 1;
+    let mut lambda = 1e-2;
+    let mut jac = Mat::<f64>::zeros(z.len(), p);
+    for _ in 0..opts.max_iter {
+        if !cost.is_finite() || z.is_empty() {
+            break;
+        }
+        // Forward-difference Jacobian: all p perturbed models in one parallel batch.
+        let cols: Vec<Vec<f64>> = (0..p)
+            .into_par_iter()
+            .map(|j| {
+                let mut th = theta.clone();
+                let c = &cs[j];
+                // Step inward at an upper bound.
+                let h = if th[j] + c.step > c.hi {
+                    -c.step
+                } else {
+                    c.step
+                };
+                th[j] += h;
+                let (_, zj) = cost_of(target, &build(&th));
+                if zj.len() != z.len() {
+                    return vec![0.0; z.len()];
+                }
+                zj.iter().zip(&z).map(|(a, b)| (a - b) / h).collect()
+            })
+            .collect();
+        evaluations += p;
+        jac = Mat::from_fn(z.len(), p, |i, j| cols[j][i]);
+        let diag: Vec<f64> = (0..p)
+            .map(|j| {
+                (0..z.len())
+                    .map(|i| jac[(i, j)].powi(2))
+                    .sum::<f64>()
+                    .max(1e-12)
+            })
+            .collect();
+        let mut improved = false;
+        for _ in 0..4 {
+            let m = z.len();
+            let a = Mat::from_fn(m + p, p, |i, j| {
+                if i < m {
+                    jac[(i, j)]
+                } else if i - m == j {
+                    (lambda * diag[j]).sqrt()
+                } else {
+                    0.0
+                }
+            });
+            let b = Mat::from_fn(m + p, 1, |i, _| if i < m { -z[i] } else { 0.0 });
+            let delta = a.col_piv_qr().solve_lstsq(&b);
+            let trial: Vec<f64> = (0..p)
+                .map(|j| (theta[j] + delta[(j, 0)]).clamp(cs[j].lo, cs[j].hi))
+                .collect();
+            let (c1, z1) = cost_of(target, &build(&trial));
+            evaluations += 1;
+            if c1 < cost && z1.len() == z.len() {
+                let rel = (cost - c1) / cost;
+                theta = trial;
+                cost = c1;
+                z = z1;
+                lambda = (lambda / 3.0).max(1e-7);
+                improved = rel > opts.rel_tol;
+                break;
+            }
+            lambda *= 4.0;
+        }
+        if !improved {
+            break;
+        }
+    }
+    let model = build(&theta);
+    // Uncertainties from the last Jacobian.
+    let m = z.len();
+    let mut stderr = vec![f64::NAN; p];
+    if m > p && jac.nrows() == m {
+        let jtj = Mat::from_fn(p, p, |a, b| {
+            (0..m).map(|i| jac[(i, a)] * jac[(i, b)]).sum::<f64>()
+        });
+        let s2 = cost / (m - p) as f64;
+        let inv = jtj.partial_piv_lu().solve(Mat::<f64>::identity(p, p));
+        for j in 0..p {
+            let v = inv[(j, j)] * s2;
+            if v.is_finite() && v >= 0.0 {
+                stderr[j] = v.sqrt();
+            }
+        }
+    }
+    let estimates = cs
+        .iter()
+        .zip(&theta)
+        .zip(&stderr)
+        .map(|((c, &t), &s)| {
+            let th = t.clamp(c.lo, c.hi);
+            let value = if c.log { th.exp() } else { th };
+            Estimate {
+                name: c.name.clone(),
+                unit: c.unit,
+                value,
+                stderr: if c.log { value * s } else { s },
+            }
+        })
+        .collect();
+    FitResult {
+        model,
+        estimates,
+        gap: gap(&z),
+        residuals: m,
+        evaluations,
+        effect_params: cs.iter().filter(|c| c.target.is_ok()).count(),
+    }
+}
+
+/// Evaluates a model on a set: its gap.
+pub fn evaluate(target: &Target, model: &Model) -> f64 {
+    let (_, z) = cost_of(target, model);
+    if z.is_empty() { f64::INFINITY } else { gap(&z) }
+}
+
+/// Starting values for an effect's fitted parameters: the best of a small scan over their
+/// realistic ranges ([`super::synth::REALISTIC`]; low, middle and high of each), and for the
+/// drive ripple the wavelength and amplitude read off the recorded drive position.
+pub fn starts(target: &Target, base: &Model, kind: EffectKind) -> (Model, usize) {
+    let mut candidates: Vec<Model> = vec![];
+    let mut m0 = base.clone();
+    m0.effects.enable(kind);
+    if kind == EffectKind::DriveRipple {
+        if let Some((a, lambda)) = ripple_from_drive(&target.recs) {
+            let mut m = m0.clone();
+            let _ = m.effects.set(kind, "a", a.clamp(0.0, 1e-3));
+            let _ = m.effects.set(kind, "wavelength", lambda.clamp(1e-6, 0.1));
+            return (m, 0);
+        }
+    }
+    let ranges: Vec<(&str, f64, f64, bool)> = super::synth::REALISTIC
+        .iter()
+        .filter(|r| r.0 == kind)
+        .filter_map(|r| {
+            let p = kind.info().params.iter().find(|p| p.name == r.1)?;
+            p.fitted.then_some((r.1, r.2, r.3, p.log))
+        })
+        .collect();
+    let mut grid: Vec<Vec<(&str, f64)>> = vec![vec![]];
+    for (name, lo, hi, log) in ranges {
+        let vals: Vec<f64> = if log {
+            [lo, (lo * hi).sqrt(), hi].to_vec()
+        } else {
+            [lo, 0.5 * (lo + hi), hi].to_vec()
+        };
+        grid = grid
+            .into_iter()
+            .flat_map(|g| {
+                vals.iter().map(move |&v| {
+                    let mut g = g.clone();
+                    g.push((name, v));
+                    g
+                })
+            })
+            .collect();
+    }
+    for g in grid {
+        let mut m = m0.clone();
+        for (n, v) in g {
+            let _ = m.effects.set(kind, n, v);
+        }
+        candidates.push(m);
+    }
+    if candidates.len() <= 1 {
+        return (candidates.pop().unwrap_or(m0), 0);
+    }
+    let costs: Vec<f64> = candidates.iter().map(|m| evaluate(target, m)).collect();
+    let best = (0..costs.len())
+        .min_by(|&a, &b| costs[a].total_cmp(&costs[b]))
+        .unwrap();
+    (candidates.swap_remove(best), costs.len())
+}
+
+/// Amplitude and wavelength of a sinusoidal drive error, from the recorded drive position:
+/// a periodogram over 400 wavelengths from 20 µm to 5 mm, pooled over the recordings
+/// (None when the recordings hold less than two wavelengths of travel).
+fn ripple_from_drive(recs: &[&Recording]) -> Option<(f64, f64)> {
+    let travel = recs
+        .iter()
+        .map(|r| r.params.v_d * (r.t[r.t.len() - 1] - r.t[0]))
+        .fold(0.0, f64::max);
+    let n_l = 400;
+    let (lmin, lmax) = (20e-6f64, (travel / 2.0).min(5e-3));
+    if lmax <= lmin {
+        return None;
+    }
+    let lambdas: Vec<f64> = (0..n_l)
+        .map(|i| (lmin.ln() + (lmax.ln() - lmin.ln()) * i as f64 / (n_l - 1) as f64).exp())
+        .collect();
+    // Residuals of x_d about v_d t, decimated to at most 4000 points a recording.
+    let series: Vec<(Vec<f64>, Vec<f64>)> = recs
+        .iter()
+        .map(|r| {
+            let stride = (r.t.len() / 4000).max(1);
+            let xs: Vec<f64> = (0..r.t.len())
+                .step_by(stride)
+                .map(|i| r.params.v_d * r.t[i])
+                .collect();
+            let res: Vec<f64> = (0..r.t.len())
+                .step_by(stride)
+                .map(|i| r.x_d[i] - r.params.v_d * r.t[i])
+                .collect();
+            let mean = res.iter().sum::<f64>() / res.len() as f64;
+            (xs, res.into_iter().map(|v| v - mean).collect())
+        })
+        .collect();
+    let power: Vec<(f64, f64)> = lambdas
+        .par_iter()
+        .map(|&l| {
+            let k = std::f64::consts::TAU / l;
+            let (mut pw, mut amp, mut n) = (0.0, 0.0, 0.0);
+            for (xs, res) in &series {
+                let (mut c, mut s) = (0.0, 0.0);
+                for (x, r) in xs.iter().zip(res) {
+                    c += r * (k * x).cos();
+                    s += r * (k * x).sin();
+                }
+                let len = xs.len() as f64;
+                pw += (c * c + s * s) / len;
+                amp += 2.0 * (c * c + s * s).sqrt();
+                n += len;
+            }
+            (pw, amp / n)
+        })
+        .collect();
+    let best = (0..n_l).max_by(|&a, &b| power[a].0.total_cmp(&power[b].0))?;
+    Some((power[best].1, lambdas[best]))
+}

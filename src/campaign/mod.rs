@@ -1,0 +1,517 @@
+//! Measured campaigns: directories of recordings from a test stand like the paper's, and the
+//! tools that compare them with the model (`synth`, `calibrate`, `diagnose`).
+//!
+//! # Format
+//! A campaign is a directory. Each recording is two files with the same stem:
+//! - `NAME.csv`: a header row, then one row per sample with at least the columns `t` [s],
+//!   `F_d` [N] (measured drive force), `x_s` [m] (body displacement) and `x_d` [m] (drive
+//!   displacement), in any order; other columns are ignored. Uniform sampling at any rate
+//!   (the spacing may vary by at most 1 %), at least 200 rows, time increasing.
+//! - `NAME.toml`: the conditions in SI units: `v_d`, `k_d`, `f` and `u0` (or `v_a`, or
+//!   `va_ratio` = v_a/v_d), and optionally any other model parameter (`F_N`, `h_d`, ...).
+//!   `f = 0` with `u0 = 0` is a run without vibration.
+//!
+//! An optional `campaign.toml` gives defaults for every recording (same keys). Other files are
+//! ignored. A `.csv` without its `.toml` (or the reverse) is an error, as is any malformed line:
+//! the message names the file, the line and the problem. No recording is skipped silently.
+
+pub mod diagnose;
+pub mod features;
+pub mod fit;
+pub mod report;
+pub mod synth;
+
+use crate::config::{self, ConfigError, Doc};
+use crate::model::{Effects, Params, Rig, RigError};
+use crate::ode::{Method, Options, OutputGrid, Solver, Status};
+use std::collections::BTreeMap;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+/// One recording: its conditions and its sampled signals.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Recording {
+    /// File stem.
+    pub name: String,
+    /// Conditions: the model parameters with the campaign's and the recording's values.
+    pub params: Params,
+    /// Sample times [s] (uniform).
+    pub t: Vec<f64>,
+    /// Measured drive force [N].
+    pub f_d: Vec<f64>,
+    /// Body displacement [m].
+    pub x_s: Vec<f64>,
+    /// Drive displacement [m].
+    pub x_d: Vec<f64>,
+}
+
+impl Recording {
+    /// Sampling interval [s].
+    pub fn dt(&self) -> f64 {
+        (self.t[self.t.len() - 1] - self.t[0]) / (self.t.len() - 1) as f64
+    }
+
+    /// Whether the substrate vibrates.
+    pub fn vibrates(&self) -> bool {
+        self.params.vibrates()
+    }
+}
+
+/// A loaded campaign.
+#[derive(Clone, Debug)]
+pub struct Campaign {
+    /// The directory.
+    pub dir: PathBuf,
+    /// Recordings sorted by name.
+    pub recordings: Vec<Recording>,
+}
+
+/// A malformed campaign.
+#[derive(Debug, thiserror::Error)]
+pub enum CampaignError {
+    /// A file could not be read or written.
+    #[error("{path}: {msg}")]
+    Io {
+        /// The file.
+        path: String,
+        /// What happened.
+        msg: String,
+    },
+    /// A malformed line or value.
+    #[error("{file}:{line}: {msg}")]
+    Malformed {
+        /// The file.
+        file: String,
+        /// 1-based line (0: the file as a whole).
+        line: usize,
+        /// The problem.
+        msg: String,
+    },
+    /// A malformed conditions file.
+    #[error(transparent)]
+    Config(#[from] ConfigError),
+}
+
+fn io(path: &Path, e: impl std::fmt::Display) -> CampaignError {
+    CampaignError::Io {
+        path: path.display().to_string(),
+        msg: e.to_string(),
+    }
+}
+
+/// Keys every recording needs (from its own file or `campaign.toml`).
+const REQUIRED: [&str; 3] = ["v_d", "k_d", "f"];
+
+impl Campaign {
+    /// Reads every recording of a campaign directory.
+    pub fn load(dir: &Path) -> Result<Campaign, CampaignError> {
+        let entries = std::fs::read_dir(dir).map_err(|e| io(dir, e))?;
+        let mut stems: BTreeMap<String, (bool, bool)> = BTreeMap::new();
+        for e in entries {
+            let path = e.map_err(|e| io(dir, e))?.path();
+            let (Some(stem), Some(ext)) = (path.file_stem(), path.extension()) else {
+                continue;
+            };
+            let stem = stem.to_string_lossy().into_owned();
+            match ext.to_str() {
+                Some("csv") => stems.entry(stem).or_default().0 = true,
+                Some("toml") if stem != "campaign" => stems.entry(stem).or_default().1 = true,
+                _ => {}
+            }
+        }
+        let defaults = dir.join("campaign.toml");
+        let defaults = if defaults.exists() {
+            Some(Doc::read(&defaults)?)
+        } else {
+            None
+        };
+        let mut recordings = vec![];
+        for (stem, (csv, toml)) in stems {
+            let csv_path = dir.join(format!("{stem}.csv"));
+            let toml_path = dir.join(format!("{stem}.toml"));
+            if !csv {
+                return Err(CampaignError::Malformed {
+                    file: toml_path.display().to_string(),
+                    line: 0,
+                    msg: format!("conditions without a recording: {stem}.csv is missing"),
+                });
+            }
+            if !toml {
+                return Err(CampaignError::Malformed {
+                    file: csv_path.display().to_string(),
+                    line: 0,
+                    msg: format!(
+                        "recording without conditions: {stem}.toml (v_d, k_d, f, u0) is missing"
+                    ),
+                });
+            }
+            let params = read_conditions(&toml_path, defaults.as_ref())?;
+            let (t, f_d, x_s, x_d) = read_csv(&csv_path)?;
+            recordings.push(Recording {
+                name: stem,
+                params,
+                t,
+                f_d,
+                x_s,
+                x_d,
+            });
+        }
+        if recordings.is_empty() {
+            return Err(CampaignError::Malformed {
+                file: dir.display().to_string(),
+                line: 0,
+                msg: "no recordings (NAME.csv with NAME.toml) in this directory".into(),
+            });
+        }
+        Ok(Campaign {
+            dir: dir.to_path_buf(),
+            recordings,
+        })
+    }
+}
+
+fn read_conditions(path: &Path, defaults: Option<&Doc>) -> Result<Params, CampaignError> {
+    let doc = Doc::read(path)?;
+    let mut p = Params::default();
+    let mut seen: Vec<String> = doc.table.keys().cloned().collect();
+    let unknown = |d: &Doc, k: &str| -> CampaignError {
+        d.err(
+            "",
+            k,
+            format!(
+                "unknown key; allowed: the model parameters {}, v_a, va_ratio",
+                crate::model::params::names().join(", ")
+            ),
+        )
+        .into()
+    };
+    // Defaults first (each value checked against its own bound), then the recording's own
+    // keys, with an amplitude from the defaults used only when the recording gives none.
+    let mut table = doc.table.clone();
+    if let Some(d) = defaults {
+        let rest = config::set_params(d, "", &d.table, &mut p)?;
+        for k in rest {
+            if k != "v_a" && k != "va_ratio" {
+                return Err(unknown(d, k));
+            }
+            if !["u0", "v_a", "va_ratio"]
+                .iter()
+                .any(|a| doc.table.contains_key(*a))
+            {
+                table.insert(k.to_string(), d.table[k].clone());
+            }
+        }
+        seen.extend(d.table.keys().cloned());
+    }
+    let rest = config::apply_params(&doc, "", &table, &mut p)?;
+    if let Some(k) = rest.first() {
+        return Err(unknown(&doc, k));
+    }
+    for k in REQUIRED {
+        if !seen.iter().any(|s| s == k) {
+            return Err(CampaignError::Malformed {
+                file: path.display().to_string(),
+                line: 0,
+                msg: format!("missing `{k}` (give it here or in campaign.toml)"),
+            });
+        }
+    }
+    if !seen
+        .iter()
+        .any(|s| s == "u0" || s == "v_a" || s == "va_ratio")
+    {
+        return Err(CampaignError::Malformed {
+            file: path.display().to_string(),
+            line: 0,
+            msg: "missing the vibration amplitude: give `u0` [m] or `v_a` [m/s] (0 without vibration)".into(),
+        });
+    }
+    Ok(p)
+}
+
+type Columns = (Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>);
+
+fn read_csv(path: &Path) -> Result<Columns, CampaignError> {
+    let text = std::fs::read_to_string(path).map_err(|e| io(path, e))?;
+    let file = path.display().to_string();
+    let bad = |line: usize, msg: String| CampaignError::Malformed {
+        file: file.clone(),
+        line,
+        msg,
+    };
+    let mut lines = text.lines().enumerate();
+    let (_, header) = lines
+        .next()
+        .ok_or_else(|| bad(1, "empty file; expected a header row t,F_d,x_s,x_d".into()))?;
+    let names: Vec<&str> = header.split(',').map(|s| s.trim()).collect();
+    let mut idx = [0usize; 4];
+    for (j, want) in ["t", "F_d", "x_s", "x_d"].iter().enumerate() {
+        idx[j] = names.iter().position(|n| n == want).ok_or_else(|| {
+            bad(
+                1,
+                format!("header has no column `{want}`; found {}", names.join(",")),
+            )
+        })?;
+    }
+    let mut cols: [Vec<f64>; 4] = Default::default();
+    for (i, line) in lines {
+        let line_no = i + 1;
+        if line.trim().is_empty() {
+            continue;
+        }
+        let fields: Vec<&str> = line.split(',').collect();
+        if fields.len() < names.len() {
+            return Err(bad(
+                line_no,
+                format!("{} fields, the header has {}", fields.len(), names.len()),
+            ));
+        }
+        for j in 0..4 {
+            let s = fields[idx[j]].trim();
+            let x: f64 = s.parse().map_err(|_| {
+                bad(
+                    line_no,
+                    format!("column `{}`: `{s}` is not a number", names[idx[j]]),
+                )
+            })?;
+            if !x.is_finite() {
+                return Err(bad(
+                    line_no,
+                    format!("column `{}`: {s} is not finite", names[idx[j]]),
+                ));
+            }
+            cols[j].push(x);
+        }
+        let n = cols[0].len();
+        if n >= 2 && cols[0][n - 1] <= cols[0][n - 2] {
+            return Err(bad(
+                line_no,
+                format!("time {} does not increase", cols[0][n - 1]),
+            ));
+        }
+    }
+    let n = cols[0].len();
+    if n < 200 {
+        return Err(bad(0, format!("{n} samples; at least 200 are needed")));
+    }
+    let t = &cols[0];
+    let dt = (t[n - 1] - t[0]) / (n - 1) as f64;
+    for i in 1..n {
+        let d = t[i] - t[i - 1];
+        if (d - dt).abs() > 0.01 * dt {
+            return Err(bad(
+                i + 2,
+                format!(
+                    "sampling is not uniform: step {d:.3e} s against a mean of {dt:.3e} s (1 % allowed)"
+                ),
+            ));
+        }
+    }
+    let [t, f, xs, xd] = cols;
+    Ok((t, f, xs, xd))
+}
+
+/// The model's version of a recording: the signals the stand records, sampled at the
+/// recording's times.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SimTrace {
+    /// Recorded drive force [N] (the sensor's output with `sensor_dynamics`).
+    pub f_d: Vec<f64>,
+    /// Body displacement [m].
+    pub x_s: Vec<f64>,
+    /// Drive displacement [m].
+    pub x_d: Vec<f64>,
+    /// How the integration ended.
+    pub status: Status,
+}
+
+/// Run options for simulations of recordings: Dopri5 with vibration (the forcing caps the step
+/// and the explicit method is cheapest), Rodas4 without (long sticks on a stiff contact);
+/// tolerances `rtol = atol = 1e-6`.
+pub fn method_for(p: &Params) -> Method {
+    if p.vibrates() {
+        Method::Dopri5
+    } else {
+        Method::Rodas4
+    }
+}
+
+/// Simulates the model with effects `fx` from rest at `t = 0` and samples it at `n` times
+/// `t0 + i dt`, as the stand's recorder would.
+pub fn simulate_grid(
+    p: &Params,
+    fx: &Effects,
+    t0: f64,
+    dt: f64,
+    n: usize,
+    solvers: &mut Solvers,
+) -> Result<SimTrace, RigError> {
+    let rig = Rig::with_effects(*p, fx)?;
+    let mut y = rig.initial_state();
+    let mut out = SimTrace {
+        f_d: Vec::with_capacity(n),
+        x_s: Vec::with_capacity(n),
+        x_d: Vec::with_capacity(n),
+        status: Status::Success,
+    };
+    let grid = OutputGrid {
+        start: t0,
+        step: dt,
+        count: n as u64,
+    };
+    let t1 = t0 + dt * (n - 1) as f64;
+    let solver = solvers.get(method_for(p));
+    let rep = solver.solve(&rig, 0.0, t1, &mut y, &Options::default(), grid, |t, y| {
+        out.f_d.push(rig.measured_force(t, y));
+        out.x_s.push(y[crate::model::X]);
+        out.x_d.push(rig.drive_displacement(t));
+    });
+    out.status = rep.status;
+    // A failed run leaves the rest of the grid unsampled: fill with NaN so features say so.
+    for v in [&mut out.f_d, &mut out.x_s, &mut out.x_d] {
+        v.resize(n, f64::NAN);
+    }
+    Ok(out)
+}
+
+/// One solver per method, kept across runs by a worker.
+pub struct Solvers {
+    explicit: Solver,
+    implicit: Solver,
+}
+
+impl Default for Solvers {
+    fn default() -> Self {
+        Solvers {
+            explicit: Solver::new(Method::Dopri5),
+            implicit: Solver::new(Method::Rodas4),
+        }
+    }
+}
+
+impl Solvers {
+    fn get(&mut self, m: Method) -> &mut Solver {
+        if m == Method::Dopri5 {
+            &mut self.explicit
+        } else {
+            &mut self.implicit
+        }
+    }
+}
+
+/// Writes one recording (`NAME.csv` and `NAME.toml` with the conditions `v_d`, `k_d`, `f`,
+/// `u0`, `F_N`) into `dir`.
+pub fn write_recording(dir: &Path, rec: &Recording) -> Result<(), CampaignError> {
+    let p = &rec.params;
+    let toml_path = dir.join(format!("{}.toml", rec.name));
+    let text = format!(
+        "# conditions of recording {name}\nv_d = {:e}\nk_d = {:e}\nf = {:e}\nu0 = {:e}\nF_N = {:e}\n",
+        p.v_d,
+        p.k_d,
+        if p.vibrates() { p.f } else { 0.0 },
+        p.u0,
+        p.f_n,
+        name = rec.name
+    );
+    std::fs::write(&toml_path, text).map_err(|e| io(&toml_path, e))?;
+    let csv_path = dir.join(format!("{}.csv", rec.name));
+    let f = std::fs::File::create(&csv_path).map_err(|e| io(&csv_path, e))?;
+    let mut w = std::io::BufWriter::new(f);
+    let mut go = || -> std::io::Result<()> {
+        writeln!(w, "t,F_d,x_s,x_d")?;
+        for i in 0..rec.t.len() {
+            writeln!(
+                w,
+                "{:.9e},{:.7e},{:.9e},{:.9e}",
+                rec.t[i], rec.f_d[i], rec.x_s[i], rec.x_d[i]
+            )?;
+        }
+        w.flush()
+    };
+    go().map_err(|e| io(&csv_path, e))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn write(dir: &Path, name: &str, text: &str) {
+        std::fs::write(dir.join(name), text).unwrap();
+    }
+
+    fn csv(n: usize) -> String {
+        let mut s = String::from("t,F_d,x_s,x_d,extra\n");
+        for i in 0..n {
+            s += &format!(
+                "{},{},{},{},7\n",
+                i as f64 * 1e-3,
+                1.0,
+                0.0,
+                i as f64 * 1e-6
+            );
+        }
+        s
+    }
+
+    #[test]
+    fn reads_a_campaign_with_defaults() {
+        let d = tempfile::tempdir().unwrap();
+        write(d.path(), "campaign.toml", "k_d = 10000\nF_N = 40\n");
+        write(d.path(), "a.toml", "v_d = 1e-3\nf = 0\nu0 = 0\n");
+        write(d.path(), "a.csv", &csv(300));
+        write(
+            d.path(),
+            "b.toml",
+            "v_d = 1e-3\nf = 1500\nv_a = 1e-3\nk_d = 5000\n",
+        );
+        write(d.path(), "b.csv", &csv(300));
+        write(d.path(), "notes.txt", "ignored");
+        let c = Campaign::load(d.path()).unwrap();
+        assert_eq!(c.recordings.len(), 2);
+        assert_eq!(c.recordings[0].params.k_d, 10000.0);
+        assert_eq!(c.recordings[0].params.f_n, 40.0);
+        assert_eq!(c.recordings[1].params.k_d, 5000.0);
+        assert!((c.recordings[1].params.v_a() - 1e-3).abs() < 1e-12);
+        assert!((c.recordings[0].dt() - 1e-3).abs() < 1e-12);
+    }
+
+    #[test]
+    fn malformed_files_name_file_line_and_problem() {
+        let d = tempfile::tempdir().unwrap();
+        write(d.path(), "a.toml", "v_d = 1e-3\nk_d = 1e4\nf = 0\nu0 = 0\n");
+        let mut text = csv(300);
+        text = text.replacen("0.005,1,", "0.005,abc,", 1);
+        write(d.path(), "a.csv", &text);
+        let e = Campaign::load(d.path()).unwrap_err().to_string();
+        assert!(
+            e.contains("a.csv:7") && e.contains("`abc` is not a number"),
+            "{e}"
+        );
+
+        write(d.path(), "a.csv", &csv(300));
+        write(d.path(), "b.csv", &csv(300));
+        let e = Campaign::load(d.path()).unwrap_err().to_string();
+        assert!(e.contains("b.csv") && e.contains("b.toml"), "{e}");
+
+        write(d.path(), "b.toml", "v_d = 1e-3\nk_d = -3\nf = 0\nu0 = 0\n");
+        let e = Campaign::load(d.path()).unwrap_err().to_string();
+        assert!(e.contains("b.toml:2") && e.contains("k_d"), "{e}");
+
+        write(d.path(), "b.toml", "v_d = 1e-3\nf = 0\nu0 = 0\n");
+        let e = Campaign::load(d.path()).unwrap_err().to_string();
+        assert!(e.contains("missing `k_d`"), "{e}");
+
+        write(d.path(), "b.toml", "v_d = 1e-3\nk_d = 1e4\nf = 0\nu0 = 0\n");
+        write(d.path(), "b.csv", "t,F_d,x_s\n0,1,2\n");
+        let e = Campaign::load(d.path()).unwrap_err().to_string();
+        assert!(e.contains("b.csv:1") && e.contains("x_d"), "{e}");
+
+        write(
+            d.path(),
+            "b.csv",
+            &csv(300).replacen("0.003,", "0.0031,", 1),
+        );
+        let e = Campaign::load(d.path()).unwrap_err().to_string();
+        assert!(e.contains("not uniform"), "{e}");
+    }
+}

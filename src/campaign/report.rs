@@ -1,0 +1,489 @@
+//! Reports of a diagnosis: the terminal summary, the JSON verdict, the HDF5 details and the
+//! plots (measured, base and extended traces overlaid; the gap over the conditions).
+
+use super::diagnose::{CONDITIONS, Diagnosis};
+use super::features::FEATURES;
+use super::fit::{Estimate, FitResult, Model};
+use super::{Campaign, Recording, Solvers, simulate_grid};
+use crate::output::{self, OutputError, ds_attr_str, h5err, write_vec};
+use crate::plot::{Figure, PlotError, SIZE, render};
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use serde_json::json;
+use std::fmt::Write;
+use std::path::{Path, PathBuf};
+
+fn num(x: f64) -> serde_json::Value {
+    if x.is_finite() {
+        json!(x)
+    } else {
+        serde_json::Value::Null
+    }
+}
+
+fn estimates_json(e: &[Estimate]) -> serde_json::Value {
+    e.iter()
+        .map(|e| {
+            (
+                e.name.clone(),
+                json!({"value": num(e.value), "stderr": num(e.stderr), "unit": e.unit}),
+            )
+        })
+        .collect::<serde_json::Map<_, _>>()
+        .into()
+}
+
+/// The JSON verdict.
+pub fn json(c: &Campaign, d: &Diagnosis) -> serde_json::Value {
+    let w = &d.location;
+    json!({
+        "campaign": c.dir.display().to_string(),
+        "recordings": c.recordings.len(),
+        "held_out": d.held_out,
+        "verdict": d.verdict.name(),
+        "best_effect": d.best_effect.map(|k| k.name()),
+        "gap_before": num(d.gap_before),
+        "gap_after": num(d.gap_after),
+        "reduction": num(d.reduction),
+        "thresholds": {
+            "significant_gap": super::diagnose::SIGNIFICANT_GAP,
+            "min_reduction": super::diagnose::MIN_REDUCTION,
+            "clear_margin": super::diagnose::CLEAR_MARGIN,
+            "param_penalty": super::diagnose::PARAM_PENALTY,
+        },
+        "calibration": {
+            "params": estimates_json(&d.base.estimates),
+            "gap": num(d.base.gap),
+            "evaluations": d.base.evaluations,
+        },
+        "ranking": d.ranking.iter().map(|r| json!({
+            "effect": r.effect.name(),
+            "gap_after": num(r.gap_after),
+            "reduction": num(r.reduction),
+            "score": num(r.score),
+            "gap_calibration": num(r.fit.gap),
+            "params": estimates_json(&r.fit.estimates),
+        })).collect::<Vec<_>>(),
+        "where": {
+            "summary": w.summary,
+            "features": w.features.iter().map(|(f, rms, share)| json!({
+                "feature": f.name(), "phase": super::features::PHASES[f.phase()],
+                "rms_z": num(*rms), "share": num(*share)})).collect::<Vec<_>>(),
+            "phases": w.phases.iter().map(|(p, rms, share)| json!({
+                "phase": p, "rms_z": num(*rms), "share": num(*share)})).collect::<Vec<_>>(),
+            "conditions": w.conditions.iter().map(|(n, rho)| json!({
+                "condition": n, "spearman_rho": num(*rho)})).collect::<Vec<_>>(),
+            "with_vibration": num(w.with_vibration.0),
+            "without_vibration": num(w.with_vibration.1),
+            "recordings": w.recordings.iter().map(|r| json!({
+                "name": r.name, "gap_base": num(r.gap_base), "gap_best": num(r.gap_best),
+                "held_out": r.held_out,
+                "conditions": CONDITIONS.iter().zip(r.conditions).map(|(n, v)| (n.to_string(), num(v)))
+                    .collect::<serde_json::Map<_, _>>(),
+            })).collect::<Vec<_>>(),
+        },
+        "wall_time": d.wall_time,
+    })
+}
+
+fn est_line(e: &Estimate) -> String {
+    if e.stderr.is_finite() {
+        format!("{} = {:.4e} ± {:.1e} {}", e.name, e.value, e.stderr, e.unit)
+    } else {
+        format!("{} = {:.4e} {}", e.name, e.value, e.unit)
+    }
+}
+
+/// The readable summary.
+pub fn summary(c: &Campaign, d: &Diagnosis) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "campaign {}: {} recordings, {} held out ({})",
+        c.dir.display(),
+        c.recordings.len(),
+        d.held_out.len(),
+        d.held_out.join(", ")
+    );
+    let _ = writeln!(
+        s,
+        "base model calibrated on the rest (gap {:.2}):",
+        d.base.gap
+    );
+    for e in &d.base.estimates {
+        let _ = writeln!(s, "  {}", est_line(e));
+    }
+    let _ = writeln!(s, "where: {}", d.location.summary);
+    let _ = writeln!(
+        s,
+        "candidates (held-out gap, base {:.2}; 1 = within noise):",
+        d.gap_before
+    );
+    for r in &d.ranking {
+        let ps: Vec<String> = r
+            .fit
+            .estimates
+            .iter()
+            .filter(|e| e.name.contains('.'))
+            .map(est_line)
+            .collect();
+        let _ = writeln!(
+            s,
+            "  {:<18} gap {:>7.2}  reduction {:>6.1} %  {}",
+            r.effect.name(),
+            r.gap_after,
+            100.0 * r.reduction,
+            ps.join(", ")
+        );
+    }
+    let verdict = match d.best_effect {
+        Some(k) => format!(
+            "verdict: {k} explains the gap: held-out gap {:.2} -> {:.2} ({:.0} % smaller)",
+            d.gap_before,
+            d.gap_after,
+            100.0 * d.reduction
+        ),
+        None if d.verdict == super::diagnose::Verdict::NoSignificantGap => format!(
+            "verdict: no significant gap (held-out gap {:.2} < {})",
+            d.gap_before,
+            super::diagnose::SIGNIFICANT_GAP
+        ),
+        None => format!(
+            "verdict: unexplained: no candidate explains the gap (best {} cuts it by {:.0} %)",
+            d.ranking.first().map_or("-", |r| r.effect.name()),
+            100.0 * d.ranking.first().map_or(0.0, |r| r.reduction)
+        ),
+    };
+    let _ = writeln!(s, "{verdict}");
+    let _ = writeln!(s, "wall time {:.1} s", d.wall_time);
+    s
+}
+
+/// The JSON of a calibration.
+pub fn calibration_json(c: &Campaign, f: &FitResult) -> serde_json::Value {
+    json!({
+        "campaign": c.dir.display().to_string(),
+        "recordings": c.recordings.len(),
+        "params": estimates_json(&f.estimates),
+        "gap": num(f.gap),
+        "residuals": f.residuals,
+        "evaluations": f.evaluations,
+    })
+}
+
+/// A readable calibration report.
+pub fn calibration_summary(c: &Campaign, f: &FitResult) -> String {
+    let mut s = format!(
+        "campaign {}: {} recordings, {} feature residuals, {} model evaluations\n",
+        c.dir.display(),
+        c.recordings.len(),
+        f.residuals,
+        f.evaluations
+    );
+    for e in &f.estimates {
+        let _ = writeln!(s, "  {}", est_line(e));
+    }
+    let _ = writeln!(s, "gap after the fit: {:.2} (1 = within noise)", f.gap);
+    s
+}
+
+/// Writes the details to HDF5: per-recording conditions, gaps and z per feature; the ranking
+/// with fitted parameters; the calibration; the verdict as attributes.
+pub fn write_h5(path: &Path, c: &Campaign, d: &Diagnosis) -> Result<(), OutputError> {
+    use rust_hdf5::H5File;
+    output::ensure_parent(path)?;
+    let tmp = output::temp_path(path);
+    {
+        let f = H5File::create(&tmp).map_err(h5err(&tmp))?;
+        let root = f.root_group();
+        let attr = |name: &str, v: &str| -> Result<(), OutputError> {
+            f.set_attr_string(name, v).map_err(h5err(&tmp))
+        };
+        attr("verdict", d.verdict.name())?;
+        attr("best_effect", d.best_effect.map_or("", |k| k.name()))?;
+        attr("where", &d.location.summary)?;
+        attr("campaign", &c.dir.display().to_string())?;
+        attr("program", &output::program())?;
+        attr("created", &output::now_iso())?;
+        attr("json", &json(c, d).to_string())?;
+        let g = root.create_group("recordings").map_err(h5err(&tmp))?;
+        let w = &d.location;
+        let names: Vec<String> = w.recordings.iter().map(|r| r.name.clone()).collect();
+        ds_attr_str(
+            &write_vec(
+                &g,
+                "gap_base",
+                &w.recordings.iter().map(|r| r.gap_base).collect::<Vec<_>>(),
+                "1",
+                "gap under the calibrated base model",
+                &tmp,
+            )?,
+            "recordings",
+            &names.join(","),
+            &tmp,
+        )?;
+        write_vec(
+            &g,
+            "gap_best",
+            &w.recordings.iter().map(|r| r.gap_best).collect::<Vec<_>>(),
+            "1",
+            "gap under the best candidate",
+            &tmp,
+        )?;
+        write_vec(
+            &g,
+            "held_out",
+            &w.recordings
+                .iter()
+                .map(|r| if r.held_out { 1.0 } else { 0.0 })
+                .collect::<Vec<_>>(),
+            "1",
+            "1 when held out from the fits",
+            &tmp,
+        )?;
+        for (k, name) in CONDITIONS.iter().enumerate() {
+            write_vec(
+                &g,
+                name,
+                &w.recordings
+                    .iter()
+                    .map(|r| r.conditions[k])
+                    .collect::<Vec<_>>(),
+                "SI",
+                name,
+                &tmp,
+            )?;
+        }
+        let zg = g.create_group("z_base").map_err(h5err(&tmp))?;
+        for f in FEATURES {
+            write_vec(
+                &zg,
+                f.name(),
+                &w.recordings
+                    .iter()
+                    .map(|r| r.z_base[f as usize])
+                    .collect::<Vec<_>>(),
+                "1",
+                "standardised difference, base model minus measured",
+                &tmp,
+            )?;
+        }
+        let rg = root.create_group("ranking").map_err(h5err(&tmp))?;
+        for (i, r) in d.ranking.iter().enumerate() {
+            let eg = rg
+                .create_group(&format!("{i:02}_{}", r.effect.name()))
+                .map_err(h5err(&tmp))?;
+            write_vec(&eg, "gap_after", &[r.gap_after], "1", "held-out gap", &tmp)?;
+            write_vec(
+                &eg,
+                "reduction",
+                &[r.reduction],
+                "1",
+                "held-out reduction",
+                &tmp,
+            )?;
+            for e in &r.fit.estimates {
+                write_vec(
+                    &eg,
+                    &e.name,
+                    &[e.value, e.stderr],
+                    e.unit,
+                    "value, standard uncertainty",
+                    &tmp,
+                )?;
+            }
+        }
+        let cg = root.create_group("calibration").map_err(h5err(&tmp))?;
+        for e in &d.base.estimates {
+            write_vec(
+                &cg,
+                &e.name,
+                &[e.value, e.stderr],
+                e.unit,
+                "value, standard uncertainty",
+                &tmp,
+            )?;
+        }
+        f.close().map_err(h5err(&tmp))?;
+    }
+    std::fs::rename(&tmp, path).map_err(output::ioerr(path))
+}
+
+/// Simulated force of a recording under a model.
+fn simulated_force(rec: &Recording, m: &Model) -> Vec<f64> {
+    let mut s = Solvers::default();
+    simulate_grid(
+        &m.params_for(rec),
+        &m.effects,
+        rec.t[0],
+        rec.dt(),
+        rec.t.len(),
+        &mut s,
+    )
+    .map(|t| t.f_d)
+    .unwrap_or_default()
+}
+
+struct Overlay<'a> {
+    title: String,
+    t: &'a [f64],
+    series: Vec<(String, Vec<f64>, RGBColor)>,
+}
+
+impl Figure for Overlay<'_> {
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), String> {
+        let e = |x: DrawingAreaErrorKind<DB::ErrorType>| x.to_string();
+        let n = self.t.len();
+        // The last fifth of the recording: a few cycles, readable.
+        let i0 = n - n / 5;
+        let t = &self.t[i0..];
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        for (_, y, _) in &self.series {
+            for v in y.iter().skip(i0).filter(|v| v.is_finite()) {
+                lo = lo.min(*v);
+                hi = hi.max(*v);
+            }
+        }
+        if !lo.is_finite() {
+            (lo, hi) = (0.0, 1.0);
+        }
+        let pad = 0.05 * (hi - lo).max(1e-6);
+        let mut ch = ChartBuilder::on(root)
+            .caption(&self.title, ("sans-serif", 24))
+            .margin(12)
+            .x_label_area_size(40)
+            .y_label_area_size(70)
+            .build_cartesian_2d(t[0]..t[t.len() - 1], (lo - pad)..(hi + pad))
+            .map_err(e)?;
+        ch.configure_mesh()
+            .x_desc("t [s]")
+            .y_desc("F_d [N]")
+            .label_style(("sans-serif", 16))
+            .draw()
+            .map_err(e)?;
+        for (name, y, col) in &self.series {
+            let col = *col;
+            ch.draw_series(LineSeries::new(
+                t.iter()
+                    .zip(&y[i0..])
+                    .map(|(a, b)| (*a, *b))
+                    .filter(|p| p.1.is_finite()),
+                col.stroke_width(2),
+            ))
+            .map_err(e)?
+            .label(name.as_str())
+            .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], col));
+        }
+        ch.configure_series_labels()
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .label_font(("sans-serif", 16))
+            .draw()
+            .map_err(e)?;
+        Ok(())
+    }
+}
+
+struct GapMap<'a> {
+    d: &'a Diagnosis,
+}
+
+impl Figure for GapMap<'_> {
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), String> {
+        let e = |x: DrawingAreaErrorKind<DB::ErrorType>| x.to_string();
+        let root = root
+            .titled("Gap per recording over the conditions (circles: base model; crosses: best candidate)", ("sans-serif", 22))
+            .map_err(e)?;
+        let areas = root.split_evenly((1, 2));
+        let recs = &self.d.location.recordings;
+        let ymax = recs
+            .iter()
+            .flat_map(|r| [r.gap_base, r.gap_best])
+            .filter(|v| v.is_finite())
+            .fold(1.0f64, f64::max)
+            * 1.1;
+        for (a, (k, label)) in areas
+            .iter()
+            .zip([(3usize, "v_a / v_d"), (4, "stick time [s]")])
+        {
+            let xmax = recs
+                .iter()
+                .map(|r| r.conditions[k])
+                .fold(0.0f64, f64::max)
+                .max(1e-3)
+                * 1.1;
+            let mut ch = ChartBuilder::on(a)
+                .margin(14)
+                .x_label_area_size(40)
+                .y_label_area_size(60)
+                .build_cartesian_2d(0.0..xmax, 0.0..ymax)
+                .map_err(e)?;
+            ch.configure_mesh()
+                .x_desc(label)
+                .y_desc("gap E (1 = within noise)")
+                .label_style(("sans-serif", 16))
+                .draw()
+                .map_err(e)?;
+            ch.draw_series(recs.iter().map(|r| {
+                let col = if r.held_out { RED } else { BLUE };
+                Circle::new((r.conditions[k], r.gap_base), 5, col.stroke_width(2))
+            }))
+            .map_err(e)?;
+            ch.draw_series(recs.iter().filter(|r| r.gap_best.is_finite()).map(|r| {
+                let col = if r.held_out { RED } else { BLUE };
+                Cross::new((r.conditions[k], r.gap_best), 5, col.stroke_width(2))
+            }))
+            .map_err(e)?;
+        }
+        let _ = SIZE;
+        Ok(())
+    }
+}
+
+/// Draws the overlay of the held-out recording with the largest base gap and the gap map.
+pub fn plots(dir: &Path, c: &Campaign, d: &Diagnosis) -> Result<Vec<PathBuf>, PlotError> {
+    let mut written = render(&dir.join("gap_conditions"), &GapMap { d })?;
+    let w = &d.location.recordings;
+    let pick = (0..w.len())
+        .filter(|&i| w[i].held_out)
+        .max_by(|&a, &b| w[a].gap_base.total_cmp(&w[b].gap_base))
+        .or_else(|| (0..w.len()).max_by(|&a, &b| w[a].gap_base.total_cmp(&w[b].gap_base)));
+    if let Some(i) = pick {
+        let rec = &c.recordings[i];
+        let mut series = vec![
+            (
+                "measured".to_string(),
+                rec.f_d.clone(),
+                RGBColor(160, 160, 160),
+            ),
+            (
+                format!("base model (gap {:.2})", w[i].gap_base),
+                simulated_force(rec, &d.base.model),
+                BLUE,
+            ),
+        ];
+        if let Some(b) = d.ranking.first() {
+            series.push((
+                format!("with {} (gap {:.2})", b.effect.name(), w[i].gap_best),
+                simulated_force(rec, &b.fit.model),
+                RED,
+            ));
+        }
+        written.extend(render(
+            &dir.join("traces"),
+            &Overlay {
+                title: format!(
+                    "{} (held out): v_d = {} mm/s, k_d = {} N/m, f = {} Hz, v_a/v_d = {:.2}",
+                    rec.name,
+                    rec.params.v_d * 1e3,
+                    rec.params.k_d,
+                    if rec.vibrates() { rec.params.f } else { 0.0 },
+                    rec.params.v_a() / rec.params.v_d
+                ),
+                t: &rec.t,
+                series,
+            },
+        )?);
+    }
+    Ok(written)
+}

@@ -1,0 +1,261 @@
+//! Synthetic campaigns: the model plus chosen effects, recorded with sensor noise at a given
+//! sampling rate, over a design of conditions like the paper's tests.
+
+use super::{CampaignError, Recording, Solvers, simulate_grid, write_recording};
+use crate::model::{EffectKind, Effects, Params};
+use crate::sim;
+use rand::{RngExt, SeedableRng, rngs::StdRng};
+use rayon::prelude::*;
+use std::path::Path;
+
+/// Realistic magnitudes of each effect, from which `synth --draw` picks values uniformly
+/// (log-uniformly for parameters fitted on a log scale): `(effect, parameter, low, high)`.
+/// They span what test stands show (a 150 to 400 Hz load cell on a heavy frame, a 2.5 to
+/// 5 kHz piezo-saddle resonance, a few micrometres of screw error, ...).
+pub const REALISTIC: [(EffectKind, &str, f64, f64); 15] = [
+    (EffectKind::Aging, "b", 0.02, 0.05),
+    (EffectKind::ActuatorResponse, "f_r", 2500.0, 5000.0),
+    (EffectKind::ActuatorResponse, "zeta", 0.05, 0.2),
+    (EffectKind::NormalCoupling, "k_n", 1e7, 3e7),
+    (EffectKind::SensorDynamics, "f_n", 150.0, 400.0),
+    (EffectKind::SensorDynamics, "zeta", 0.02, 0.08),
+    (EffectKind::DriveRipple, "a", 4e-6, 10e-6),
+    (EffectKind::DriveRipple, "wavelength", 0.2e-3, 0.5e-3),
+    (EffectKind::Viscous, "h_v", 20.0, 60.0),
+    (EffectKind::StribeckShape, "delta", 0.8, 1.3),
+    (EffectKind::Presliding, "spread", 0.5, 0.9),
+    (EffectKind::FrictionalLag, "tau", 0.5e-3, 2e-3),
+    (EffectKind::Track, "a", 0.08, 0.15),
+    (EffectKind::Track, "wavelength", 0.5e-3, 1e-3),
+    (EffectKind::Track, "offset", 0.0, 0.0),
+];
+
+/// Conditions of a synthetic campaign.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Design {
+    /// 30 recordings: 5 drives (v_d, k_d) × 6 vibrations (none; f = 1000, 1500, 2000 Hz at
+    /// v_a/v_d = 0.3, 0.6, 0.9; 1000 Hz at 1.5; 500 Hz at 2).
+    Full,
+    /// 16 recordings: 4 drives × 4 vibrations (none; 1000 Hz at 0.4; 1500 Hz at 0.8; 1000 Hz
+    /// at 1.5), for tests.
+    Small,
+}
+
+impl std::str::FromStr for Design {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "full" => Ok(Design::Full),
+            "small" => Ok(Design::Small),
+            _ => Err(format!("unknown design `{s}`; allowed: full, small")),
+        }
+    }
+}
+
+impl Design {
+    /// `(v_d [m/s], k_d [N/m])` of each drive and `(f [Hz], v_a/v_d)` of each vibration.
+    fn grid(self) -> (Vec<(f64, f64)>, Vec<(f64, f64)>) {
+        match self {
+            Design::Full => (
+                vec![
+                    (0.5e-3, 17_900.0),
+                    (1e-3, 11_700.0),
+                    (1e-3, 20_000.0),
+                    (2e-3, 5_950.0),
+                    (2e-3, 11_700.0),
+                ],
+                vec![
+                    (0.0, 0.0),
+                    (1000.0, 0.3),
+                    (1500.0, 0.6),
+                    (2000.0, 0.9),
+                    (1000.0, 1.5),
+                    (500.0, 2.0),
+                ],
+            ),
+            Design::Small => (
+                vec![
+                    (0.5e-3, 17_900.0),
+                    (1e-3, 11_700.0),
+                    (2e-3, 5_950.0),
+                    (2e-3, 11_700.0),
+                ],
+                vec![(0.0, 0.0), (1000.0, 0.4), (1500.0, 0.8), (1000.0, 1.5)],
+            ),
+        }
+    }
+}
+
+/// What `synth` makes.
+#[derive(Clone, Debug)]
+pub struct SynthSpec {
+    /// The true base parameters (conditions are set per recording).
+    pub base: Params,
+    /// The injected effects.
+    pub effects: Effects,
+    /// Conditions design.
+    pub design: Design,
+    /// Sampling rate [Hz]. Default 10 000. Range 1000 to 1e6.
+    pub rate: f64,
+    /// Force sensor noise, standard deviation [N]. Default 0.02. Range 0 to 1.
+    pub noise_force: f64,
+    /// Displacement sensor noise, standard deviation [m]. Default 5e-8. Range 0 to 1e-5.
+    pub noise_x: f64,
+    /// Stick-slip cycles in the second half of each recording (as `run --min-cycles`). Default 3.
+    pub min_cycles: u32,
+    /// Random seed (noise, drawn magnitudes, track offsets).
+    pub seed: u64,
+}
+
+impl Default for SynthSpec {
+    fn default() -> Self {
+        SynthSpec {
+            base: Params::default(),
+            effects: Effects::none(),
+            design: Design::Full,
+            rate: 10_000.0,
+            noise_force: 0.02,
+            noise_x: 5e-8,
+            min_cycles: 3,
+            seed: 1,
+        }
+    }
+}
+
+/// A bad synthesis option.
+#[derive(Debug, thiserror::Error)]
+#[error("{field} = {value} is not allowed: {allowed}")]
+pub struct SynthError {
+    /// The option.
+    pub field: &'static str,
+    /// Its value.
+    pub value: f64,
+    /// The range.
+    pub allowed: &'static str,
+}
+
+impl SynthSpec {
+    /// Checks the options against their ranges.
+    pub fn validate(&self) -> Result<(), SynthError> {
+        let bad = |field, value, allowed| {
+            Err(SynthError {
+                field,
+                value,
+                allowed,
+            })
+        };
+        if !(1000.0..=1e6).contains(&self.rate) {
+            return bad("rate", self.rate, "1000 <= rate <= 1e6 Hz");
+        }
+        if !(0.0..=1.0).contains(&self.noise_force) {
+            return bad("noise", self.noise_force, "0 <= noise <= 1 N");
+        }
+        if !(0.0..=1e-5).contains(&self.noise_x) {
+            return bad("noise_x", self.noise_x, "0 <= noise_x <= 1e-5 m");
+        }
+        if !(1..=100).contains(&self.min_cycles) {
+            return bad(
+                "min_cycles",
+                self.min_cycles as f64,
+                "1 <= min_cycles <= 100",
+            );
+        }
+        Ok(())
+    }
+
+    /// The conditions of every recording, with names.
+    pub fn conditions(&self) -> Vec<(String, Params)> {
+        let (drives, vibs) = self.design.grid();
+        let mut out = vec![];
+        for (i, &(v_d, k_d)) in drives.iter().enumerate() {
+            for (j, &(f, ratio)) in vibs.iter().enumerate() {
+                let mut p = self.base;
+                p.v_d = v_d;
+                p.k_d = k_d;
+                p.u0 = 0.0;
+                if ratio > 0.0 {
+                    p.f = f;
+                    p.set_v_a(ratio * v_d);
+                }
+                out.push((format!("d{i}_v{j}"), p));
+            }
+        }
+        out
+    }
+}
+
+/// Draws every parameter of `kind` listed in [`REALISTIC`] with `rng`.
+pub fn draw(kind: EffectKind, rng: &mut StdRng) -> Effects {
+    let mut fx = Effects::none();
+    fx.enable(kind);
+    for &(k, name, lo, hi) in &REALISTIC {
+        if k != kind || hi <= lo {
+            continue;
+        }
+        let log = kind
+            .info()
+            .params
+            .iter()
+            .find(|p| p.name == name)
+            .is_some_and(|p| p.log);
+        let u: f64 = rng.random();
+        let v = if log {
+            (lo.ln() + u * (hi.ln() - lo.ln())).exp()
+        } else {
+            lo + u * (hi - lo)
+        };
+        fx.set(kind, name, v)
+            .expect("realistic ranges lie within the bounds");
+    }
+    fx
+}
+
+/// Simulates and writes a campaign into `dir` (created if needed). Returns the recordings.
+pub fn synth(dir: &Path, spec: &SynthSpec) -> Result<Vec<Recording>, CampaignError> {
+    spec.validate().map_err(|e| CampaignError::Io {
+        path: dir.display().to_string(),
+        msg: e.to_string(),
+    })?;
+    std::fs::create_dir_all(dir).map_err(|e| super::io(dir, e))?;
+    let conds = spec.conditions();
+    let dt = 1.0 / spec.rate;
+    let recs: Vec<Result<Recording, CampaignError>> = conds
+        .par_iter()
+        .enumerate()
+        .map_init(Solvers::default, |solvers, (i, (name, p))| {
+            // Per-recording stream: the same campaign whatever the thread count.
+            let mut rng =
+                StdRng::seed_from_u64(spec.seed.wrapping_mul(1_000_003).wrapping_add(i as u64));
+            let mut fx = spec.effects.clone();
+            if let Some(lambda) = fx.get(EffectKind::Track, "wavelength") {
+                // Each recording starts at another place on the track.
+                let off: f64 = rng.random::<f64>() * lambda;
+                fx.set(EffectKind::Track, "offset", off).expect("in range");
+            }
+            let t_end = sim::simulated_time(&p.without_vibration(), spec.min_cycles);
+            let n = (t_end / dt).floor() as usize + 1;
+            let tr = simulate_grid(p, &fx, 0.0, dt, n, solvers).map_err(|e| CampaignError::Io {
+                path: name.clone(),
+                msg: e.to_string(),
+            })?;
+            if tr.status != crate::ode::Status::Success {
+                return Err(CampaignError::Io {
+                    path: name.clone(),
+                    msg: format!("simulation ended with {}", tr.status.name()),
+                });
+            }
+            let mut noise = |s: f64| s * rng.sample::<f64, _>(rand_distr::StandardNormal);
+            let rec = Recording {
+                name: name.clone(),
+                params: *p,
+                t: (0..n).map(|k| k as f64 * dt).collect(),
+                f_d: tr.f_d.iter().map(|v| v + noise(spec.noise_force)).collect(),
+                x_s: tr.x_s.iter().map(|v| v + noise(spec.noise_x)).collect(),
+                x_d: tr.x_d.iter().map(|v| v + noise(spec.noise_x)).collect(),
+            };
+            write_recording(dir, &rec)?;
+            Ok(rec)
+        })
+        .collect();
+    recs.into_iter().collect()
+}

@@ -1,0 +1,454 @@
+//! Each model extension against its defining equation or a closed form, and its behaviour in
+//! stick-slip runs.
+
+use stickslip::model::{EffectKind, Effects, Params, Rig, S, V, X};
+use stickslip::ode::{Method, OdeSystem, Solver};
+use stickslip::sim::{RunOptions, run_case_with, simulate_with};
+
+fn fx(spec: &str) -> Effects {
+    let mut e = Effects::none();
+    e.apply_spec(spec).unwrap();
+    e
+}
+
+/// Friction force from the right-hand side: F_F = F_d − m v'.
+fn friction(rig: &Rig, t: f64, y: &[f64]) -> f64 {
+    let mut dy = vec![0.0; rig.dim()];
+    rig.rhs(t, y, &mut dy);
+    rig.drive_force(t, y) - rig.p.m * dy[V]
+}
+
+fn state(rig: &Rig, x: f64, v: f64, s: f64) -> Vec<f64> {
+    let mut y = rig.initial_state();
+    y[X] = x;
+    y[V] = v;
+    y[S] = s;
+    y
+}
+
+fn dopri(t_end: Option<f64>) -> RunOptions {
+    RunOptions {
+        method: Method::Dopri5,
+        t_end,
+        ..RunOptions::default()
+    }
+}
+
+/// Effects at their neutral values follow exactly the base model's arithmetic.
+#[test]
+fn neutral_effects_reproduce_the_base_model() {
+    let p = Params {
+        k_d: 10_000.0,
+        v_d: 1e-3,
+        f: 1500.0,
+        u0: 0.6e-3 / (std::f64::consts::TAU * 1500.0),
+        ..Params::default()
+    };
+    // Same state, same arithmetic: identical numbers.
+    let mut same_state = fx("stribeck_shape:delta=2");
+    same_state
+        .apply_spec("presliding:elements=1,spread=0")
+        .unwrap();
+    same_state.apply_spec("viscous:h_v=0").unwrap();
+    // An extra state (the contact age) changes the error norm, so only the tolerance binds.
+    let extra_state = fx("aging:b=0");
+    let o = dopri(None);
+    let mut s = Solver::new(Method::Dopri5);
+    let base = run_case_with(&p, &Effects::none(), &o, &mut s).unwrap();
+    for (e, tol) in [(same_state, 1e-6), (extra_state, 1e-4)] {
+        let r = run_case_with(&p, &e, &o, &mut s).unwrap();
+        let (a, b) = (&r.run.measures, &base.run.measures);
+        assert!(
+            (a.d_f - b.d_f).abs() < tol * b.d_f,
+            "{} {a:?} {b:?}",
+            e.describe()
+        );
+        assert!((a.mean_force - b.mean_force).abs() < tol * b.mean_force);
+    }
+}
+
+/// Dieterich ageing: the contact age grows one second per second while stuck, and the static
+/// force follows F_s (1 + b ln(1 + θ/θ_0)); long sticks raise the peaks more than short ones.
+#[test]
+fn aging_raises_static_friction_with_stick_time() {
+    let p = Params {
+        k_d: 17_900.0,
+        v_d: 0.5e-3,
+        ..Params::default()
+    };
+    let e = fx("aging:b=0.04,theta_0=0.01,d_c=1e-6");
+    let rig = Rig::with_effects(p, &e).unwrap();
+    assert_eq!(rig.dim(), 4);
+    let mut y = state(&rig, 0.0, 0.0, 0.0);
+    y[3] = 0.5; // half a second of contact age
+    let mut dy = vec![0.0; 4];
+    rig.rhs(0.0, &y, &mut dy);
+    assert!((dy[3] - 1.0).abs() < 1e-12, "stuck: θ' = 1");
+    // Sliding steadily at v: θ relaxes to D_c / v.
+    y[V] = 1e-3;
+    y[3] = 1e-6 / 1e-3;
+    rig.rhs(0.0, &y, &mut dy);
+    assert!(dy[3].abs() < 1e-9);
+
+    let mut s = Solver::new(Method::Rodas4);
+    let o = RunOptions {
+        method: Method::Rodas4,
+        ..RunOptions::default()
+    };
+    let mut excess = vec![];
+    for (v_d, k_d) in [(0.5e-3, 17_900.0), (2e-3, 11_700.0)] {
+        let q = Params { v_d, k_d, ..p };
+        let b = run_case_with(&q, &Effects::none(), &o, &mut s).unwrap();
+        let a = run_case_with(&q, &e, &o, &mut s).unwrap();
+        let stick = a.run.measures.period;
+        let want = q.f_s * 0.04 * (1.0 + stick / 0.01).ln();
+        let got = a.run.measures.peak_force - b.run.measures.peak_force;
+        // The peak lies a little below F_s(θ) (the drive pulls the contact out before the
+        // full static force), so the excess matches the closed form to within a quarter.
+        assert!(
+            (got / want - 1.0).abs() < 0.25,
+            "stick {stick} s: excess {got} N, law {want} N"
+        );
+        excess.push(got);
+    }
+    assert!(excess[0] > excess[1] + 0.1, "{excess:?}");
+}
+
+/// The actuator's amplitude follows the resonance closed form, and a run with it is the base
+/// run at the actuated amplitude.
+#[test]
+fn actuator_response_scales_the_amplitude_by_the_resonance() {
+    let p = Params {
+        k_d: 10_000.0,
+        v_d: 1e-3,
+        f: 1500.0,
+        u0: 0.5e-3 / (std::f64::consts::TAU * 1500.0),
+        ..Params::default()
+    };
+    let (f_r, zeta) = (3000.0, 0.1);
+    let e = fx(&format!("actuator_response:f_r={f_r},zeta={zeta}"));
+    let q = p.f / f_r;
+    let gain = 1.0 / ((1.0 - q * q).powi(2) + (2.0 * zeta * q).powi(2)).sqrt();
+    let rig = Rig::with_effects(p, &e).unwrap();
+    let amp = rig.substrate_velocity(0.0);
+    assert!((amp / (gain * p.v_a()) - 1.0).abs() < 1e-12);
+    let mut s = Solver::new(Method::Dopri5);
+    let with = run_case_with(&p, &e, &dopri(None), &mut s).unwrap();
+    let scaled = Params {
+        u0: gain * p.u0,
+        ..p
+    };
+    let base = run_case_with(&scaled, &Effects::none(), &dopri(None), &mut s).unwrap();
+    assert!((with.r - base.r).abs() < 1e-6, "{} vs {}", with.r, base.r);
+    assert!(
+        with.r
+            < 0.9
+                * run_case_with(&p, &Effects::none(), &dopri(None), &mut s)
+                    .unwrap()
+                    .r
+    );
+}
+
+/// Normal coupling scales F_c and F_s by the load factor ν(t) = 1 + k_n u(t + φ/ω)/F_N.
+#[test]
+fn normal_coupling_modulates_the_friction_limits() {
+    let p = Params {
+        f: 1000.0,
+        u0: 2e-7,
+        ..Params::default()
+    };
+    let k_n = 3e7;
+    let e = fx(&format!("normal_coupling:k_n={k_n},phase=90"));
+    let rig = Rig::with_effects(p, &e).unwrap();
+    // At t = 0 the load change is k_n u0 (phase 90°: in step with the substrate velocity).
+    let nu = 1.0 + k_n * p.u0 / p.f_n;
+    let scaled = Rig::new(Params {
+        f_c: nu * p.f_c,
+        f_s: nu * p.f_s,
+        ..p
+    })
+    .unwrap();
+    for (v, s) in [(1e-3, 1.0e-7), (-2e-4, -0.5e-7), (0.0, 1.2e-7)] {
+        let y = state(&rig, 0.0, v, s);
+        let (a, b) = (friction(&rig, 0.0, &y), friction(&scaled, 0.0, &y));
+        assert!(
+            (a - b).abs() < 1e-9 * b.abs().max(1.0),
+            "v = {v}: {a} vs {b}"
+        );
+    }
+}
+
+/// A second-order sensor on a force ramp lags by 2ζ/ω_n once its transient has died.
+#[test]
+fn sensor_dynamics_lag_a_ramp_by_two_zeta_over_omega() {
+    let p = Params {
+        k_d: 10_000.0,
+        v_d: 1e-3,
+        ..Params::default()
+    };
+    let (f_n, zeta) = (50.0, 0.5);
+    let e = fx(&format!("sensor_dynamics:f_n={f_n},zeta={zeta}"));
+    let o = RunOptions {
+        method: Method::Rodas4,
+        t_end: Some(0.6),
+        trace: true,
+        ..RunOptions::default()
+    };
+    let r = simulate_with(&p, &e, &o, &mut Solver::new(Method::Rodas4)).unwrap();
+    let tr = r.trace.unwrap();
+    let lag = 2.0 * zeta / (std::f64::consts::TAU * f_n);
+    // The body sticks until F_d reaches about F_s (1.15 s); check between 0.2 and 0.6 s.
+    for i in 0..tr.t.len() {
+        let t = tr.t[i];
+        if t > 0.2 {
+            let true_force = p.k_d * (p.v_d * t - tr.x_s[i]);
+            let want = true_force - p.k_d * p.v_d * lag;
+            assert!(
+                (tr.f_d[i] - want).abs() < 2e-3,
+                "t = {t}: {} vs {want}",
+                tr.f_d[i]
+            );
+        }
+    }
+}
+
+/// During the first loading the body sticks, so the drive's position error appears in the
+/// force as k_d a sin(2π v_d t / λ).
+#[test]
+fn drive_ripple_shows_in_the_loading_force() {
+    let p = Params {
+        k_d: 10_000.0,
+        v_d: 1e-3,
+        ..Params::default()
+    };
+    let (a, lambda) = (5e-6, 0.2e-3);
+    let e = fx(&format!("drive_ripple:a={a},wavelength={lambda}"));
+    let o = RunOptions {
+        method: Method::Rodas4,
+        t_end: Some(0.8),
+        trace: true,
+        ..RunOptions::default()
+    };
+    let tr = simulate_with(&p, &e, &o, &mut Solver::new(Method::Rodas4))
+        .unwrap()
+        .trace
+        .unwrap();
+    let mut worst: f64 = 0.0;
+    for i in 0..tr.t.len() {
+        let t = tr.t[i];
+        let want = p.k_d * (p.v_d * t + a * (std::f64::consts::TAU * p.v_d * t / lambda).sin());
+        assert!(
+            (tr.x_d[i] - (p.v_d * t + a * (std::f64::consts::TAU * p.v_d * t / lambda).sin()))
+                .abs()
+                < 1e-15
+        );
+        worst = worst.max((tr.f_d[i] - want).abs());
+    }
+    // The stuck body creeps by F/k_t (below 0.2 µm): 1e4 N/m × 0.2 µm = 2 mN.
+    assert!(worst < 3e-3 && p.k_d * a > 0.04, "{worst}");
+}
+
+/// Viscous friction adds h_v v_r to the friction force, exactly.
+#[test]
+fn viscous_adds_h_v_times_slip_velocity() {
+    let p = Params::default();
+    let h_v = 40.0;
+    let rig = Rig::with_effects(p, &fx(&format!("viscous:h_v={h_v}"))).unwrap();
+    let base = Rig::new(p).unwrap();
+    for (v, s) in [(2e-3, 1.5e-7), (-1e-3, -1e-7), (0.0, 0.3e-7)] {
+        let y = state(&rig, 0.0, v, s);
+        let d = friction(&rig, 0.0, &y) - friction(&base, 0.0, &y);
+        assert!((d - h_v * v).abs() < 1e-9, "v = {v}: {d}");
+    }
+}
+
+/// In steady sliding the bristle rests at s = g(v) and friction is the Stribeck curve
+/// F_c + (F_s − F_c) exp(−|v/v_s|^δ) (+ h_v v).
+#[test]
+fn stribeck_shape_sets_the_steady_friction_curve() {
+    let p = Params::default();
+    for delta in [0.7, 1.0, 3.5] {
+        let rig = Rig::with_effects(p, &fx(&format!("stribeck_shape:delta={delta}"))).unwrap();
+        for v in [0.5 * p.v_s, p.v_s, 3.0 * p.v_s] {
+            let ss = p.f_c + (p.f_s - p.f_c) * (-(v / p.v_s).powf(delta)).exp();
+            let y = state(&rig, 0.0, v, ss / p.k_t);
+            let mut dy = vec![0.0; rig.dim()];
+            rig.rhs(0.0, &y, &mut dy);
+            assert!(dy[S].abs() < 1e-12 * v.max(1e-9) + 1e-15, "s' = {}", dy[S]);
+            assert!(
+                (friction(&rig, 0.0, &y) - ss).abs() < 1e-9,
+                "δ = {delta}, v = {v}"
+            );
+        }
+    }
+}
+
+/// Maxwell-slip presliding keeps the steady friction (the elements' breakaway deformations
+/// average to g) but makes the body creep before breakaway.
+#[test]
+fn presliding_keeps_steady_friction_and_rounds_the_breakaway() {
+    let p = Params {
+        k_d: 10_000.0,
+        v_d: 1e-3,
+        ..Params::default()
+    };
+    let (n, spread) = (4usize, 0.6);
+    let rig =
+        Rig::with_effects(p, &fx(&format!("presliding:elements={n},spread={spread}"))).unwrap();
+    assert_eq!(rig.dim(), 3 + n - 1);
+    let v = 2e-3;
+    let g = (p.f_c + (p.f_s - p.f_c) * (-(v / p.v_s).powi(2)).exp()) / p.k_t;
+    let mut y = rig.initial_state();
+    y[V] = v;
+    for e in 0..n {
+        let alpha = 1.0 + spread * (2.0 * e as f64 / (n - 1) as f64 - 1.0);
+        let i = if e == 0 { S } else { 3 + e - 1 };
+        y[i] = alpha * g;
+    }
+    let mut dy = vec![0.0; rig.dim()];
+    rig.rhs(0.0, &y, &mut dy);
+    assert!(dy[S].abs() < 1e-15 && dy[3..].iter().all(|d| d.abs() < 1e-15));
+    assert!((friction(&rig, 0.0, &y) - g * p.k_t).abs() < 1e-9);
+
+    // First loading to 97 % of F_s: the weakest elements yield and the body creeps further.
+    let o = RunOptions {
+        method: Method::Rodas4,
+        t_end: Some(1.3),
+        trace: true,
+        ..RunOptions::default()
+    };
+    let mut s = Solver::new(Method::Rodas4);
+    let creep = |fx: &Effects, s: &mut Solver| {
+        let tr = simulate_with(&p, fx, &o, s).unwrap().trace.unwrap();
+        let i = tr.f_d.iter().position(|f| *f > 0.97 * p.f_s).unwrap();
+        tr.x_s[i]
+    };
+    let base = creep(&Effects::none(), &mut s);
+    let with = creep(
+        &fx(&format!("presliding:elements={n},spread={spread}")),
+        &mut s,
+    );
+    assert!(with > 1.2 * base, "creep {with} m vs {base} m");
+}
+
+/// Frictional lag: the lagged velocity relaxes at 1/τ towards v_r; the Stribeck curve follows
+/// it, so a sudden slip meets static friction for about τ.
+#[test]
+fn frictional_lag_delays_the_stribeck_curve() {
+    let p = Params::default();
+    let tau = 2e-3;
+    let rig = Rig::with_effects(p, &fx(&format!("frictional_lag:tau={tau}"))).unwrap();
+    let base = Rig::new(p).unwrap();
+    let v = 2e-3;
+    let mut y = state(&rig, 0.0, v, 1e-7);
+    let mut dy = vec![0.0; rig.dim()];
+    // Lagged velocity still at rest.
+    y[3] = 0.0;
+    rig.rhs(0.0, &y, &mut dy);
+    assert!((dy[3] - v / tau).abs() < 1e-12);
+    // Friction with w = 0 uses g(0) = F_s/k_t; with w = v it is the base model's.
+    let b = Rig::new(Params { v_s: 1e9, ..p }).unwrap(); // g ≡ F_s/k_t
+    let yb = state(&b, 0.0, v, 1e-7);
+    assert!((friction(&rig, 0.0, &y) - friction(&b, 0.0, &yb)).abs() < 1e-9);
+    y[3] = v;
+    let yb = state(&base, 0.0, v, 1e-7);
+    assert!((friction(&rig, 0.0, &y) - friction(&base, 0.0, &yb)).abs() < 1e-9);
+
+    // With vibration the lag filters the oscillating slip velocity out of the Stribeck curve
+    // and changes how much the vibration reduces stick-slip.
+    let q = Params {
+        k_d: 10_000.0,
+        v_d: 1e-3,
+        f: 1500.0,
+        u0: 0.8e-3 / (std::f64::consts::TAU * 1500.0),
+        ..p
+    };
+    let mut s = Solver::new(Method::Dopri5);
+    let a = run_case_with(&q, &fx("frictional_lag:tau=2e-3"), &dopri(None), &mut s).unwrap();
+    let b = run_case_with(&q, &Effects::none(), &dopri(None), &mut s).unwrap();
+    assert!((a.r - b.r).abs() > 0.05, "r {} vs {}", a.r, b.r);
+}
+
+/// Friction along the track: F_c and F_s scale by 1 + a sin(2π (x + x_0)/λ).
+#[test]
+fn track_friction_varies_with_position() {
+    let p = Params::default();
+    let (a, lambda, x0) = (0.1, 0.7e-3, 0.1e-3);
+    let rig = Rig::with_effects(
+        p,
+        &fx(&format!("track:a={a},wavelength={lambda},offset={x0}")),
+    )
+    .unwrap();
+    for x in [0.0, 0.3e-3, 1.1e-3] {
+        let k = 1.0 + a * (std::f64::consts::TAU * (x + x0) / lambda).sin();
+        let scaled = Rig::new(Params {
+            f_c: k * p.f_c,
+            f_s: k * p.f_s,
+            ..p
+        })
+        .unwrap();
+        let y = state(&rig, x, 1e-3, 1e-7);
+        let ys = state(&scaled, x, 1e-3, 1e-7);
+        assert!((friction(&rig, 0.0, &y) - friction(&scaled, 0.0, &ys)).abs() < 1e-9);
+    }
+    assert!(!EffectKind::candidates().contains(&EffectKind::Track));
+}
+
+/// The finite-difference Jacobian of the extended model drives the implicit solvers to the
+/// explicit method's answer.
+#[test]
+fn implicit_and_explicit_agree_with_all_effects_on() {
+    let p = Params {
+        k_d: 11_700.0,
+        v_d: 1e-3,
+        ..Params::default()
+    };
+    let mut e = Effects::none();
+    for s in [
+        "aging:b=0.03",
+        "sensor_dynamics:f_n=300,zeta=0.05",
+        "presliding:spread=0.5",
+        "frictional_lag:tau=5e-4",
+        "viscous:h_v=20",
+        "stribeck_shape:delta=1.2",
+        "drive_ripple:a=3e-6,wavelength=3e-4",
+    ] {
+        e.apply_spec(s).unwrap();
+    }
+    let mut out = vec![];
+    for m in [Method::Radau5, Method::Rodas4, Method::Dopri5] {
+        let o = RunOptions {
+            method: m,
+            ..RunOptions::default()
+        };
+        let r = run_case_with(&p, &e, &o, &mut Solver::new(m)).unwrap();
+        out.push(r.run.measures);
+    }
+    for m in &out[1..] {
+        assert!(
+            (m.d_f / out[0].d_f - 1.0).abs() < 0.01,
+            "{m:?} vs {:?}",
+            out[0]
+        );
+        assert!((m.mean_force / out[0].mean_force - 1.0).abs() < 0.005);
+    }
+}
+
+/// Bad effect parameters are rejected with the effect, parameter, value and range.
+#[test]
+fn effect_parameters_are_bounded() {
+    let mut e = Effects::none();
+    let err = e
+        .apply_spec("sensor_dynamics:zeta=5")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("sensor_dynamics.zeta = 5") && err.contains("[0.005, 2]"),
+        "{err}"
+    );
+    let err = e.apply_spec("wear").unwrap_err().to_string();
+    assert!(
+        err.contains("unknown effect `wear`") && err.contains("frictional_lag"),
+        "{err}"
+    );
+}
