@@ -198,3 +198,179 @@ fn bench_writes_a_work_precision_table_whose_error_falls_with_the_tolerance() {
     assert_eq!(bad.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&bad.stderr).contains("no_vibration"));
 }
+
+#[test]
+fn synth_then_diagnose_writes_the_verdict_json_hdf5_and_plots() {
+    let dir = tempfile::tempdir().unwrap();
+    let camp = dir.path().join("camp");
+    let truth = dir.path().join("truth.json");
+    let c = camp.to_str().unwrap();
+    let out = stickslip(&[
+        "synth",
+        c,
+        "--design",
+        "small",
+        "--rate",
+        "5000",
+        "--min-cycles",
+        "2",
+        "--effect",
+        "viscous:h_v=45",
+        "--seed",
+        "5",
+        "--truth",
+        truth.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let t: serde_json::Value = serde_json::from_slice(&std::fs::read(&truth).unwrap()).unwrap();
+    assert_eq!(t["effects"]["viscous"]["h_v"], 45.0);
+    // The truth stays outside the campaign; the conditions files hold conditions only.
+    let cond = std::fs::read_to_string(camp.join("d0_v1.toml")).unwrap();
+    assert!(
+        cond.contains("v_d") && !cond.contains("h_v") && !cond.contains("F_s"),
+        "{cond}"
+    );
+    // Writing over recordings needs --overwrite.
+    let again = stickslip(&["synth", c, "--design", "small"]);
+    assert_eq!(again.status.code(), Some(2));
+
+    let res = dir.path().join("diag");
+    let json = dir.path().join("verdict.json");
+    let out = stickslip(&[
+        "diagnose",
+        c,
+        "--out",
+        res.to_str().unwrap(),
+        "--json",
+        json.to_str().unwrap(),
+        "--candidates",
+        "viscous,stribeck_shape,sensor_dynamics",
+    ]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{text}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(text.contains("verdict: viscous explains the gap"), "{text}");
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+    assert_eq!(v["verdict"], "effect");
+    assert_eq!(v["best_effect"], "viscous");
+    for k in ["gap_before", "gap_after", "reduction"] {
+        assert!(v[k].is_number(), "{k}: {v}");
+    }
+    let rank = v["ranking"].as_array().unwrap();
+    assert_eq!(rank.len(), 3);
+    assert_eq!(rank[0]["effect"], "viscous");
+    let h_v = rank[0]["params"]["viscous.h_v"]["value"].as_f64().unwrap();
+    let se = rank[0]["params"]["viscous.h_v"]["stderr"].as_f64().unwrap();
+    assert!(
+        (h_v - 45.0).abs() < (4.0 * se).max(5.0),
+        "h_v = {h_v} ± {se}"
+    );
+    for k in ["features", "phases", "conditions"] {
+        assert!(!v["where"][k].as_array().unwrap().is_empty(), "{k}");
+    }
+    for f in [
+        "traces.png",
+        "traces.svg",
+        "gap_conditions.png",
+        "diagnosis.h5",
+    ] {
+        assert!(res.join(f).exists(), "{f}");
+    }
+    python("check_diagnosis.py", &[&res.join("diagnosis.h5"), &json]);
+
+    let out = stickslip(&["calibrate", c, "--effect", "viscous", "--max-iter", "3"]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success() && text.contains("viscous.h_v = ") && text.contains("F_s = "),
+        "{text}"
+    );
+}
+
+#[test]
+fn malformed_campaigns_and_effects_are_rejected_with_file_line_and_range() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("a.toml"), "v_d = 1e-3\nk_d = 1e4\nf = 0\nu0 = 0\n").unwrap();
+    let mut csv = String::from("t,F_d,x_s,x_d\n");
+    for i in 0..300 {
+        csv += &format!(
+            "{},{},0,0\n",
+            i as f64 * 1e-3,
+            if i == 99 { "x" } else { "1" }
+        );
+    }
+    std::fs::write(d.join("a.csv"), csv).unwrap();
+    let out = stickslip(&["diagnose", d.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("a.csv:101") && err.contains("`x` is not a number"),
+        "{err}"
+    );
+
+    let out = stickslip(&["run", "--effect", "aging:b=2"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("aging.b = 2") && err.contains("[0, 0.5]"),
+        "{err}"
+    );
+
+    let case = d.join("case.toml");
+    std::fs::write(&case, "k_d = 1e4\n[effects.stribeck_shape]\ndelta = 0.1\n").unwrap();
+    let out = stickslip(&["run", "--case", case.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("case.toml:3") && err.contains("delta"),
+        "{err}"
+    );
+}
+
+#[test]
+fn run_with_an_effect_from_a_case_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let case = dir.path().join("case.toml");
+    std::fs::write(
+        &case,
+        "k_d = 1e4\nv_d = 1e-3\n[effects.viscous]\nh_v = 40\n",
+    )
+    .unwrap();
+    let h5 = dir.path().join("o.h5");
+    let with = stickslip(&[
+        "run",
+        "--case",
+        case.to_str().unwrap(),
+        "--json",
+        "-o",
+        h5.to_str().unwrap(),
+    ]);
+    let base = stickslip(&[
+        "run",
+        "--k-d",
+        "1e4",
+        "--v-d",
+        "1e-3",
+        "--json",
+        "-o",
+        h5.to_str().unwrap(),
+    ]);
+    let get = |o: &Output| -> f64 {
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        v["dF"].as_f64().unwrap()
+    };
+    // Viscous friction damps the slip: a smaller saw-tooth.
+    assert!(
+        get(&with) < 0.9 * get(&base),
+        "{} vs {}",
+        get(&with),
+        get(&base)
+    );
+}

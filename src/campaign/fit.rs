@@ -11,8 +11,10 @@
 //! damped normal equations as the least-squares problem `[J; √λ D] δ = [−z; 0]` with faer's
 //! column-pivoted QR. The Jacobian is a forward difference with steps of a few per cent in the
 //! fitted coordinates (logarithms of positive quantities): the vibrated runs are sensitive to
-//! initial conditions, so finer steps would differentiate noise. Parameter uncertainties are
-//! `s √diag((JᵀJ)⁻¹)` with `s² = Σz² / (m − p)`.
+//! initial conditions, so finer steps would differentiate noise. After an accepted step the
+//! Jacobian is updated by Broyden's rank-one formula instead of differenced again (differenced
+//! afresh when the updated one fails to give a descent step). Parameter uncertainties are
+//! `s √diag((JᵀJ)⁻¹)` with `s² = Σz² / (m − p)`, from a fresh Jacobian at the optimum.
 
 use super::features::{FEATURES, Feature, FeatureSet, extract};
 use super::{Recording, Solvers, simulate_grid};
@@ -99,8 +101,12 @@ impl Coord {
             Err(2) => m.v_s = x,
             Err(_) => m.h_d = x,
             Ok((k, i)) => {
-                let name = k.info().params[i].name;
-                m.effects.set(k, name, x).expect("clamped to the bounds");
+                let info = &k.info().params[i];
+                // exp(ln(max)) may land an ulp outside the bound.
+                let x = x.clamp(info.min, info.max);
+                if let Some((_, vals)) = m.effects.list.iter_mut().find(|(kk, _)| *kk == k) {
+                    vals[i] = x;
+                }
             }
         }
     }
@@ -272,7 +278,15 @@ fn predict_one(model: &Model, rec: &Recording, solvers: &mut Solvers) -> Feature
         stderr: [f64::NAN; 11],
         cycles: 0,
     };
-    match simulate_grid(&p, &model.effects, rec.t[0], rec.dt(), rec.t.len(), solvers) {
+    match simulate_grid(
+        &p,
+        &model.effects,
+        rec.t[0],
+        rec.dt(),
+        rec.t.len(),
+        super::FIT_TOLERANCE,
+        solvers,
+    ) {
         Ok(tr) if tr.status == crate::ode::Status::Success => {
             let f = if rec.vibrates() { p.f } else { 0.0 };
             extract(&tr.f_d, &tr.x_d, rec.dt(), f)
@@ -296,6 +310,9 @@ pub struct FitOptions {
     pub max_iter: usize,
     /// Stop when an iteration lowers the cost by less than this share. Default 1e-3.
     pub rel_tol: f64,
+    /// Difference the Jacobian afresh at the optimum for the uncertainties (otherwise they
+    /// come from the Broyden-updated one). Default true.
+    pub final_jacobian: bool,
 }
 
 impl Default for FitOptions {
@@ -303,6 +320,7 @@ impl Default for FitOptions {
         FitOptions {
             max_iter: 8,
             rel_tol: 1e-3,
+            final_jacobian: true,
         }
     }
 }
@@ -370,16 +388,12 @@ pub fn fit(
     let (mut cost, mut z) = cost_of(target, &build(&theta));
     let mut evaluations = 1;
     let mut lambda = 1e-2;
-    let mut jac = Mat::<f64>::zeros(z.len(), p);
-    for _ in 0..opts.max_iter {
-        if !cost.is_finite() || z.is_empty() {
-            break;
-        }
-        // Forward-difference Jacobian: all p perturbed models in one parallel batch.
+    let fd_jacobian = |theta: &[f64], z: &[f64]| -> Mat<f64> {
+        // Forward differences: all p perturbed models in one parallel batch.
         let cols: Vec<Vec<f64>> = (0..p)
             .into_par_iter()
             .map(|j| {
-                let mut th = theta.clone();
+                let mut th = theta.to_vec();
                 let c = &cs[j];
                 // Step inward at an upper bound.
                 let h = if th[j] + c.step > c.hi {
@@ -392,22 +406,28 @@ pub fn fit(
                 if zj.len() != z.len() {
                     return vec![0.0; z.len()];
                 }
-                zj.iter().zip(&z).map(|(a, b)| (a - b) / h).collect()
+                zj.iter().zip(z).map(|(a, b)| (a - b) / h).collect()
             })
             .collect();
-        evaluations += p;
-        jac = Mat::from_fn(z.len(), p, |i, j| cols[j][i]);
+        Mat::from_fn(z.len(), p, |i, j| cols[j][i])
+    };
+    let mut jac = Mat::<f64>::zeros(z.len(), p);
+    // Whether `jac` is a fresh finite-difference Jacobian (else a Broyden update of one).
+    let mut fresh = false;
+    let mut iter = 0;
+    while iter < opts.max_iter && cost.is_finite() && !z.is_empty() {
+        iter += 1;
+        if iter == 1 {
+            jac = fd_jacobian(&theta, &z);
+            evaluations += p;
+            fresh = true;
+        }
+        let m = z.len();
         let diag: Vec<f64> = (0..p)
-            .map(|j| {
-                (0..z.len())
-                    .map(|i| jac[(i, j)].powi(2))
-                    .sum::<f64>()
-                    .max(1e-12)
-            })
+            .map(|j| (0..m).map(|i| jac[(i, j)].powi(2)).sum::<f64>().max(1e-12))
             .collect();
-        let mut improved = false;
+        let mut accepted = None;
         for _ in 0..4 {
-            let m = z.len();
             let a = Mat::from_fn(m + p, p, |i, j| {
                 if i < m {
                     jac[(i, j)]
@@ -424,20 +444,49 @@ pub fn fit(
                 .collect();
             let (c1, z1) = cost_of(target, &build(&trial));
             evaluations += 1;
-            if c1 < cost && z1.len() == z.len() {
-                let rel = (cost - c1) / cost;
-                theta = trial;
-                cost = c1;
-                z = z1;
+            if c1 < cost && z1.len() == m {
+                accepted = Some((trial, c1, z1));
                 lambda = (lambda / 3.0).max(1e-7);
-                improved = rel > opts.rel_tol;
                 break;
             }
             lambda *= 4.0;
         }
-        if !improved {
-            break;
+        match accepted {
+            Some((trial, c1, z1)) => {
+                let rel = (cost - c1) / cost;
+                // Broyden's rank-one update: J += (Δz − J δ) δᵀ / δᵀδ, instead of p new runs.
+                let d: Vec<f64> = (0..p).map(|j| trial[j] - theta[j]).collect();
+                let dd: f64 = d.iter().map(|x| x * x).sum();
+                if dd > 0.0 {
+                    for i in 0..m {
+                        let jd: f64 = (0..p).map(|j| jac[(i, j)] * d[j]).sum();
+                        let u = (z1[i] - z[i] - jd) / dd;
+                        for j in 0..p {
+                            jac[(i, j)] += u * d[j];
+                        }
+                    }
+                }
+                fresh = false;
+                theta = trial;
+                cost = c1;
+                z = z1;
+                if rel <= opts.rel_tol {
+                    break;
+                }
+            }
+            // An updated Jacobian that no longer points downhill: difference afresh once.
+            None if !fresh => {
+                jac = fd_jacobian(&theta, &z);
+                evaluations += p;
+                fresh = true;
+                lambda = 1e-2;
+            }
+            None => break,
         }
+    }
+    if opts.final_jacobian && !fresh && !z.is_empty() && cost.is_finite() {
+        jac = fd_jacobian(&theta, &z);
+        evaluations += p;
     }
     let model = build(&theta);
     // Uncertainties from the last Jacobian.

@@ -6,7 +6,7 @@ use super::features::FEATURES;
 use super::fit::{Estimate, FitResult, Model};
 use super::{Campaign, Recording, Solvers, simulate_grid};
 use crate::output::{self, OutputError, ds_attr_str, h5err, write_vec};
-use crate::plot::{Figure, PlotError, SIZE, render};
+use crate::plot::{Figure, PlotError, render};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use serde_json::json;
@@ -318,6 +318,7 @@ fn simulated_force(rec: &Recording, m: &Model) -> Vec<f64> {
         rec.t[0],
         rec.dt(),
         rec.t.len(),
+        super::FIT_TOLERANCE,
         &mut s,
     )
     .map(|t| t.f_d)
@@ -392,9 +393,12 @@ impl Figure for GapMap<'_> {
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), String> {
         let e = |x: DrawingAreaErrorKind<DB::ErrorType>| x.to_string();
         let root = root
-            .titled("Gap per recording over the conditions (circles: base model; crosses: best candidate)", ("sans-serif", 22))
+            .titled(
+                "Gap per recording (circles: calibrated base model, crosses: top candidate; red: held out)",
+                ("sans-serif", 20),
+            )
             .map_err(e)?;
-        let areas = root.split_evenly((1, 2));
+        let areas = root.split_evenly((2, 3));
         let recs = &self.d.location.recordings;
         let ymax = recs
             .iter()
@@ -402,40 +406,42 @@ impl Figure for GapMap<'_> {
             .filter(|v| v.is_finite())
             .fold(1.0f64, f64::max)
             * 1.1;
-        for (a, (k, label)) in areas
-            .iter()
-            .zip([(3usize, "v_a / v_d"), (4, "stick time [s]")])
-        {
-            let xmax = recs
-                .iter()
-                .map(|r| r.conditions[k])
-                .fold(0.0f64, f64::max)
-                .max(1e-3)
-                * 1.1;
+        let labels = [
+            "v_d [mm/s]",
+            "k_d [kN/m]",
+            "f [kHz] (0: no vibration)",
+            "v_a / v_d",
+            "stick time [s]",
+            "k_t u0 / F_c",
+        ];
+        let unit = [1e3, 1e-3, 1e-3, 1.0, 1.0, 1.0];
+        for (k, a) in areas.iter().enumerate() {
+            let label = labels[k];
+            let x = |r: &super::diagnose::RecordingGap| r.conditions[k] * unit[k];
+            let xmax = recs.iter().map(x).fold(0.0f64, f64::max).max(1e-3) * 1.1;
             let mut ch = ChartBuilder::on(a)
-                .margin(14)
-                .x_label_area_size(40)
-                .y_label_area_size(60)
+                .margin(10)
+                .x_label_area_size(36)
+                .y_label_area_size(50)
                 .build_cartesian_2d(0.0..xmax, 0.0..ymax)
                 .map_err(e)?;
             ch.configure_mesh()
                 .x_desc(label)
-                .y_desc("gap E (1 = within noise)")
-                .label_style(("sans-serif", 16))
+                .y_desc("gap E")
+                .label_style(("sans-serif", 13))
                 .draw()
                 .map_err(e)?;
             ch.draw_series(recs.iter().map(|r| {
                 let col = if r.held_out { RED } else { BLUE };
-                Circle::new((r.conditions[k], r.gap_base), 5, col.stroke_width(2))
+                Circle::new((x(r), r.gap_base), 5, col.stroke_width(2))
             }))
             .map_err(e)?;
             ch.draw_series(recs.iter().filter(|r| r.gap_best.is_finite()).map(|r| {
                 let col = if r.held_out { RED } else { BLUE };
-                Cross::new((r.conditions[k], r.gap_best), 5, col.stroke_width(2))
+                Cross::new((x(r), r.gap_best), 5, col.stroke_width(2))
             }))
             .map_err(e)?;
         }
-        let _ = SIZE;
         Ok(())
     }
 }

@@ -1,0 +1,37 @@
+"""Checks a `stickslip diagnose` HDF5 file with h5py against its JSON verdict.
+
+Usage: python3 check_diagnosis.py diagnosis.h5 diagnosis.json
+"""
+import json
+import sys
+
+import h5py
+import numpy as np
+
+path, json_path = sys.argv[1], sys.argv[2]
+v = json.load(open(json_path))
+with h5py.File(path, "r") as f:
+    a = f.attrs
+    assert a["verdict"] == v["verdict"], (a["verdict"], v["verdict"])
+    assert a["best_effect"] == (v["best_effect"] or ""), a["best_effect"]
+    assert json.loads(a["json"])["verdict"] == v["verdict"]
+    g = f["recordings"]
+    n = v["recordings"]
+    for k in ("gap_base", "gap_best", "held_out", "v_d", "k_d", "f", "va_ratio", "stick_time"):
+        assert g[k].shape == (n,), (k, g[k].shape)
+    names = g["gap_base"].attrs["recordings"].split(",")
+    assert len(names) == n
+    held = [names[i] for i in range(n) if g["held_out"][i] == 1.0]
+    assert held == v["held_out"], (held, v["held_out"])
+    for rec in v["where"]["recordings"]:
+        i = names.index(rec["name"])
+        assert abs(g["gap_base"][i] - rec["gap_base"]) < 1e-12
+    for feat in ("peak", "trough", "dF", "period", "mean_force", "stick_slope"):
+        assert g["z_base"][feat].shape == (n,), feat
+    r = f["ranking"]
+    keys = sorted(r.keys())
+    assert [k.split("_", 1)[1] for k in keys] == [x["effect"] for x in v["ranking"]], keys
+    top = r[keys[0]]
+    assert abs(top["gap_after"][0] - v["ranking"][0]["gap_after"]) < 1e-12
+    assert f["calibration"]["F_s"].attrs["units"] == "N"
+print("ok")
