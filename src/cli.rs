@@ -99,7 +99,7 @@ pub struct CalibrateArgs {
     #[arg(long, value_name = "NAME")]
     pub effect: Option<String>,
     /// Levenberg-Marquardt iterations at most (1 to 100).
-    #[arg(long, default_value_t = 10)]
+    #[arg(long, default_value_t = 12)]
     pub max_iter: usize,
     /// Write the estimates as JSON to this file.
     #[arg(long, value_name = "FILE")]
@@ -121,7 +121,7 @@ pub struct DiagnoseArgs {
     #[arg(long, value_delimiter = ',')]
     pub candidates: Vec<String>,
     /// Levenberg-Marquardt iterations at most per fit (1 to 100).
-    #[arg(long, default_value_t = 8)]
+    #[arg(long, default_value_t = 12)]
     pub max_iter: usize,
     /// Skip the plots.
     #[arg(long)]

@@ -112,8 +112,9 @@ impl Coord {
     }
 }
 
-/// The fitted coordinates: `F_s`, `F_c`, `v_s`, and `h_d` for the base calibration; with an
-/// effect, its fitted parameters with `F_s`, `F_c` and `v_s` (`h_d` stays at its start).
+/// The fitted coordinates: `F_s`, `F_c`, `v_s` and `h_d`, and an effect's fitted parameters.
+/// The base parameters are refitted with every effect: an effect left out of the base model
+/// is partly absorbed by them (viscous friction by the drive damping `h_d`, ageing by `F_s`).
 fn coords(effect: Option<EffectKind>) -> Vec<Coord> {
     let base = |i: usize, name: &str, unit, log, lo: f64, hi: f64, step| Coord {
         name: name.to_string(),
@@ -131,7 +132,6 @@ fn coords(effect: Option<EffectKind>) -> Vec<Coord> {
         base(3, "h_d", "N s/m", false, 0.0, 200.0, 1.0),
     ];
     if let Some(k) = effect {
-        c.pop();
         for (i, p) in k.info().params.iter().enumerate() {
             if !p.fitted {
                 continue;
@@ -306,7 +306,7 @@ pub fn gap(z: &[f64]) -> f64 {
 /// Options of a fit.
 #[derive(Clone, Copy, Debug)]
 pub struct FitOptions {
-    /// Levenberg–Marquardt iterations at most. Default 8.
+    /// Levenberg–Marquardt iterations at most. Default 12.
     pub max_iter: usize,
     /// Stop when an iteration lowers the cost by less than this share. Default 1e-3.
     pub rel_tol: f64,
@@ -318,7 +318,7 @@ pub struct FitOptions {
 impl Default for FitOptions {
     fn default() -> Self {
         FitOptions {
-            max_iter: 8,
+            max_iter: 12,
             rel_tol: 1e-3,
             final_jacobian: true,
         }
@@ -466,12 +466,19 @@ pub fn fit(
                         }
                     }
                 }
+                let was_fresh = fresh;
                 fresh = false;
                 theta = trial;
                 cost = c1;
                 z = z1;
                 if rel <= opts.rel_tol {
-                    break;
+                    if was_fresh {
+                        break;
+                    }
+                    // Small progress on an updated Jacobian: check with a fresh one first.
+                    jac = fd_jacobian(&theta, &z);
+                    evaluations += p;
+                    fresh = true;
                 }
             }
             // An updated Jacobian that no longer points downhill: difference afresh once.
@@ -537,12 +544,16 @@ pub fn evaluate(target: &Target, model: &Model) -> f64 {
 }
 
 /// Starting values for an effect's fitted parameters: the best of a small scan over their
-/// realistic ranges ([`super::synth::REALISTIC`]; low, middle and high of each), and for the
-/// drive ripple the wavelength and amplitude read off the recorded drive position.
+/// realistic ranges ([`super::synth::REALISTIC`]; low, middle and high of each), each on the
+/// calibrated base parameters and on the defaults (a calibration without the effect may have
+/// absorbed it: ageing into `F_s`, viscous friction into `h_d`); for the drive ripple, the
+/// wavelength and amplitude read off the recorded drive position.
 pub fn starts(target: &Target, base: &Model, kind: EffectKind) -> (Model, usize) {
     let mut candidates: Vec<Model> = vec![];
     let mut m0 = base.clone();
     m0.effects.enable(kind);
+    let mut d0 = Model::default();
+    d0.effects = m0.effects.clone();
     if kind == EffectKind::DriveRipple {
         if let Some((a, lambda)) = ripple_from_drive(&target.recs) {
             let mut m = m0.clone();
@@ -578,16 +589,18 @@ pub fn starts(target: &Target, base: &Model, kind: EffectKind) -> (Model, usize)
             .collect();
     }
     for g in grid {
-        let mut m = m0.clone();
-        for (n, v) in g {
-            let _ = m.effects.set(kind, n, v);
+        for start in [&m0, &d0] {
+            let mut m = start.clone();
+            for &(n, v) in &g {
+                let _ = m.effects.set(kind, n, v);
+            }
+            candidates.push(m);
         }
-        candidates.push(m);
     }
     if candidates.len() <= 1 {
         return (candidates.pop().unwrap_or(m0), 0);
     }
-    let costs: Vec<f64> = candidates.iter().map(|m| evaluate(target, m)).collect();
+    let costs: Vec<f64> = candidates.par_iter().map(|m| evaluate(target, m)).collect();
     let best = (0..costs.len())
         .min_by(|&a, &b| costs[a].total_cmp(&costs[b]))
         .unwrap();

@@ -10,20 +10,20 @@ use std::path::Path;
 
 /// Realistic magnitudes of each effect, from which `synth --draw` picks values uniformly
 /// (log-uniformly for parameters fitted on a log scale): `(effect, parameter, low, high)`.
-/// They span what test stands show (an 80 to 160 Hz load cell carrying a heavy frame, a 2.5 to
+/// They span what test stands show (a 40 to 80 Hz load cell carrying a heavy frame, a 2.5 to
 /// 5 kHz piezo-saddle resonance, a few micrometres of screw error, a normal load that swings by
 /// a few to twenty per cent with the tangential vibration, ...).
 pub const REALISTIC: [(EffectKind, &str, f64, f64); 15] = [
-    (EffectKind::Aging, "b", 0.02, 0.05),
+    (EffectKind::Aging, "b", 0.03, 0.06),
     (EffectKind::ActuatorResponse, "f_r", 2500.0, 5000.0),
     (EffectKind::ActuatorResponse, "zeta", 0.05, 0.2),
     (EffectKind::NormalCoupling, "k_n", 2e7, 6e7),
-    (EffectKind::SensorDynamics, "f_n", 80.0, 160.0),
+    (EffectKind::SensorDynamics, "f_n", 40.0, 80.0),
     (EffectKind::SensorDynamics, "zeta", 0.02, 0.08),
     (EffectKind::DriveRipple, "a", 4e-6, 10e-6),
     (EffectKind::DriveRipple, "wavelength", 0.2e-3, 0.5e-3),
-    (EffectKind::Viscous, "h_v", 20.0, 60.0),
-    (EffectKind::StribeckShape, "delta", 0.8, 1.3),
+    (EffectKind::Viscous, "h_v", 40.0, 100.0),
+    (EffectKind::StribeckShape, "delta", 0.5, 1.0),
     (EffectKind::Presliding, "spread", 0.5, 0.9),
     (EffectKind::FrictionalLag, "tau", 0.5e-3, 2e-3),
     (EffectKind::Track, "a", 0.08, 0.15),
