@@ -677,6 +677,24 @@ mod tests {
     use super::*;
 
     #[test]
+    fn effects_tables_apply_to_every_point() {
+        let text = "[fixed]\nv_d = 1e-3\n[[axis]]\nname = \"k_d\"\nvalues = [5000, 10000]\n[effects.aging]\nb = 0.02\n[effects.viscous]\n";
+        let s = SweepSpec::parse("fx.toml", text).unwrap();
+        assert_eq!(
+            s.effects.get(crate::model::EffectKind::Aging, "b"),
+            Some(0.02)
+        );
+        assert_eq!(
+            s.effects.get(crate::model::EffectKind::Viscous, "h_v"),
+            Some(50.0)
+        );
+        let e = SweepSpec::parse("fx.toml", "[effects.aging]\nb = 3\n").unwrap_err();
+        assert_eq!((e.line, e.key.as_str()), (2, "effects.aging.b"), "{e}");
+        let e = SweepSpec::parse("fx.toml", "[effects.wear]\n").unwrap_err();
+        assert!(e.msg.contains("unknown effect"), "{e}");
+    }
+
+    #[test]
     fn grids_are_computed_by_index_with_exact_ends() {
         let v = linspace(0.0, 4.0, 41);
         assert_eq!(v.len(), 41);
