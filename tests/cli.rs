@@ -215,7 +215,7 @@ fn synth_then_diagnose_writes_the_verdict_json_hdf5_and_plots() {
         "--min-cycles",
         "2",
         "--effect",
-        "viscous:h_v=45",
+        "viscous:h_v=80",
         "--seed",
         "5",
         "--truth",
@@ -227,7 +227,7 @@ fn synth_then_diagnose_writes_the_verdict_json_hdf5_and_plots() {
         String::from_utf8_lossy(&out.stderr)
     );
     let t: serde_json::Value = serde_json::from_slice(&std::fs::read(&truth).unwrap()).unwrap();
-    assert_eq!(t["effects"]["viscous"]["h_v"], 45.0);
+    assert_eq!(t["effects"]["viscous"]["h_v"], 80.0);
     // The truth stays outside the campaign; the conditions files hold conditions only.
     let cond = std::fs::read_to_string(camp.join("d0_v1.toml")).unwrap();
     assert!(
@@ -268,8 +268,9 @@ fn synth_then_diagnose_writes_the_verdict_json_hdf5_and_plots() {
     assert_eq!(rank[0]["effect"], "viscous");
     let h_v = rank[0]["params"]["viscous.h_v"]["value"].as_f64().unwrap();
     let se = rank[0]["params"]["viscous.h_v"]["stderr"].as_f64().unwrap();
+    // Recovered to within 15 % (the drive damping h_d shares the slip damping with it).
     assert!(
-        (h_v - 45.0).abs() < (4.0 * se).max(5.0),
+        (h_v / 80.0 - 1.0).abs() < 0.15 && se > 0.0,
         "h_v = {h_v} ± {se}"
     );
     for k in ["features", "phases", "conditions"] {
