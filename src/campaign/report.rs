@@ -56,8 +56,13 @@ pub fn json(c: &Campaign, d: &Diagnosis) -> serde_json::Value {
             "gap": num(d.base.gap),
             "evaluations": d.base.evaluations,
         },
-        "ranking": d.ranking.iter().map(|r| json!({
+        "ranking": d.ranking.iter().enumerate().map(|(i, r)| json!({
             "effect": r.effect.name(),
+            "stderr_from": if i == 0 {
+                "finite-difference Jacobian at the optimum"
+            } else {
+                "Broyden-updated Jacobian at the optimum (approximate)"
+            },
             "gap_after": num(r.gap_after),
             "reduction": num(r.reduction),
             "score": num(r.score),
