@@ -3,9 +3,9 @@
 //!
 //! The residuals are the standardised feature differences
 //! `z = (simulated − measured) / σ`, `σ² = se_measured² + se_simulated² + floor²`
-//! ([`super::features::Feature::floor`]), over every feature the recording defines, each softly
-//! capped at [`Z_CAP`] = 5. The gap of a model on a set of recordings is `E = √(mean z²)`: about
-//! 1 when the model explains the data to within their noise and the floors, at most 5.
+//! ([`super::features::Feature::floor`]), over every feature the recording defines. The gap of a
+//! model on a set of recordings is `E = √(mean z²)`: about 1 when the model explains the data to
+//! within their noise and the floors.
 //!
 //! The minimiser is Levenberg–Marquardt with Marquardt's diagonal scaling; each step solves the
 //! damped normal equations as the least-squares problem `[J; √λ D] δ = [−z; 0]` with faer's
@@ -250,13 +250,7 @@ impl<'a> Target<'a> {
     }
 }
 
-/// Largest weight of one standardised difference: each counts as `Z_CAP tanh(z / Z_CAP)`, so a
-/// recording that sits on a regime boundary (stick-slip on in the data, off in the model, near
-/// v_a = v_d) weighs like a few clear misses, not like the whole campaign.
-pub const Z_CAP: f64 = 5.0;
-
-/// The standardised difference of one feature, softly capped at [`Z_CAP`] (None where the
-/// measurement does not define it).
+/// The standardised difference of one feature (None where the measurement does not define it).
 pub fn zscore(m: &FeatureSet, p: &FeatureSet, f: Feature) -> Option<f64> {
     let i = f as usize;
     let mv = m.value[i];
@@ -274,7 +268,7 @@ pub fn zscore(m: &FeatureSet, p: &FeatureSet, f: Feature) -> Option<f64> {
     let se = |s: f64| if s.is_finite() { s * s } else { 0.0 };
     let fl = f.floor(mv);
     let sigma = (se(m.stderr[i]) + se(p.stderr[i]) + fl * fl).sqrt();
-    Some(Z_CAP * ((pv - mv) / sigma / Z_CAP).tanh())
+    Some((pv - mv) / sigma)
 }
 
 fn predict_one(model: &Model, rec: &Recording, solvers: &mut Solvers) -> FeatureSet {
