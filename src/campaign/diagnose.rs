@@ -15,8 +15,9 @@
 //! **Decision.** With `E0`, `E1` the held-out gaps of the calibrated base model and of the best
 //! candidate (ranked by `E1 (1 + 0.05 k)` with `k` the effect's fitted parameters):
 //! - `no_significant_gap` when `E0 <` [`SIGNIFICANT_GAP`];
-//! - `effect` when the best candidate cuts the gap by at least [`MIN_REDUCTION`] and its score is
-//!   at most [`CLEAR_MARGIN`] times the runner-up's;
+//! - `effect` when the best candidate cuts the gap by at least [`MIN_REDUCTION`], lowers the gap
+//!   of at least [`MIN_BREADTH`] of the held-out recordings, and its score is at most
+//!   [`CLEAR_MARGIN`] times the runner-up's;
 //! - `unexplained` otherwise.
 
 use super::Campaign;
@@ -30,6 +31,10 @@ pub const SIGNIFICANT_GAP: f64 = 2.0;
 pub const MIN_REDUCTION: f64 = 0.5;
 /// The best candidate's score must be at most this share of the runner-up's.
 pub const CLEAR_MARGIN: f64 = 0.8;
+/// Share of held-out recordings whose own gap the named effect must lower: an effect explains a
+/// gap across the conditions, not one recording (such as a run on the edge of elimination,
+/// stick-slip on in the data and off in the model, whose gap any flexible candidate can trade).
+pub const MIN_BREADTH: f64 = 0.6;
 /// Penalty per fitted effect parameter in the ranking score.
 pub const PARAM_PENALTY: f64 = 0.05;
 
@@ -139,6 +144,8 @@ pub struct Diagnosis {
     pub gap_after: f64,
     /// `(E0 − E1) / E0`.
     pub reduction: f64,
+    /// Share of held-out recordings whose gap the top candidate lowers.
+    pub breadth: f64,
     /// The base calibration on the calibration split.
     pub base: FitResult,
     /// Candidates, best first.
@@ -149,6 +156,22 @@ pub struct Diagnosis {
     pub held_out: Vec<String>,
     /// Wall time [s].
     pub wall_time: f64,
+}
+
+/// The gap of each recording of a set under a model.
+fn per_recording(t: &Target, model: &Model) -> Vec<f64> {
+    let pred = t.predict(model);
+    t.measured
+        .iter()
+        .zip(&pred)
+        .map(|(m, p)| {
+            let z: Vec<f64> = FEATURES
+                .iter()
+                .filter_map(|&f| fit::zscore(m, p, f))
+                .collect();
+            fit::gap(&z)
+        })
+        .collect()
 }
 
 /// Which recordings are held out (see the module docs).
@@ -274,12 +297,23 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Diagnosis {
         top.fit.estimates = f.estimates;
         top.fit.evaluations += f.evaluations;
     }
+    // Breadth: the share of held-out recordings whose own gap the top candidate lowers.
+    let breadth = match ranking.first() {
+        Some(top) => {
+            let before = per_recording(&test, &base.model);
+            let after = per_recording(&test, &top.fit.model);
+            let better = before.iter().zip(&after).filter(|(b, a)| a < b).count();
+            better as f64 / before.len().max(1) as f64
+        }
+        None => 0.0,
+    };
     let (verdict, best) = if gap_before < SIGNIFICANT_GAP {
         (Verdict::NoSignificantGap, None)
     } else {
         match ranking.as_slice() {
             [b, rest @ ..]
                 if b.reduction >= MIN_REDUCTION
+                    && breadth >= MIN_BREADTH
                     && rest
                         .first()
                         .is_none_or(|r| b.score <= CLEAR_MARGIN * r.score) =>
@@ -299,6 +333,7 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Diagnosis {
         gap_before,
         gap_after,
         reduction: (gap_before - gap_after) / gap_before,
+        breadth,
         base,
         ranking,
         location,
@@ -416,7 +451,19 @@ fn locate(c: &Campaign, held: &[bool], base: &Model, best: Option<&Model>) -> Wh
         }
     };
     let with_vibration = (mean_gap(true), mean_gap(false));
-    let summary = describe(&features, &phases, &conditions, with_vibration);
+    let mut summary = describe(&features, &phases, &conditions, with_vibration);
+    let sq: Vec<f64> = recordings.iter().map(|r| r.gap_base * r.gap_base).collect();
+    let total_sq: f64 = sq.iter().sum();
+    if let Some(i) = (0..sq.len()).max_by(|&a, &b| sq[a].total_cmp(&sq[b])) {
+        if total_sq > 0.0 && sq[i] / total_sq > 0.3 {
+            summary += &format!(
+                " Recording {} alone carries {:.0} % of it (gap {:.2}).",
+                recordings[i].name,
+                100.0 * sq[i] / total_sq,
+                recordings[i].gap_base
+            );
+        }
+    }
     Where {
         features,
         phases,

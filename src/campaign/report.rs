@@ -45,7 +45,9 @@ pub fn json(c: &Campaign, d: &Diagnosis) -> serde_json::Value {
         "gap_before": num(d.gap_before),
         "gap_after": num(d.gap_after),
         "reduction": num(d.reduction),
+        "breadth": num(d.breadth),
         "thresholds": {
+            "min_breadth": super::diagnose::MIN_BREADTH,
             "significant_gap": super::diagnose::SIGNIFICANT_GAP,
             "min_reduction": super::diagnose::MIN_REDUCTION,
             "clear_margin": super::diagnose::CLEAR_MARGIN,
