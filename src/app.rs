@@ -134,7 +134,7 @@ pub fn calibrate_cmd(a: &CalibrateArgs) -> Result<(), AppError> {
     let f = match effect {
         None => base,
         Some(k) => {
-            let (start, _) = campaign::fit::starts(&target, &base.model, k);
+            let start = campaign::fit::starts(&target, &base.model, k);
             campaign::fit::fit(&target, &start, Some(k), opts)
         }
     };

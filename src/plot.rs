@@ -73,7 +73,8 @@ pub fn render(stem: &Path, fig: &impl Figure) -> Result<Vec<PathBuf>, PlotError>
     Ok(vec![png, svg])
 }
 
-fn bounds(v: impl Iterator<Item = f64>) -> (f64, f64) {
+/// The range of the finite values, padded by 5 % ((0, 1) when there are none).
+pub(crate) fn bounds(v: impl Iterator<Item = f64>) -> (f64, f64) {
     let (lo, hi) = v
         .filter(|x| x.is_finite())
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {

@@ -446,6 +446,8 @@ fn effect_parameters_are_bounded() {
         err.contains("sensor_dynamics.zeta = 5") && err.contains("[0.005, 2]"),
         "{err}"
     );
+    let err = e.apply_spec("aging:b=abc").unwrap_err().to_string();
+    assert!(err.contains("aging.b = `abc` is not a number"), "{err}");
     let err = e.apply_spec("wear").unwrap_err().to_string();
     assert!(
         err.contains("unknown effect `wear`") && err.contains("frictional_lag"),

@@ -158,22 +158,6 @@ pub struct Diagnosis {
     pub wall_time: f64,
 }
 
-/// The gap of each recording of a set under a model.
-fn per_recording(t: &Target, model: &Model) -> Vec<f64> {
-    let pred = t.predict(model);
-    t.measured
-        .iter()
-        .zip(&pred)
-        .map(|(m, p)| {
-            let z: Vec<f64> = FEATURES
-                .iter()
-                .filter_map(|&f| fit::zscore(m, p, f))
-                .collect();
-            fit::gap(&z)
-        })
-        .collect()
-}
-
 /// Which recordings are held out (see the module docs).
 pub fn split(c: &Campaign) -> Vec<bool> {
     let key = |p: &crate::model::Params| (p.v_d.to_bits(), p.k_d.to_bits(), p.f_n.to_bits());
@@ -268,7 +252,7 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Diagnosis {
         .candidates
         .iter()
         .map(|&k| {
-            let (start_model, _) = fit::starts(&cal, &base.model, k);
+            let start_model = fit::starts(&cal, &base.model, k);
             // Uncertainties only for the winner (below): its fresh Jacobian is p more runs.
             let quick = FitOptions {
                 final_jacobian: false,
@@ -297,16 +281,13 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Diagnosis {
         top.fit.estimates = f.estimates;
         top.fit.evaluations += f.evaluations;
     }
-    // Breadth: the share of held-out recordings whose own gap the top candidate lowers.
-    let breadth = match ranking.first() {
-        Some(top) => {
-            let before = per_recording(&test, &base.model);
-            let after = per_recording(&test, &top.fit.model);
-            let better = before.iter().zip(&after).filter(|(b, a)| a < b).count();
-            better as f64 / before.len().max(1) as f64
-        }
-        None => 0.0,
-    };
+    // Per-recording gaps of the base and the top-ranked candidate (named or not), over all
+    // recordings; the held-out ones give the breadth: the share whose gap the top one lowers.
+    let top_model = ranking.first().map(|b| b.fit.model.clone());
+    let location = locate(c, &held, &base.model, top_model.as_ref());
+    let held_gaps: Vec<&RecordingGap> = location.recordings.iter().filter(|r| r.held_out).collect();
+    let better = held_gaps.iter().filter(|r| r.gap_best < r.gap_base).count();
+    let breadth = better as f64 / held_gaps.len().max(1) as f64;
     let (verdict, best) = if gap_before < SIGNIFICANT_GAP {
         (Verdict::NoSignificantGap, None)
     } else {
@@ -324,9 +305,6 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Diagnosis {
         }
     };
     let gap_after = best.map(|b| b.gap_after).unwrap_or(gap_before);
-    // The top-ranked candidate's model, named or not, for the per-recording comparison.
-    let top_model = ranking.first().map(|b| b.fit.model.clone());
-    let location = locate(c, &held, &base.model, top_model.as_ref());
     Diagnosis {
         verdict,
         best_effect: best.map(|b| b.effect),
@@ -368,13 +346,9 @@ fn locate(c: &Campaign, held: &[bool], base: &Model, best: Option<&Model>) -> Wh
                 zs.push(z);
             }
         }
-        let gap_best = pred_best.as_ref().map_or(f64::NAN, |pb| {
-            let z: Vec<f64> = FEATURES
-                .iter()
-                .filter_map(|&f| fit::zscore(m, &pb[i], f))
-                .collect();
-            fit::gap(&z)
-        });
+        let gap_best = pred_best
+            .as_ref()
+            .map_or(f64::NAN, |pb| fit::gap(&fit::zscores(m, &pb[i])));
         let p = &rec.params;
         let period = m.get(Feature::Period);
         let slip = m.get(Feature::SlipTime);

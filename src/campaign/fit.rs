@@ -238,16 +238,17 @@ impl<'a> Target<'a> {
     /// defines, in a fixed layout; a feature the model does not produce (no cycles) counts 0,
     /// since dF carries that difference.
     pub fn residuals(&self, pred: &[FeatureSet]) -> Vec<f64> {
-        let mut z = vec![];
-        for (m, p) in self.measured.iter().zip(pred) {
-            for f in FEATURES {
-                if let Some(v) = zscore(m, p, f) {
-                    z.push(v);
-                }
-            }
-        }
-        z
+        self.measured
+            .iter()
+            .zip(pred)
+            .flat_map(|(m, p)| zscores(m, p))
+            .collect()
     }
+}
+
+/// The standardised differences of every feature the measurement defines, in [`FEATURES`] order.
+pub fn zscores(m: &FeatureSet, p: &FeatureSet) -> Vec<f64> {
+    FEATURES.iter().filter_map(|&f| zscore(m, p, f)).collect()
 }
 
 /// The standardised difference of one feature (None where the measurement does not define it).
@@ -548,7 +549,7 @@ pub fn evaluate(target: &Target, model: &Model) -> f64 {
 /// calibrated base parameters and on the defaults (a calibration without the effect may have
 /// absorbed it: ageing into `F_s`, viscous friction into `h_d`); for the drive ripple, the
 /// wavelength and amplitude read off the recorded drive position.
-pub fn starts(target: &Target, base: &Model, kind: EffectKind) -> (Model, usize) {
+pub fn starts(target: &Target, base: &Model, kind: EffectKind) -> Model {
     let mut candidates: Vec<Model> = vec![];
     let mut m0 = base.clone();
     m0.effects.enable(kind);
@@ -559,7 +560,7 @@ pub fn starts(target: &Target, base: &Model, kind: EffectKind) -> (Model, usize)
             let mut m = m0.clone();
             let _ = m.effects.set(kind, "a", a.clamp(0.0, 1e-3));
             let _ = m.effects.set(kind, "wavelength", lambda.clamp(1e-6, 0.1));
-            return (m, 0);
+            return m;
         }
     }
     let ranges: Vec<(&str, f64, f64, bool)> = super::synth::REALISTIC
@@ -598,13 +599,13 @@ pub fn starts(target: &Target, base: &Model, kind: EffectKind) -> (Model, usize)
         }
     }
     if candidates.len() <= 1 {
-        return (candidates.pop().unwrap_or(m0), 0);
+        return candidates.pop().unwrap_or(m0);
     }
     let costs: Vec<f64> = candidates.par_iter().map(|m| evaluate(target, m)).collect();
     let best = (0..costs.len())
         .min_by(|&a, &b| costs[a].total_cmp(&costs[b]))
         .unwrap();
-    (candidates.swap_remove(best), costs.len())
+    candidates.swap_remove(best)
 }
 
 /// Amplitude and wavelength of a sinusoidal drive error, from the recorded drive position:

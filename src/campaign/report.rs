@@ -289,31 +289,32 @@ pub fn write_h5(path: &Path, c: &Campaign, d: &Diagnosis) -> Result<(), OutputEr
                 "held-out reduction",
                 &tmp,
             )?;
-            for e in &r.fit.estimates {
-                write_vec(
-                    &eg,
-                    &e.name,
-                    &[e.value, e.stderr],
-                    e.unit,
-                    "value, standard uncertainty",
-                    &tmp,
-                )?;
-            }
+            write_estimates(&eg, &r.fit.estimates, &tmp)?;
         }
         let cg = root.create_group("calibration").map_err(h5err(&tmp))?;
-        for e in &d.base.estimates {
-            write_vec(
-                &cg,
-                &e.name,
-                &[e.value, e.stderr],
-                e.unit,
-                "value, standard uncertainty",
-                &tmp,
-            )?;
-        }
+        write_estimates(&cg, &d.base.estimates, &tmp)?;
         f.close().map_err(h5err(&tmp))?;
     }
     std::fs::rename(&tmp, path).map_err(output::ioerr(path))
+}
+
+/// One dataset `[value, standard uncertainty]` per fitted parameter, with its unit.
+fn write_estimates(
+    g: &rust_hdf5::H5Group,
+    es: &[Estimate],
+    path: &Path,
+) -> Result<(), OutputError> {
+    for e in es {
+        write_vec(
+            g,
+            &e.name,
+            &[e.value, e.stderr],
+            e.unit,
+            "value, standard uncertainty",
+            path,
+        )?;
+    }
+    Ok(())
 }
 
 /// Simulated force of a recording under a model.
@@ -345,23 +346,14 @@ impl Figure for Overlay<'_> {
         // The last fifth of the recording: a few cycles, readable.
         let i0 = n - n / 5;
         let t = &self.t[i0..];
-        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-        for (_, y, _) in &self.series {
-            for v in y.iter().skip(i0).filter(|v| v.is_finite()) {
-                lo = lo.min(*v);
-                hi = hi.max(*v);
-            }
-        }
-        if !lo.is_finite() {
-            (lo, hi) = (0.0, 1.0);
-        }
-        let pad = 0.05 * (hi - lo).max(1e-6);
+        let (lo, hi) =
+            crate::plot::bounds(self.series.iter().flat_map(|s| s.1[i0..].iter().copied()));
         let mut ch = ChartBuilder::on(root)
             .caption(&self.title, ("sans-serif", 24))
             .margin(12)
             .x_label_area_size(40)
             .y_label_area_size(70)
-            .build_cartesian_2d(t[0]..t[t.len() - 1], (lo - pad)..(hi + pad))
+            .build_cartesian_2d(t[0]..t[t.len() - 1], lo..hi)
             .map_err(e)?;
         ch.configure_mesh()
             .x_desc("t [s]")

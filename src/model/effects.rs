@@ -431,6 +431,16 @@ pub enum EffectError {
         /// Its parameters.
         allowed: String,
     },
+    /// A value that does not parse as a number (`--effect aging:b=abc`).
+    #[error("{effect}.{name} = `{text}` is not a number; write NAME:key=value,key=value")]
+    NotANumber {
+        /// The effect.
+        effect: &'static str,
+        /// The key given.
+        name: String,
+        /// The text given.
+        text: String,
+    },
     /// A value out of its physical range.
     #[error("{effect}.{name} = {value} {unit} is not allowed: must lie in [{min}, {max}]")]
     OutOfRange {
@@ -535,19 +545,10 @@ impl Effects {
         self.enable(kind);
         for kv in rest.split(',').filter(|s| !s.trim().is_empty()) {
             let (k, v) = kv.split_once('=').unwrap_or((kv, ""));
-            let x: f64 = v.trim().parse().map_err(|_| EffectError::OutOfRange {
+            let x: f64 = v.trim().parse().map_err(|_| EffectError::NotANumber {
                 effect: kind.name(),
-                name: kind
-                    .info()
-                    .params
-                    .iter()
-                    .find(|p| p.name == k.trim())
-                    .map(|p| p.name)
-                    .unwrap_or("?"),
-                value: f64::NAN,
-                unit: "",
-                min: f64::NAN,
-                max: f64::NAN,
+                name: k.trim().to_string(),
+                text: v.trim().to_string(),
             })?;
             self.set(kind, k.trim(), x)?;
         }

@@ -363,13 +363,7 @@ impl OdeSystem for Rig {
 
     fn time_derivative(&self, t: f64, y: &[f64], dfdt: &mut [f64], scratch: &mut [f64]) {
         if self.fx.any {
-            let dt = f64::EPSILON.sqrt() * t.abs().max(1e-3);
-            self.rhs(t, y, scratch);
-            self.rhs(t + dt, y, dfdt);
-            for (d, s) in dfdt.iter_mut().zip(scratch.iter()) {
-                *d = (*d - *s) / dt;
-            }
-            return;
+            return crate::ode::fd_time_derivative(self, t, y, dfdt, scratch);
         }
         let p = &self.p;
         let v_r = self.relative_velocity(t, y);

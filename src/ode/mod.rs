@@ -53,12 +53,7 @@ pub trait OdeSystem {
     /// The default is a one-sided finite difference with step `√ε·max(|t|, 1e-3)`; `scratch` has
     /// length `n`. Systems with an explicit time dependence should override it.
     fn time_derivative(&self, t: f64, y: &[f64], dfdt: &mut [f64], scratch: &mut [f64]) {
-        let dt = f64::EPSILON.sqrt() * t.abs().max(1e-3);
-        self.rhs(t, y, scratch);
-        self.rhs(t + dt, y, dfdt);
-        for (d, s) in dfdt.iter_mut().zip(scratch.iter()) {
-            *d = (*d - *s) / dt;
-        }
+        fd_time_derivative(self, t, y, dfdt, scratch);
     }
 
     /// Characteristic size of component `i`, in its own unit (default 1).
@@ -68,6 +63,23 @@ pub trait OdeSystem {
     /// deformation of 1e-7 m).
     fn scale(&self, _i: usize) -> f64 {
         1.0
+    }
+}
+
+/// `∂f/∂t` by a forward difference in `t` (the default of [`OdeSystem::time_derivative`],
+/// callable by systems that have an analytic form only for some configurations).
+pub fn fd_time_derivative<S: OdeSystem + ?Sized>(
+    sys: &S,
+    t: f64,
+    y: &[f64],
+    dfdt: &mut [f64],
+    scratch: &mut [f64],
+) {
+    let dt = f64::EPSILON.sqrt() * t.abs().max(1e-3);
+    sys.rhs(t, y, scratch);
+    sys.rhs(t + dt, y, dfdt);
+    for (d, s) in dfdt.iter_mut().zip(scratch.iter()) {
+        *d = (*d - *s) / dt;
     }
 }
 
