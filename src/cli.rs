@@ -455,6 +455,12 @@ pub struct RunArgs {
     #[arg(long)]
     pub no_early_stop: bool,
 
+    /// Envelope following with vibration: skip whole vibration periods where the state sampled
+    /// once per period drifts smoothly, with this extrapolation tolerance per jump (1e-8 to 0.1,
+    /// in units of each state's characteristic size).
+    #[arg(long, value_name = "TOL", allow_negative_numbers = true)]
+    pub envelope: Option<f64>,
+
     /// Print the results as one JSON object on stdout (no other output there).
     #[arg(long)]
     pub json: bool,
@@ -607,6 +613,9 @@ impl RunArgs {
         }
         if self.no_early_stop {
             o.early_stop = false;
+        }
+        if let Some(v) = self.envelope {
+            o.envelope = Some(v);
         }
         o.trace = true;
         o.validate().map_err(|e| CliError::Flag {

@@ -20,6 +20,7 @@
 //! min_cycles = 3
 //! samples_per_period = 16
 //! early_stop = true  # end once steady sliding is established
+//! envelope = 1e-4    # skip vibration periods where the envelope is smooth (omitted: off)
 //! ```
 
 use crate::model::effects::{self, EffectKind, Effects};
@@ -293,11 +294,18 @@ pub fn apply_run(doc: &Doc, table: &toml::Table, o: &mut RunOptions) -> Result<(
                     .ok_or_else(|| doc.err(sec, k, "expected a whole number from 4 to 4096"))?;
                 o.samples_per_period = n as usize;
             }
+            "early_stop" => {
+                o.early_stop = v
+                    .as_bool()
+                    .ok_or_else(|| doc.err(sec, k, "expected true or false"))?;
+            }
+            "envelope" => o.envelope = Some(doc.number(sec, k, v)?),
             _ => {
                 return Err(doc.err(
                     sec,
                     k,
-                    "unknown key; allowed: t_end, min_cycles, samples_per_period",
+                    "unknown key; allowed: t_end, min_cycles, samples_per_period, early_stop, \
+                     envelope",
                 ));
             }
         }

@@ -3,7 +3,9 @@
 
 use crate::measures::{Analyzer, DROP_THRESHOLD, Measures, STICK_VELOCITY};
 use crate::model::{Effects, Params, Rig, RigError, V, X};
-use crate::ode::{Method, OdeSystem, OptionError, Options, OutputGrid, Solver, Stats, Status};
+use crate::ode::{
+    Envelope, Method, OdeSystem, OptionError, Options, OutputGrid, Solver, Stats, Status,
+};
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
 
@@ -32,6 +34,11 @@ pub struct RunOptions {
     /// End a run early once steady sliding is established (see [`EARLY_STOP_RANGE`]); applies
     /// to the automatic simulated time only. Default true.
     pub early_stop: bool,
+    /// Envelope following for runs with vibration: the extrapolation tolerance of one jump over
+    /// whole vibration periods (see [`ode::Envelope`](crate::ode::Envelope)), in units of each
+    /// state's characteristic size; `None` integrates every period. Default `None`.
+    /// Range 1e-8 to 0.1.
+    pub envelope: Option<f64>,
 }
 
 /// Early stop: the smoothed drive force over the second half of the run so far must stay within
@@ -53,6 +60,7 @@ impl Default for RunOptions {
             trace: false,
             trace_points: 400_000,
             early_stop: true,
+            envelope: None,
         }
     }
 }
@@ -86,6 +94,11 @@ impl RunOptions {
                 self.samples_per_period as f64,
                 "4 <= samples_per_period <= 4096",
             );
+        }
+        if let Some(tol) = self.envelope {
+            if !(1e-8..=0.1).contains(&tol) {
+                return bad("envelope", tol, "1e-8 <= envelope <= 0.1");
+            }
         }
         if self.trace_points < 100 {
             return bad(
@@ -290,7 +303,21 @@ fn integrate(rig: &Rig, t_end: f64, opts: &RunOptions, solver: &mut Solver) -> R
         count,
     };
     let mut idx = 0u64;
-    let rep = solver.solve_until(rig, 0.0, t_end, &mut y, &opts.ode, grid, |t, y| {
+    let envelope = opts
+        .envelope
+        .filter(|_| p.vibrates())
+        .map(|tol| envelope_for(p, k, tol));
+    let env = envelope.as_ref();
+    // The slopes of the envelope are differences of integrated states: integrate finer.
+    let ode = match env {
+        Some(e) => Options {
+            rtol: e.inner_tolerance(opts.ode.rtol),
+            atol: e.inner_tolerance(opts.ode.atol),
+            ..opts.ode.clone()
+        },
+        None => opts.ode.clone(),
+    };
+    let rep = solver.solve_envelope(rig, 0.0, t_end, &mut y, &ode, grid, env, |t, y| {
         // The force the sensor records (the drive force itself without sensor dynamics).
         let f = rig.measured_force(t, y);
         let v_r = rig.relative_velocity(t, y);
@@ -336,6 +363,17 @@ fn integrate(rig: &Rig, t_end: f64, opts: &RunOptions, solver: &mut Solver) -> R
         window_start,
         wall_time: start.elapsed().as_secs_f64(),
         trace,
+    }
+}
+
+/// Envelope settings of a run: `k` samples per period, the given tolerance, and jumps of at most
+/// a fiftieth of the stick-slip cycle (so a jump never hides more than 2 % of a loading ramp).
+fn envelope_for(p: &Params, k: usize, tol: f64) -> Envelope {
+    let per_cycle = p.cycle_estimate() * p.f;
+    Envelope {
+        tol,
+        max_jump: ((per_cycle / 50.0).floor() as u64).max(2),
+        ..Envelope::new(k as u64)
     }
 }
 

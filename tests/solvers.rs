@@ -498,3 +498,120 @@ fn a_solver_is_reusable_and_gives_identical_runs() {
     assert_eq!(a.0, b.0);
     assert_eq!(a.1, b.1);
 }
+
+/// A damped oscillator driven by a slow quadratic ramp and a fast sine,
+/// `x'' + 2ζω₀ x' + ω₀² x = ω₀² (b t² + A sin Ωt)`, started on its steady solution
+/// `x = b t² + c₁ t + c₀ + X sin(Ωt − φ)` (closed form: `c₁ = −4ζb/ω₀`,
+/// `c₀ = −(2b + 2ζω₀c₁)/ω₀²`, `X = ω₀²A/√((ω₀² − Ω²)² + (2ζω₀Ω)²)`). Its state sampled once per
+/// forcing period follows a parabola: the case envelope following is built for.
+struct Ramped;
+const RAMP: (f64, f64, f64, f64, f64) = (
+    std::f64::consts::TAU * 3000.0, // ω₀: the free motion decays within a forcing period
+    0.5,                            // ζ
+    1.0,                            // b
+    1.0,                            // A
+    std::f64::consts::TAU * 1000.0, // Ω
+);
+impl OdeSystem for Ramped {
+    fn dim(&self) -> usize {
+        2
+    }
+    fn rhs(&self, t: f64, y: &[f64], dy: &mut [f64]) {
+        let (w0, z, b, a, w) = RAMP;
+        dy[0] = y[1];
+        dy[1] = w0 * w0 * (b * t * t + a * (w * t).sin() - y[0]) - 2.0 * z * w0 * y[1];
+    }
+    fn jacobian(&self, _t: f64, _y: &[f64], j: &mut [f64]) {
+        let (w0, z, ..) = RAMP;
+        j.copy_from_slice(&[0.0, 1.0, -w0 * w0, -2.0 * z * w0]);
+    }
+}
+fn ramped(t: f64) -> [f64; 2] {
+    let (w0, z, b, a, w) = RAMP;
+    let c1 = -4.0 * z * b / w0;
+    let c0 = -(2.0 * b + 2.0 * z * w0 * c1) / (w0 * w0);
+    let (re, im) = (w0 * w0 - w * w, 2.0 * z * w0 * w);
+    let x = w0 * w0 * a / (re * re + im * im).sqrt();
+    let phi = im.atan2(re);
+    [
+        b * t * t + c1 * t + c0 + x * (w * t - phi).sin(),
+        2.0 * b * t + c1 + x * w * (w * t - phi).cos(),
+    ]
+}
+
+#[test]
+fn envelope_following_skips_periods_and_stays_on_the_closed_form() {
+    use stickslip::ode::Envelope;
+    let (period, samples) = (1e-3, 16u64);
+    let grid = OutputGrid {
+        start: 0.0,
+        step: period / samples as f64,
+        count: 2000 * samples + 1,
+    };
+    let t1 = grid.time(grid.count - 1);
+    let env = Envelope {
+        tol: 1e-3,
+        ..Envelope::new(samples)
+    };
+    assert!(env.validate().is_ok());
+    for method in [Method::Dopri5, Method::Rodas4] {
+        let o = opts(1e-8, 1e-8);
+        let mut y = ramped(0.0).to_vec();
+        let (mut worst, mut seen, mut last_t) = (0.0f64, 0u64, -1.0);
+        let rep = Solver::new(method).solve_envelope(
+            &Ramped,
+            0.0,
+            t1,
+            &mut y,
+            &o,
+            grid,
+            Some(&env),
+            |t, y| {
+                assert!(t > last_t, "output times must increase");
+                last_t = t;
+                seen += 1;
+                // Position error relative to the oscillation amplitude plus the ramp.
+                worst = worst.max((y[0] - ramped(t)[0]).abs() / (1.0 + t * t));
+                true
+            },
+        );
+        assert_eq!(rep.status, Status::Success, "{method}");
+        assert_eq!(
+            seen, grid.count,
+            "{method}: every output time observed once"
+        );
+        let skipped = rep.stats.skipped_periods;
+        assert!(
+            skipped > 1500,
+            "{method}: only {skipped} of 2000 periods skipped"
+        );
+        // Each jump's extrapolation error is held below tol; the damping keeps them from adding up.
+        assert!(worst < 2.0 * env.tol, "{method}: worst error {worst:.2e}");
+        // Without envelope following: same problem, every period integrated, no skips.
+        let mut y = ramped(0.0).to_vec();
+        let direct = Solver::new(method).solve(&Ramped, 0.0, t1, &mut y, &o, grid, |_, _| {});
+        assert_eq!(direct.stats.skipped_periods, 0);
+        assert!(
+            direct.stats.rhs_evals > 4 * rep.stats.rhs_evals,
+            "{method}: envelope {} vs direct {} right-hand sides",
+            rep.stats.rhs_evals,
+            direct.stats.rhs_evals
+        );
+    }
+}
+
+#[test]
+fn envelope_options_are_validated_with_the_bound_quoted() {
+    use stickslip::ode::Envelope;
+    let e = Envelope {
+        tol: 0.5,
+        ..Envelope::new(16)
+    };
+    let err = e.validate().unwrap_err();
+    assert_eq!(err.field, "envelope.tol");
+    assert!(err.allowed.contains("0.1"), "{}", err.allowed);
+    assert_eq!(
+        Envelope::new(1).validate().unwrap_err().field,
+        "envelope.period_samples"
+    );
+}

@@ -25,6 +25,7 @@
 //! otherwise). A step is accepted when `‖e‖ ≤ 1`.
 
 mod dopri5;
+mod envelope;
 mod linalg;
 mod radau5;
 mod rodas;
@@ -247,6 +248,98 @@ impl OutputGrid {
     }
 }
 
+/// Envelope following for a system forced with a known period `T`: stroboscopic projective
+/// integration (after Petzold's envelope following and the projective integrators of Gear and
+/// Kevrekidis).
+///
+/// The state sampled once per period, `S_n = y(t0 + n T)`, changes slowly while the forced
+/// response settles to a slowly drifting periodic one (here: sticking or steady sliding under
+/// vibration). The driver integrates the full system period by period; once the slope
+/// `Δ_n = S_n − S_{n−1}` is known over settled periods, it jumps `M` whole periods at once,
+///
+/// ```text
+/// S_{n+M} = S_n + M Δ_n,
+/// ```
+///
+/// choosing the largest `M` whose extrapolation error `M (M+1)/2 · ‖c‖` stays below [`tol`]
+/// (`c`, the change of the slope per period, is measured over the last two settled periods and
+/// over the previous jump; `‖·‖` is the max norm over all components, in units of
+/// [`OdeSystem::scale`]). The slopes are differences of integrated states, so the integrator's
+/// own error must lie well below `tol`: [`Envelope::inner_tolerance`] gives the tolerance the
+/// periods are integrated with. Output
+/// times inside a jump get the last integrated period's samples at the same phase, shifted by the
+/// envelope (`y(t + mT) ≈ y(t) + m Δ_n`), so a moving average over one period sees the drift
+/// only. Fast transients that a jump excites in stiff components decay during the [`settle`]
+/// periods integrated after it, before the slope is measured again. Where the envelope bends
+/// (a slip starting), `M` falls below 2 and the driver integrates every period.
+///
+/// The output grid must start at `t0`, a period boundary, and hold [`period_samples`] samples
+/// per period: the period is `period_samples · grid.step`.
+///
+/// [`tol`]: Envelope::tol
+/// [`settle`]: Envelope::settle
+/// [`period_samples`]: Envelope::period_samples
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Envelope {
+    /// Output samples per forcing period. Range ≥ 2.
+    pub period_samples: u64,
+    /// Largest extrapolation error of one jump, in units of each component's scale (max norm).
+    /// Default 2e-3. Range 1e-8 ≤ tol ≤ 0.1.
+    pub tol: f64,
+    /// Periods integrated after a jump before the slope is measured again. Default 1.
+    /// Range 1 to 100.
+    pub settle: u32,
+    /// Longest jump [periods]. Default 200. Range ≥ 2.
+    pub max_jump: u64,
+}
+
+impl Envelope {
+    /// Defaults for `period_samples` samples per period.
+    pub fn new(period_samples: u64) -> Self {
+        Envelope {
+            period_samples,
+            tol: 2e-3,
+            settle: 1,
+            max_jump: 200,
+        }
+    }
+
+    /// The tolerance to integrate the periods with, given the one asked for: at most a
+    /// hundredth of [`Envelope::tol`], so that the integrator's error in a slope stays well below
+    /// the extrapolation error allowed.
+    pub fn inner_tolerance(&self, tol: f64) -> f64 {
+        tol.min(0.01 * self.tol)
+    }
+
+    /// Checks every field against its documented range.
+    pub fn validate(&self) -> Result<(), OptionError> {
+        let bad = |field, value: f64, allowed| {
+            Err(OptionError {
+                field,
+                value,
+                allowed,
+            })
+        };
+        if self.period_samples < 2 {
+            return bad(
+                "envelope.period_samples",
+                self.period_samples as f64,
+                "period_samples >= 2",
+            );
+        }
+        if !(self.tol >= 1e-8 && self.tol <= 0.1) {
+            return bad("envelope.tol", self.tol, "1e-8 <= tol <= 0.1");
+        }
+        if !(1..=100).contains(&self.settle) {
+            return bad("envelope.settle", self.settle as f64, "1 <= settle <= 100");
+        }
+        if self.max_jump < 2 {
+            return bad("envelope.max_jump", self.max_jump as f64, "max_jump >= 2");
+        }
+        Ok(())
+    }
+}
+
 /// How a run ended.
 #[derive(
     Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize,
@@ -313,6 +406,9 @@ pub struct Stats {
     pub lu_decomps: u64,
     /// Newton iterations (Radau5 only).
     pub newton_iters: u64,
+    /// Forcing periods skipped by envelope following (see [`Envelope`]); 0 without it.
+    #[serde(default)]
+    pub skipped_periods: u64,
 }
 
 impl std::ops::AddAssign for Stats {
@@ -323,6 +419,7 @@ impl std::ops::AddAssign for Stats {
         self.jac_evals += o.jac_evals;
         self.lu_decomps += o.lu_decomps;
         self.newton_iters += o.newton_iters;
+        self.skipped_periods += o.skipped_periods;
     }
 }
 
@@ -445,6 +542,7 @@ struct Shared {
     atol: Vec<f64>,
     out: Vec<f64>,
     init: [Vec<f64>; 3],
+    strobe: envelope::Strobe,
 }
 
 impl Solver {
@@ -458,6 +556,7 @@ impl Solver {
                 atol: vec![],
                 out: vec![],
                 init: [vec![], vec![], vec![]],
+                strobe: envelope::Strobe::default(),
             },
         }
     }
@@ -481,6 +580,7 @@ impl Solver {
             atol: vec![0.0; n],
             out: vec![0.0; n],
             init: [vec![0.0; n], vec![0.0; n], vec![0.0; n]],
+            strobe: envelope::Strobe::default(),
         };
     }
 
@@ -516,20 +616,47 @@ impl Solver {
         y0: &mut [f64],
         opts: &Options,
         grid: OutputGrid,
+        observe: impl FnMut(f64, &[f64]) -> bool,
+    ) -> RunReport {
+        self.solve_envelope(sys, t0, t1, y0, opts, grid, None, observe)
+    }
+
+    /// As [`Solver::solve_until`], with [`Envelope`] following when `envelope` is given: whole
+    /// forcing periods are skipped where the stroboscopic samples drift smoothly
+    /// ([`Stats::skipped_periods`] counts them). `grid` must start at `t0` with
+    /// `envelope.period_samples` samples per period; `observe` sees every grid time, those
+    /// inside a jump with the synthesised samples.
+    #[allow(clippy::too_many_arguments)]
+    pub fn solve_envelope<S: OdeSystem>(
+        &mut self,
+        sys: &S,
+        t0: f64,
+        t1: f64,
+        y0: &mut [f64],
+        opts: &Options,
+        grid: OutputGrid,
+        envelope: Option<&Envelope>,
         mut observe: impl FnMut(f64, &[f64]) -> bool,
     ) -> RunReport {
         debug_assert!(opts.validate().is_ok());
+        debug_assert!(envelope.is_none_or(|e| e.validate().is_ok() && grid.start == t0));
         let n = sys.dim();
         assert_eq!(y0.len(), n, "initial state has the wrong length");
         self.ensure(n);
         for i in 0..n {
             self.shared.atol[i] = opts.atol * sys.scale(i);
         }
+        if let Some(e) = envelope {
+            self.shared
+                .strobe
+                .reset(n, e.period_samples, |i| sys.scale(i));
+        }
         let sh = &mut self.shared;
+        let env = envelope;
         match &mut self.ws {
-            Workspace::Radau5(m) => drive(m, sys, t0, t1, y0, opts, grid, &mut observe, sh),
-            Workspace::Rodas4(m) => drive(m, sys, t0, t1, y0, opts, grid, &mut observe, sh),
-            Workspace::Dopri5(m) => drive(m, sys, t0, t1, y0, opts, grid, &mut observe, sh),
+            Workspace::Radau5(m) => drive(m, sys, t0, t1, y0, opts, grid, env, &mut observe, sh),
+            Workspace::Rodas4(m) => drive(m, sys, t0, t1, y0, opts, grid, env, &mut observe, sh),
+            Workspace::Dopri5(m) => drive(m, sys, t0, t1, y0, opts, grid, env, &mut observe, sh),
             Workspace::Empty => unreachable!("ensure() sized the workspace"),
         }
     }
@@ -546,10 +673,16 @@ fn drive<M: Stepper, S: OdeSystem>(
     y0: &mut [f64],
     opts: &Options,
     grid: OutputGrid,
+    env: Option<&Envelope>,
     observe: &mut impl FnMut(f64, &[f64]) -> bool,
     sh: &mut Shared,
 ) -> RunReport {
-    let Shared { atol, out, init } = sh;
+    let Shared {
+        atol,
+        out,
+        init,
+        strobe,
+    } = sh;
     m.set_tolerances(opts.rtol, atol);
     let mut st = Stats::default();
     let stats = &mut st;
@@ -608,6 +741,16 @@ fn drive<M: Stepper, S: OdeSystem>(
         )
     };
     m.start(sys, t0, y0, h, stats);
+    // Last grid index inside the span: jumps never pass it.
+    let g_last = if grid.count == 0 {
+        0
+    } else {
+        let mut g = (((t1 - grid.start) / grid.step).floor().max(0.0) as u64).min(grid.count - 1);
+        while g > 0 && grid.time(g) > t1 {
+            g -= 1;
+        }
+        g
+    };
     let mut attempts = 0u64;
     loop {
         let t = m.t();
@@ -649,6 +792,7 @@ fn drive<M: Stepper, S: OdeSystem>(
                         break;
                     }
                     m.dense(tk.min(t_new), out);
+                    let g = k;
                     k += 1;
                     if !observe(tk, out) {
                         y0.copy_from_slice(out);
@@ -658,6 +802,36 @@ fn drive<M: Stepper, S: OdeSystem>(
                             stats: *stats,
                         };
                     }
+                    let Some(e) = env else { continue };
+                    strobe.record(g, out);
+                    if g % e.period_samples != 0 {
+                        continue;
+                    }
+                    let jump = strobe.plan(g, e, (g_last - g) / e.period_samples);
+                    if jump == 0 {
+                        continue;
+                    }
+                    // Skip `jump` periods: synthesise their samples, land on the envelope and
+                    // restart the method there with the step it had.
+                    let target = g + jump * e.period_samples;
+                    for gj in g + 1..=target {
+                        strobe.synth(gj, out);
+                        let tj = grid.time(gj);
+                        if !observe(tj, out) {
+                            y0.copy_from_slice(out);
+                            return RunReport {
+                                status: Status::Success,
+                                t: tj,
+                                stats: *stats,
+                            };
+                        }
+                    }
+                    strobe.landed(out);
+                    stats.skipped_periods += jump;
+                    let h = m.h();
+                    m.start(sys, grid.time(target), out, h, stats);
+                    k = target + 1;
+                    break;
                 }
             }
             StepOutcome::Rejected => {}

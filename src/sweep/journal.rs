@@ -7,7 +7,7 @@
 //!
 //! ```text
 //! <kind> <index> <status> <t_end> <window_start> <wall_time> <steps> <rejected> <rhs> <jac> <lu>
-//!        <newton> <dF> <dF_stderr> <mean_force> <stick_fraction> <period> <peak> <trough> <cycles>
+//!        <newton> <dF> <dF_stderr> <mean_force> <stick_fraction> <period> <peak> <trough> <cycles> <skipped_periods>
 //! ```
 //!
 //! with `kind` `ref` or `pt`. Floats use Rust's shortest round-trip form, so resumed results are
@@ -59,7 +59,7 @@ pub fn format_record(task: Task, r: &RunResult) -> String {
     let s = &r.stats;
     let m = &r.measures;
     format!(
-        "{kind} {i} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {}",
+        "{kind} {i} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {}",
         r.status.code(),
         r.t_end,
         r.window_start,
@@ -77,14 +77,16 @@ pub fn format_record(task: Task, r: &RunResult) -> String {
         m.period,
         m.peak_force,
         m.trough_force,
-        m.cycles
+        m.cycles,
+        s.skipped_periods
     )
 }
 
 /// Parses one record; `None` for a torn or foreign line.
 pub fn parse_record(line: &str) -> Option<(Task, RunResult)> {
     let f: Vec<&str> = line.split(' ').collect();
-    if f.len() != 20 {
+    // 21 fields; 20 in journals written before envelope following (no skipped periods).
+    if f.len() != 20 && f.len() != 21 {
         return None;
     }
     let i: usize = f[1].parse().ok()?;
@@ -109,6 +111,7 @@ pub fn parse_record(line: &str) -> Option<(Task, RunResult)> {
                 jac_evals: u(9)?,
                 lu_decomps: u(10)?,
                 newton_iters: u(11)?,
+                skipped_periods: if f.len() == 21 { u(20)? } else { 0 },
             },
             measures: Measures {
                 d_f: x(12)?,
@@ -218,6 +221,7 @@ mod tests {
                 jac_evals: 4,
                 lu_decomps: 8,
                 newton_iters: 20,
+                skipped_periods: 7,
             },
             measures: Measures {
                 d_f: 0.1 + 0.2,

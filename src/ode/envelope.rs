@@ -1,0 +1,145 @@
+//! Bookkeeping of envelope following (see [`Envelope`]): the stroboscopic samples, the slope
+//! and its change, the choice of the jump and the samples synthesised inside a jump.
+
+use super::Envelope;
+
+/// Buffers of one run, sized once per dimension and period (no allocation while stepping).
+#[derive(Default)]
+pub(crate) struct Strobe {
+    n: usize,
+    ps: u64,
+    /// The last `ps` output samples, by grid index modulo `ps` (row-major, `ps × n`).
+    samples: Vec<f64>,
+    /// The last three stroboscopic samples `S_{k−2}, S_{k−1}, S_k` (oldest first).
+    s: [Vec<f64>; 3],
+    /// Boundaries recorded since the run started or the last jump landed (its target counts 0).
+    since: u32,
+    /// The slope measured before the last jump, and the boundary it belongs to.
+    slope_old: Vec<f64>,
+    slope_old_at: Option<u64>,
+    /// Last jump [periods].
+    last_jump: u64,
+    /// Characteristic size of each component.
+    scale: Vec<f64>,
+    /// Boundary the current jump starts from, and its slope.
+    from: u64,
+    slope: Vec<f64>,
+}
+
+impl Strobe {
+    /// Prepares for a run of an `n`-dimensional system with `ps` samples per period.
+    pub fn reset(&mut self, n: usize, ps: u64, scale: impl Fn(usize) -> f64) {
+        if self.n != n || self.ps != ps {
+            self.n = n;
+            self.ps = ps;
+            self.samples = vec![0.0; ps as usize * n];
+            self.s = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
+            self.slope_old = vec![0.0; n];
+            self.slope = vec![0.0; n];
+            self.scale = vec![0.0; n];
+        }
+        for (i, w) in self.scale.iter_mut().enumerate() {
+            *w = scale(i);
+        }
+        self.since = 0;
+        self.slope_old_at = None;
+        self.last_jump = 0;
+    }
+
+    /// Records the output sample of grid index `g`.
+    #[inline]
+    pub fn record(&mut self, g: u64, y: &[f64]) {
+        let r = (g % self.ps) as usize * self.n;
+        self.samples[r..r + self.n].copy_from_slice(y);
+        if g % self.ps == 0 {
+            self.s.rotate_left(1);
+            self.s[2].copy_from_slice(y);
+            self.since += 1;
+        }
+    }
+
+    /// Called at the period boundary of grid index `g` (just recorded): the jump to take
+    /// [periods], or 0 to integrate the next period. `room` is the most periods left in the span.
+    pub fn plan(&mut self, g: u64, env: &Envelope, room: u64) -> u64 {
+        let k = g / self.ps;
+        let settle = env.settle;
+        // A slope needs two settled boundaries after the last jump target.
+        if self.since < settle + 1 {
+            return 0;
+        }
+        let n = self.n;
+        let [a, b, c] = &self.s;
+        // Change of the slope per period: over the last two periods when both are settled, and
+        // across the previous jump right after one (its baseline spans the jump).
+        let mut curv = 0.0f64;
+        let mut known = false;
+        if self.since >= settle + 2 {
+            for i in 0..n {
+                let d = (c[i] - 2.0 * b[i] + a[i]) / self.scale[i];
+                curv = curv.max(d.abs());
+            }
+            known = true;
+        }
+        if let Some(at) = self.slope_old_at {
+            if self.since <= settle + 2 {
+                let span = (k - at) as f64;
+                for i in 0..n {
+                    let d = ((c[i] - b[i]) - self.slope_old[i]) / span / self.scale[i];
+                    curv = curv.max(d.abs());
+                }
+                known = true;
+            }
+        }
+        if !known {
+            return 0;
+        }
+        // Largest M with M (M+1)/2 · ‖c‖ ≤ tol.
+        let m_tol = if curv > 0.0 {
+            ((-1.0 + (1.0 + 8.0 * env.tol / curv).sqrt()) / 2.0).floor()
+        } else {
+            f64::INFINITY
+        };
+        let cap = env.max_jump.min(3 * self.last_jump + 4).min(room);
+        let m = if m_tol >= cap as f64 {
+            cap
+        } else {
+            m_tol as u64
+        };
+        if m < 2 {
+            return 0;
+        }
+        for i in 0..n {
+            self.slope[i] = c[i] - b[i];
+        }
+        self.slope_old.copy_from_slice(&self.slope);
+        self.slope_old_at = Some(k);
+        self.from = g;
+        self.last_jump = m;
+        m
+    }
+
+    /// The sample synthesised for grid index `g` inside the current jump: the last integrated
+    /// period's sample at the same phase, shifted by the envelope.
+    #[inline]
+    pub fn synth(&self, g: u64, out: &mut [f64]) {
+        let r = g % self.ps;
+        // The source: the same phase in the period ending at the jump origin (index `from`).
+        let src = if r == 0 {
+            self.from
+        } else {
+            self.from - self.ps + r
+        };
+        let m = ((g - src) / self.ps) as f64;
+        let row = r as usize * self.n;
+        for i in 0..self.n {
+            out[i] = self.samples[row + i] + m * self.slope[i];
+        }
+    }
+
+    /// Marks the landing of a jump: the target boundary is the new `S_0`.
+    pub fn landed(&mut self, y: &[f64]) {
+        self.s.rotate_left(1);
+        self.s[2].copy_from_slice(y);
+        self.since = 0;
+    }
+}
