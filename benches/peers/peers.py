@@ -3,7 +3,8 @@ stickslip, side by side with stickslip in one run, on the same machine.
 
 Peers: SciPy solve_ivp (Radau, BDF, LSODA; right-hand side and Jacobian compiled with numba),
 SUNDIALS CVODE (BDF, through scikit-sundae), numbalsoda (LSODA, DOP853) and the diffsol crate
-(BDF, Tsit5; benches/peers/diffsol). Every peer integrates the same equations in the same scaled
+(BDF, Tsit5; benches/peers/diffsol); stickslip's Radau5, Rodas4, Dopri5 and Dopri5 with
+envelope following (`stickslip-envelope`). Every peer integrates the same equations in the same scaled
 variables z = y / w (w = F_s/k_d, v_d + v_a, F_s/k_t, the scales stickslip's atol uses), is
 sampled on stickslip's output grid, and is measured with the same definitions (MODEL.md): dF over
 the second half of the run, r against a tight run without vibration, the mean drive force.
@@ -256,9 +257,14 @@ def diffsol_peer(method):
 
 
 def stickslip_run(ratio, t_end, method, tol, repeats=1):
+    """One stickslip run; method `envelope` is Dopri5 with envelope following, its extrapolation
+    tolerance a hundred times the integration tolerance (the periods it integrates at `tol`)."""
     times, last = [], None
+    extra = []
+    if method == "envelope":
+        method, extra = "dopri5", ["--envelope", repr(min(0.1, 100 * tol))]
     for _ in range(repeats):
-        args = [str(STICKSLIP), "run", "--t-end", str(t_end), "--va-ratio", str(ratio), "--solver", method, "--rtol", repr(tol), "--atol", repr(tol), "--json", "-o", "/tmp/stickslip-peers.h5"]
+        args = [str(STICKSLIP), "run", "--t-end", str(t_end), "--va-ratio", str(ratio), "--solver", method, "--rtol", repr(tol), "--atol", repr(tol), "--json", "-o", "/tmp/stickslip-peers.h5"] + extra
         last = json.loads(subprocess.run(args, capture_output=True, text=True, check=True).stdout)
         times.append(last["wall_time"])
     times.sort()
@@ -271,7 +277,7 @@ def main():
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--tolerances", default="1e-3,1e-4,1e-5,1e-6,1e-7,1e-8")
     ap.add_argument("--cases", default=",".join(CASES))
-    ap.add_argument("--peers", default="scipy-Radau,scipy-BDF,scipy-LSODA,cvode-BDF,numbalsoda-LSODA,numbalsoda-DOP853,diffsol-bdf,diffsol-tsit45,stickslip-radau5,stickslip-rodas4,stickslip-dopri5")
+    ap.add_argument("--peers", default="scipy-Radau,scipy-BDF,scipy-LSODA,cvode-BDF,numbalsoda-LSODA,numbalsoda-DOP853,diffsol-bdf,diffsol-tsit45,stickslip-radau5,stickslip-rodas4,stickslip-dopri5,stickslip-envelope")
     ap.add_argument("--max-seconds", type=float, default=20.0, help="skip tighter tolerances of a peer once one run takes longer")
     ap.add_argument("--out", default=str(ROOT / "results" / "peers.json"))
     a = ap.parse_args()
