@@ -14,15 +14,13 @@ pub(crate) struct Strobe {
     s: [Vec<f64>; 3],
     /// Boundaries recorded since the run started or the last jump landed (its target counts 0).
     since: u32,
-    /// The slope measured before the last jump, and the boundary it belongs to.
-    slope_old: Vec<f64>,
-    slope_old_at: Option<u64>,
     /// Last jump [periods].
     last_jump: u64,
     /// Characteristic size of each component.
     scale: Vec<f64>,
-    /// Boundary the current jump starts from, and its slope.
-    from: u64,
+    /// The last jump: the period boundary it started from (`None` before the first) and the
+    /// slope it used.
+    from_period: Option<u64>,
     slope: Vec<f64>,
 }
 
@@ -34,7 +32,6 @@ impl Strobe {
             self.ps = ps;
             self.samples = vec![0.0; ps as usize * n];
             self.s = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
-            self.slope_old = vec![0.0; n];
             self.slope = vec![0.0; n];
             self.scale = vec![0.0; n];
         }
@@ -42,7 +39,7 @@ impl Strobe {
             *w = scale(i);
         }
         self.since = 0;
-        self.slope_old_at = None;
+        self.from_period = None;
         self.last_jump = 0;
     }
 
@@ -80,11 +77,11 @@ impl Strobe {
             }
             known = true;
         }
-        if let Some(at) = self.slope_old_at {
+        if let Some(at) = self.from_period {
             if self.since <= settle + 2 {
                 let span = (k - at) as f64;
                 for i in 0..n {
-                    let d = ((c[i] - b[i]) - self.slope_old[i]) / span / self.scale[i];
+                    let d = ((c[i] - b[i]) - self.slope[i]) / span / self.scale[i];
                     curv = curv.max(d.abs());
                 }
                 known = true;
@@ -111,9 +108,7 @@ impl Strobe {
         for i in 0..n {
             self.slope[i] = c[i] - b[i];
         }
-        self.slope_old.copy_from_slice(&self.slope);
-        self.slope_old_at = Some(k);
-        self.from = g;
+        self.from_period = Some(k);
         self.last_jump = m;
         m
     }
@@ -123,12 +118,9 @@ impl Strobe {
     #[inline]
     pub fn synth(&self, g: u64, out: &mut [f64]) {
         let r = g % self.ps;
-        // The source: the same phase in the period ending at the jump origin (index `from`).
-        let src = if r == 0 {
-            self.from
-        } else {
-            self.from - self.ps + r
-        };
+        // The source: the same phase in the period ending at the jump's origin.
+        let from = self.from_period.unwrap_or(0) * self.ps;
+        let src = if r == 0 { from } else { from - self.ps + r };
         let m = ((g - src) / self.ps) as f64;
         let row = r as usize * self.n;
         for i in 0..self.n {

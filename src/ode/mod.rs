@@ -795,12 +795,7 @@ fn drive<M: Stepper, S: OdeSystem>(
                     let g = k;
                     k += 1;
                     if !observe(tk, out) {
-                        y0.copy_from_slice(out);
-                        return RunReport {
-                            status: Status::Success,
-                            t: tk,
-                            stats: *stats,
-                        };
+                        return finish(Status::Success, tk, y0, out, stats);
                     }
                     let Some(e) = env else { continue };
                     strobe.record(g, out);
@@ -818,12 +813,7 @@ fn drive<M: Stepper, S: OdeSystem>(
                         strobe.synth(gj, out);
                         let tj = grid.time(gj);
                         if !observe(tj, out) {
-                            y0.copy_from_slice(out);
-                            return RunReport {
-                                status: Status::Success,
-                                t: tj,
-                                stats: *stats,
-                            };
+                            return finish(Status::Success, tj, y0, out, stats);
                         }
                     }
                     strobe.landed(out);
