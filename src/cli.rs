@@ -451,7 +451,8 @@ pub struct RunArgs {
     #[arg(long)]
     pub min_cycles: Option<u32>,
 
-    /// Run the whole automatic simulated time even once steady sliding is established.
+    /// Run the whole automatic simulated time even once the answer is known (steady sliding, or
+    /// the stick-slip cycles of the window give dF to 0.5 %).
     #[arg(long)]
     pub no_early_stop: bool,
 

@@ -19,7 +19,7 @@
 //! t_end = 12.0       # s; omitted: chosen from the run
 //! min_cycles = 3
 //! samples_per_period = 16
-//! early_stop = true  # end once steady sliding is established
+//! early_stop = true  # end once the answer is known (steady sliding, or dF to 0.5 %)
 //! envelope = 1e-4    # skip vibration periods where the envelope is smooth (omitted: off)
 //! ```
 

@@ -83,7 +83,6 @@ pub struct Analyzer {
     blocks: Vec<Block>,
     cur: Block,
     window_start: f64,
-    threshold: f64,
     stick_speed: f64,
     // Moving averages over one period (ring buffers of K samples).
     ring_f: Vec<f64>,
@@ -98,14 +97,9 @@ pub struct Analyzer {
     stick: u64,
     smin: f64,
     smax: f64,
-    // Zig-zag detector.
-    rising: bool,
-    ext: f64,
-    ext_t: f64,
-    pending_peak: Option<(f64, f64)>,
-    drops: Vec<f64>,
-    peaks: Vec<(f64, f64)>,
-    troughs: Vec<f64>,
+    // Cycle detectors: over the fixed window, and (with blocks) over the whole run.
+    window: ZigZag,
+    whole: Option<ZigZag>,
 }
 
 impl Analyzer {
@@ -138,7 +132,6 @@ impl Analyzer {
             blocks: Vec::with_capacity(capacity),
             cur: Block::new(0.0),
             window_start,
-            threshold,
             stick_speed,
             ring_f: vec![0.0; k],
             ring_v: vec![0.0; k],
@@ -151,13 +144,8 @@ impl Analyzer {
             stick: 0,
             smin: f64::INFINITY,
             smax: f64::NEG_INFINITY,
-            rising: false,
-            ext: f64::INFINITY,
-            ext_t: 0.0,
-            pending_peak: None,
-            drops: Vec::with_capacity(64),
-            peaks: Vec::with_capacity(64),
-            troughs: Vec::with_capacity(64),
+            window: ZigZag::new(threshold),
+            whole: block_width.is_finite().then(|| ZigZag::new(threshold)),
         }
     }
 
@@ -195,6 +183,9 @@ impl Analyzer {
             b.n += 1;
             b.stick += u32::from(sv.abs() < self.stick_speed);
         }
+        if let Some(z) = self.whole.as_mut() {
+            z.push(t, sf);
+        }
         if t >= self.window_start {
             self.n += 1;
             self.sum_raw += force;
@@ -203,37 +194,9 @@ impl Analyzer {
             }
             self.smin = self.smin.min(sf);
             self.smax = self.smax.max(sf);
-            self.detect(t, sf);
+            self.window.push(t, sf);
         }
         sf
-    }
-
-    fn detect(&mut self, t: f64, f: f64) {
-        if self.rising {
-            if f > self.ext {
-                self.ext = f;
-                self.ext_t = t;
-            } else if f < self.ext - self.threshold {
-                // A peak: the slip has begun.
-                self.pending_peak = Some((self.ext, self.ext_t));
-                self.rising = false;
-                self.ext = f;
-                self.ext_t = t;
-            }
-        } else if f < self.ext {
-            self.ext = f;
-            self.ext_t = t;
-        } else if f > self.ext + self.threshold {
-            // A trough: the slip has ended; it closes the drop of the pending peak.
-            if let Some((pk, pt)) = self.pending_peak.take() {
-                self.drops.push(pk - self.ext);
-                self.peaks.push((pk, pt));
-                self.troughs.push(self.ext);
-            }
-            self.rising = true;
-            self.ext = f;
-            self.ext_t = t;
-        }
     }
 
     /// Whether the window `[t/2, t]` (whole blocks) shows steady sliding: the smoothed force
@@ -291,9 +254,53 @@ impl Analyzer {
         })
     }
 
+    /// Whether the window `[t/2, t]` (whole blocks) already gives the stick-slip amplitude and
+    /// the mean force to the requested precision: at least `min_drops` drops whose peaks lie in
+    /// it, a standard error of their mean of at most `stderr` [N], and a mean force that differs
+    /// by less than `drift` (relative) from the mean over the whole cycles in the window (first to
+    /// last peak), so that the cycle cut by the window's ends does not bias it. Then returns the
+    /// measures of that window, as [`Analyzer::finish`] would give them for a run ending at `t`
+    /// (the drops are those of a detector run over the whole trace, so a drop whose peak lies in
+    /// the window counts even when the window starts on its last rise).
+    pub fn steady_cycles(
+        &self,
+        t: f64,
+        min_drops: usize,
+        stderr: f64,
+        drift: f64,
+    ) -> Option<Measures> {
+        let z = self.whole.as_ref()?;
+        let first = self.blocks.iter().position(|b| b.start >= 0.5 * t)?;
+        let start = self.blocks[first].start;
+        let from = z.drops.partition_point(|d| d.peak_t < start);
+        let drops = &z.drops[from..];
+        if drops.len() < min_drops.max(2) {
+            return None;
+        }
+        let c = Cycles::of(drops);
+        if !(c.d_f_stderr <= stderr) {
+            return None;
+        }
+        let window = &self.blocks[first..];
+        let sums = |bs: &[Block]| {
+            bs.iter().fold((0.0, 0u64, 0u64), |(s, n, st), b| {
+                (s + b.sum_raw, n + b.n as u64, st + b.stick as u64)
+            })
+        };
+        let (sum, n, stick) = sums(window);
+        let mean = sum / n as f64;
+        let a = window.partition_point(|b| b.start < drops[0].peak_t);
+        let b = window.partition_point(|b| b.start < drops[drops.len() - 1].peak_t);
+        let (cycle_sum, cycle_n, _) = sums(&window[a..b]);
+        let cycle_mean = cycle_sum / cycle_n.max(1) as f64;
+        if !((mean - cycle_mean).abs() < drift * cycle_mean.abs()) {
+            return None;
+        }
+        Some(c.measures(mean, stick as f64 / n as f64))
+    }
+
     /// The measures over the window seen so far.
     pub fn finish(&self) -> Measures {
-        let nd = self.drops.len();
         let mean_force = if self.n > 0 {
             self.sum_raw / self.n as f64
         } else {
@@ -304,7 +311,7 @@ impl Analyzer {
         } else {
             f64::NAN
         };
-        if nd == 0 {
+        if self.window.drops.is_empty() {
             return Measures {
                 d_f: self.smax - self.smin,
                 d_f_stderr: 0.0,
@@ -316,28 +323,125 @@ impl Analyzer {
                 cycles: 0,
             };
         }
-        let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
-        let d_f = mean(&self.drops);
+        Cycles::of(&self.window.drops).measures(mean_force, stick_fraction)
+    }
+}
+
+/// One stick-slip drop: the peak of the smoothed force before a slip (time, value) and the
+/// trough after it.
+#[derive(Clone, Copy, Debug)]
+struct Drop {
+    peak_t: f64,
+    peak: f64,
+    trough: f64,
+}
+
+/// A peak-and-trough (zig-zag) detector with hysteresis on the smoothed force. It starts in the
+/// falling state, so a drop whose peak it has not seen is never counted.
+#[derive(Clone, Debug)]
+struct ZigZag {
+    threshold: f64,
+    rising: bool,
+    ext: f64,
+    ext_t: f64,
+    pending_peak: Option<(f64, f64)>,
+    drops: Vec<Drop>,
+}
+
+impl ZigZag {
+    fn new(threshold: f64) -> ZigZag {
+        ZigZag {
+            threshold,
+            rising: false,
+            ext: f64::INFINITY,
+            ext_t: 0.0,
+            pending_peak: None,
+            drops: Vec::with_capacity(64),
+        }
+    }
+
+    fn push(&mut self, t: f64, f: f64) {
+        if self.rising {
+            if f > self.ext {
+                self.ext = f;
+                self.ext_t = t;
+            } else if f < self.ext - self.threshold {
+                // A peak: the slip has begun.
+                self.pending_peak = Some((self.ext, self.ext_t));
+                self.rising = false;
+                self.ext = f;
+                self.ext_t = t;
+            }
+        } else if f < self.ext {
+            self.ext = f;
+            self.ext_t = t;
+        } else if f > self.ext + self.threshold {
+            // A trough: the slip has ended; it closes the drop of the pending peak.
+            if let Some((peak, peak_t)) = self.pending_peak.take() {
+                self.drops.push(Drop {
+                    peak_t,
+                    peak,
+                    trough: self.ext,
+                });
+            }
+            self.rising = true;
+            self.ext = f;
+            self.ext_t = t;
+        }
+    }
+}
+
+/// dF and the cycle measures of a run of drops (at least one).
+struct Cycles {
+    d_f: f64,
+    d_f_stderr: f64,
+    period: f64,
+    peak_force: f64,
+    trough_force: f64,
+    cycles: u32,
+}
+
+impl Cycles {
+    fn of(drops: &[Drop]) -> Cycles {
+        let nd = drops.len();
+        let n = nd as f64;
+        let d_f = drops.iter().map(|d| d.peak - d.trough).sum::<f64>() / n;
+        // Standard error of the mean drop, std/√n.
         let d_f_stderr = if nd > 1 {
-            let var = self.drops.iter().map(|d| (d - d_f).powi(2)).sum::<f64>() / (nd - 1) as f64;
-            (var / nd as f64).sqrt()
+            let var = drops
+                .iter()
+                .map(|d| (d.peak - d.trough - d_f).powi(2))
+                .sum::<f64>()
+                / (n - 1.0);
+            (var / n).sqrt()
         } else {
             0.0
         };
-        let period = if self.peaks.len() > 1 {
-            (self.peaks[nd - 1].1 - self.peaks[0].1) / (nd - 1) as f64
+        let period = if nd > 1 {
+            (drops[nd - 1].peak_t - drops[0].peak_t) / (n - 1.0)
         } else {
             f64::NAN
         };
-        Measures {
+        Cycles {
             d_f,
             d_f_stderr,
+            period,
+            peak_force: drops.iter().map(|d| d.peak).sum::<f64>() / n,
+            trough_force: drops.iter().map(|d| d.trough).sum::<f64>() / n,
+            cycles: nd as u32,
+        }
+    }
+
+    fn measures(&self, mean_force: f64, stick_fraction: f64) -> Measures {
+        Measures {
+            d_f: self.d_f,
+            d_f_stderr: self.d_f_stderr,
             mean_force,
             stick_fraction,
-            period,
-            peak_force: self.peaks.iter().map(|p| p.0).sum::<f64>() / nd as f64,
-            trough_force: mean(&self.troughs),
-            cycles: nd as u32,
+            period: self.period,
+            peak_force: self.peak_force,
+            trough_force: self.trough_force,
+            cycles: self.cycles,
         }
     }
 }
