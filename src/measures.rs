@@ -201,8 +201,9 @@ impl Analyzer {
 
     /// Whether the window `[t/2, t]` (whole blocks) shows steady sliding: the smoothed force
     /// stays within `range` [N] (so no stick-slip drop of that size), its range does not grow
-    /// from the third quarter to the last, and the mean force of the window's two halves differ
-    /// by less than `drift` (relative). Then returns the measures of that window, as
+    /// from the third quarter to the last, and the window's mean force lies within `drift`
+    /// (relative) of the asymptote extrapolated from the means of its thirds (or, when they do
+    /// not approach one monotonically, the thirds agree to `drift`). Then returns the measures of that window, as
     /// [`Analyzer::finish`] would give them for a run ending at `t`.
     pub fn steady_sliding(&self, t: f64, range: f64, drift: f64) -> Option<Measures> {
         let start = 0.5 * t;
@@ -229,14 +230,33 @@ impl Analyzer {
         if !(hi - lo < range) || n == 0 {
             return None;
         }
-        let h = w.len() / 2;
-        let q = w.len() / 4;
-        let (_, _, s1, n1, _) = stats(&w[..h]);
-        let (_, _, s2, n2, _) = stats(&w[h..]);
-        let (m1, m2) = (s1 / n1.max(1) as f64, s2 / n2.max(1) as f64);
-        if !((m1 - m2).abs() < drift * m2.abs()) {
+        // The mean force settles like an exponential (the drive spring against the friction
+        // that vibration makes viscous-like), and the means of an exponential over three equal
+        // spans form a geometric sequence: extrapolate it to the asymptote and bound the
+        // window's distance from it (Aitken's Δ²).
+        let third = w.len() / 3;
+        let mean_of = |bs: &[Block]| {
+            let (_, _, s, n, _) = stats(bs);
+            s / n.max(1) as f64
+        };
+        let m0 = mean_of(&w[..third]);
+        let m1 = mean_of(&w[third..2 * third]);
+        let m2 = mean_of(&w[2 * third..]);
+        let mean = sum / n as f64;
+        let (d1, d2) = (m1 - m0, m2 - m1);
+        let settled = if d1 * d2 > 0.0 && d2.abs() < d1.abs() {
+            let q = d2 / d1;
+            let asymptote = m2 + d2 * q / (1.0 - q);
+            (mean - asymptote).abs() < drift * asymptote.abs()
+        } else {
+            // Not a monotone approach: the thirds must agree to the drift.
+            d1.abs().max(d2.abs()) < drift * mean.abs()
+        };
+        if !settled {
             return None;
         }
+        let h = w.len() / 2;
+        let q = w.len() / 4;
         let (l3, h3, ..) = stats(&w[h..h + q]);
         let (l4, h4, ..) = stats(&w[h + q..]);
         if h4 - l4 > 1.1 * (h3 - l3) + 1e-12 {
@@ -481,6 +501,33 @@ mod tests {
             "{m:?}"
         );
         assert_eq!(m.stick_fraction, 0.0);
+    }
+
+    /// A force settling exponentially on 3 N: steady sliding is declared only once the window's
+    /// mean lies within the drift of the asymptote, and it is declared eventually, for a fast and
+    /// a slow approach.
+    #[test]
+    fn steady_sliding_bounds_the_distance_to_the_asymptote() {
+        for tau in [0.3, 2.0] {
+            let dt = 1e-3;
+            let drift = 1e-3;
+            let mut a = Analyzer::with_blocks(1, f64::INFINITY, 0.1, 1e-4, 0.01, 4000);
+            let mut first = None;
+            for i in 0..40_000 {
+                let t = i as f64 * dt;
+                a.push(t, 3.0 - 2.0 * (-t / tau).exp(), 1.0);
+                if i % 100 == 0 && i > 0 {
+                    if let Some(m) = a.steady_sliding(t, 10.0, drift) {
+                        let err = (m.mean_force - 3.0).abs() / 3.0;
+                        assert!(err < drift, "tau {tau}, t {t}: mean {}", m.mean_force);
+                        first.get_or_insert(t);
+                    }
+                }
+            }
+            let t = first.expect("never settled");
+            // The window [t/2, t] mean is within 0.1 % once 2 e^{-t/2τ} τ/(t/2) < 3e-3.
+            assert!(t < 30.0 * tau, "tau {tau}: settled only at {t}");
+        }
     }
 
     #[test]
