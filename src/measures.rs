@@ -199,35 +199,25 @@ impl Analyzer {
         sf
     }
 
+    /// The whole blocks of the window `[t/2, t]`.
+    fn window_blocks(&self, t: f64) -> &[Block] {
+        let first = self.blocks.partition_point(|b| b.start < 0.5 * t);
+        &self.blocks[first..]
+    }
+
     /// Whether the window `[t/2, t]` (whole blocks) shows steady sliding: the smoothed force
     /// stays within `range` [N] (so no stick-slip drop of that size), its range does not grow
     /// from the third quarter to the last, and the window's mean force lies within `drift`
     /// (relative) of the asymptote extrapolated from the means of its thirds (or, when they do
-    /// not approach one monotonically, the thirds agree to `drift`). Then returns the measures of that window, as
-    /// [`Analyzer::finish`] would give them for a run ending at `t`.
+    /// not approach one monotonically, the thirds agree to `drift`). Then returns the measures
+    /// of that window, as [`Analyzer::finish`] would give them for a run ending at `t`.
     pub fn steady_sliding(&self, t: f64, range: f64, drift: f64) -> Option<Measures> {
-        let start = 0.5 * t;
-        let first = self.blocks.iter().position(|b| b.start >= start)?;
-        let w = &self.blocks[first..];
+        let w = self.window_blocks(t);
         if w.len() < 8 {
             return None;
         }
-        let stats = |bs: &[Block]| {
-            bs.iter().fold(
-                (f64::INFINITY, f64::NEG_INFINITY, 0.0, 0u64, 0u64),
-                |(lo, hi, s, n, st), b| {
-                    (
-                        lo.min(b.min),
-                        hi.max(b.max),
-                        s + b.sum_raw,
-                        n + b.n as u64,
-                        st + b.stick as u64,
-                    )
-                },
-            )
-        };
-        let (lo, hi, sum, n, stick) = stats(w);
-        if !(hi - lo < range) || n == 0 {
+        let all = Totals::of(w);
+        if !(all.hi - all.lo < range) || all.n == 0 {
             return None;
         }
         // The mean force settles like an exponential (the drive spring against the friction
@@ -235,14 +225,10 @@ impl Analyzer {
         // spans form a geometric sequence: extrapolate it to the asymptote and bound the
         // window's distance from it (Aitken's Δ²).
         let third = w.len() / 3;
-        let mean_of = |bs: &[Block]| {
-            let (_, _, s, n, _) = stats(bs);
-            s / n.max(1) as f64
-        };
-        let m0 = mean_of(&w[..third]);
-        let m1 = mean_of(&w[third..2 * third]);
-        let m2 = mean_of(&w[2 * third..]);
-        let mean = sum / n as f64;
+        let m0 = Totals::of(&w[..third]).mean();
+        let m1 = Totals::of(&w[third..2 * third]).mean();
+        let m2 = Totals::of(&w[2 * third..]).mean();
+        let mean = all.mean();
         let (d1, d2) = (m1 - m0, m2 - m1);
         let settled = if d1 * d2 > 0.0 && d2.abs() < d1.abs() {
             let q = d2 / d1;
@@ -257,19 +243,19 @@ impl Analyzer {
         }
         let h = w.len() / 2;
         let q = w.len() / 4;
-        let (l3, h3, ..) = stats(&w[h..h + q]);
-        let (l4, h4, ..) = stats(&w[h + q..]);
-        if h4 - l4 > 1.1 * (h3 - l3) + 1e-12 {
+        let third_quarter = Totals::of(&w[h..h + q]);
+        let last_quarter = Totals::of(&w[h + q..]);
+        if last_quarter.hi - last_quarter.lo > 1.1 * (third_quarter.hi - third_quarter.lo) + 1e-12 {
             return None;
         }
         Some(Measures {
-            d_f: hi - lo,
+            d_f: all.hi - all.lo,
             d_f_stderr: 0.0,
-            mean_force: sum / n as f64,
-            stick_fraction: stick as f64 / n as f64,
+            mean_force: mean,
+            stick_fraction: all.stick_fraction(),
             period: f64::NAN,
-            peak_force: hi,
-            trough_force: lo,
+            peak_force: all.hi,
+            trough_force: all.lo,
             cycles: 0,
         })
     }
@@ -290,33 +276,19 @@ impl Analyzer {
         drift: f64,
     ) -> Option<Measures> {
         let z = self.whole.as_ref()?;
-        let first = self.blocks.iter().position(|b| b.start >= 0.5 * t)?;
-        let start = self.blocks[first].start;
-        let from = z.drops.partition_point(|d| d.peak_t < start);
-        let drops = &z.drops[from..];
+        let w = self.window_blocks(t);
+        let start = w.first()?.start;
+        let drops = &z.drops[z.drops.partition_point(|d| d.peak_t < start)..];
         if drops.len() < min_drops.max(2) {
             return None;
         }
-        let c = Cycles::of(drops);
-        if !(c.d_f_stderr <= stderr) {
-            return None;
-        }
-        let window = &self.blocks[first..];
-        let sums = |bs: &[Block]| {
-            bs.iter().fold((0.0, 0u64, 0u64), |(s, n, st), b| {
-                (s + b.sum_raw, n + b.n as u64, st + b.stick as u64)
-            })
-        };
-        let (sum, n, stick) = sums(window);
-        let mean = sum / n as f64;
-        let a = window.partition_point(|b| b.start < drops[0].peak_t);
-        let b = window.partition_point(|b| b.start < drops[drops.len() - 1].peak_t);
-        let (cycle_sum, cycle_n, _) = sums(&window[a..b]);
-        let cycle_mean = cycle_sum / cycle_n.max(1) as f64;
-        if !((mean - cycle_mean).abs() < drift * cycle_mean.abs()) {
-            return None;
-        }
-        Some(c.measures(mean, stick as f64 / n as f64))
+        let all = Totals::of(w);
+        let a = w.partition_point(|b| b.start < drops[0].peak_t);
+        let b = w.partition_point(|b| b.start < drops[drops.len() - 1].peak_t);
+        let cycle_mean = Totals::of(&w[a..b]).mean();
+        let m = cycle_measures(drops, all.mean(), all.stick_fraction());
+        let unbiased = (m.mean_force - cycle_mean).abs() < drift * cycle_mean.abs();
+        (m.d_f_stderr <= stderr && unbiased).then_some(m)
     }
 
     /// The measures over the window seen so far.
@@ -343,7 +315,7 @@ impl Analyzer {
                 cycles: 0,
             };
         }
-        Cycles::of(&self.window.drops).measures(mean_force, stick_fraction)
+        cycle_measures(&self.window.drops, mean_force, stick_fraction)
     }
 }
 
@@ -411,58 +383,76 @@ impl ZigZag {
     }
 }
 
-/// dF and the cycle measures of a run of drops (at least one).
-struct Cycles {
-    d_f: f64,
-    d_f_stderr: f64,
-    period: f64,
-    peak_force: f64,
-    trough_force: f64,
-    cycles: u32,
+/// Totals of a run of blocks: extremes of the smoothed force, sum of the raw force, samples and
+/// stick samples.
+struct Totals {
+    lo: f64,
+    hi: f64,
+    sum: f64,
+    n: u64,
+    stick: u64,
 }
 
-impl Cycles {
-    fn of(drops: &[Drop]) -> Cycles {
-        let nd = drops.len();
-        let n = nd as f64;
-        let d_f = drops.iter().map(|d| d.peak - d.trough).sum::<f64>() / n;
-        // Standard error of the mean drop, std/√n.
-        let d_f_stderr = if nd > 1 {
-            let var = drops
-                .iter()
-                .map(|d| (d.peak - d.trough - d_f).powi(2))
-                .sum::<f64>()
-                / (n - 1.0);
-            (var / n).sqrt()
-        } else {
-            0.0
-        };
-        let period = if nd > 1 {
-            (drops[nd - 1].peak_t - drops[0].peak_t) / (n - 1.0)
-        } else {
-            f64::NAN
-        };
-        Cycles {
-            d_f,
-            d_f_stderr,
-            period,
-            peak_force: drops.iter().map(|d| d.peak).sum::<f64>() / n,
-            trough_force: drops.iter().map(|d| d.trough).sum::<f64>() / n,
-            cycles: nd as u32,
-        }
+impl Totals {
+    fn of(bs: &[Block]) -> Totals {
+        bs.iter().fold(
+            Totals {
+                lo: f64::INFINITY,
+                hi: f64::NEG_INFINITY,
+                sum: 0.0,
+                n: 0,
+                stick: 0,
+            },
+            |t, b| Totals {
+                lo: t.lo.min(b.min),
+                hi: t.hi.max(b.max),
+                sum: t.sum + b.sum_raw,
+                n: t.n + b.n as u64,
+                stick: t.stick + b.stick as u64,
+            },
+        )
     }
 
-    fn measures(&self, mean_force: f64, stick_fraction: f64) -> Measures {
-        Measures {
-            d_f: self.d_f,
-            d_f_stderr: self.d_f_stderr,
-            mean_force,
-            stick_fraction,
-            period: self.period,
-            peak_force: self.peak_force,
-            trough_force: self.trough_force,
-            cycles: self.cycles,
-        }
+    /// Mean raw force [N] (NaN without samples).
+    fn mean(&self) -> f64 {
+        self.sum / self.n as f64
+    }
+
+    fn stick_fraction(&self) -> f64 {
+        self.stick as f64 / self.n as f64
+    }
+}
+
+/// The measures of a run of drops (at least one): dF as their mean drop with its standard error
+/// `std/√n`, the period as the mean spacing of their peaks, the mean peak and trough.
+fn cycle_measures(drops: &[Drop], mean_force: f64, stick_fraction: f64) -> Measures {
+    let nd = drops.len();
+    let n = nd as f64;
+    let d_f = drops.iter().map(|d| d.peak - d.trough).sum::<f64>() / n;
+    let d_f_stderr = if nd > 1 {
+        let var = drops
+            .iter()
+            .map(|d| (d.peak - d.trough - d_f).powi(2))
+            .sum::<f64>()
+            / (n - 1.0);
+        (var / n).sqrt()
+    } else {
+        0.0
+    };
+    let period = if nd > 1 {
+        (drops[nd - 1].peak_t - drops[0].peak_t) / (n - 1.0)
+    } else {
+        f64::NAN
+    };
+    Measures {
+        d_f,
+        d_f_stderr,
+        mean_force,
+        stick_fraction,
+        period,
+        peak_force: drops.iter().map(|d| d.peak).sum::<f64>() / n,
+        trough_force: drops.iter().map(|d| d.trough).sum::<f64>() / n,
+        cycles: nd as u32,
     }
 }
 

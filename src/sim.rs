@@ -47,8 +47,8 @@ pub struct RunOptions {
 /// this share of the nominal stick-slip amplitude `2 (F_s − F_c)` (so `r` below it, a tenth of
 /// the elimination threshold) ...
 pub const EARLY_STOP_RANGE: f64 = 0.005;
-/// ... and the mean force of the two quarters of that window must agree to this relative
-/// difference, a fifth of the 0.5 % accuracy of the mean force.
+/// ... and the window's mean force must lie within this relative distance of the asymptote
+/// extrapolated from its thirds, a fifth of the 0.5 % accuracy of the mean force.
 pub const EARLY_STOP_DRIFT: f64 = 0.001;
 /// Early stop with stick-slip: the window `[t/2, t]` must be at least `min_cycles` cycle
 /// estimates long, start after the first loading and one more cycle, hold at least `min_cycles`
@@ -132,11 +132,16 @@ impl RunOptions {
 /// vibration share it.
 pub fn simulated_time(p: &Params, min_cycles: u32) -> f64 {
     let tc = p.cycle_estimate();
-    let t_load = p.f_s / (p.k_d * p.v_d);
+    let t_load = first_loading(p);
     let a = (min_cycles as f64 + 1.5) * tc;
     let b = t_load + 2.0 * tc;
     let c = 20.0 * p.slip_duration();
     2.0 * a.max(b).max(c)
+}
+
+/// Time for the drive to load the spring from rest to `F_s` [s]: `F_s / (k_d v_d)`.
+fn first_loading(p: &Params) -> f64 {
+    p.f_s / (p.k_d * p.v_d)
 }
 
 /// The sampling of a run: spacing [s] and samples per vibration period (1 without vibration).
@@ -287,7 +292,7 @@ fn integrate(rig: &Rig, t_end: f64, opts: &RunOptions, solver: &mut Solver) -> R
     let range = EARLY_STOP_RANGE * nominal;
     // Stick-slip is judged once the window can hold the cycles the planned time is made for.
     let tc = p.cycle_estimate();
-    let cycles_from = 2.0 * (opts.min_cycles as f64 * tc).max(p.f_s / (p.k_d * p.v_d) + tc);
+    let cycles_from = 2.0 * (opts.min_cycles as f64 * tc).max(first_loading(p) + tc);
     let mut stopped: Option<(f64, Measures)> = None;
     let stride = if opts.trace {
         count.div_ceil(opts.trace_points as u64).max(1)
@@ -352,16 +357,11 @@ fn integrate(rig: &Rig, t_end: f64, opts: &RunOptions, solver: &mut Solver) -> R
         if early && t >= next_check {
             next_check += check_every;
             let known = an.steady_sliding(t, range, EARLY_STOP_DRIFT).or_else(|| {
-                (t >= cycles_from)
-                    .then(|| {
-                        an.steady_cycles(
-                            t,
-                            opts.min_cycles as usize,
-                            EARLY_STOP_STDERR * nominal,
-                            EARLY_STOP_DRIFT,
-                        )
-                    })
-                    .flatten()
+                if t < cycles_from {
+                    return None;
+                }
+                let drops = opts.min_cycles as usize;
+                an.steady_cycles(t, drops, EARLY_STOP_STDERR * nominal, EARLY_STOP_DRIFT)
             });
             if let Some(m) = known {
                 stopped = Some((t, m));
