@@ -257,12 +257,14 @@ def diffsol_peer(method):
 
 
 def stickslip_run(ratio, t_end, method, tol, repeats=1):
-    """One stickslip run; method `envelope` is Dopri5 with envelope following, its extrapolation
-    tolerance a hundred times the integration tolerance (the periods it integrates at `tol`)."""
+    """One stickslip run; method `envelope` (or `envelope-<method>`) is Dopri5 (or that method)
+    with envelope following, its extrapolation tolerance a hundred times the integration
+    tolerance (the periods it integrates at `tol`)."""
     times, last = [], None
     extra = []
-    if method == "envelope":
-        method, extra = "dopri5", ["--envelope", repr(min(0.1, 100 * tol))]
+    if method.startswith("envelope"):
+        inner = method.split("-", 1)[1] if "-" in method else "dopri5"
+        method, extra = inner, ["--envelope", repr(min(0.1, 100 * tol))]
     for _ in range(repeats):
         args = [str(STICKSLIP), "run", "--t-end", str(t_end), "--va-ratio", str(ratio), "--solver", method, "--rtol", repr(tol), "--atol", repr(tol), "--json", "-o", "/tmp/stickslip-peers.h5"] + extra
         last = json.loads(subprocess.run(args, capture_output=True, text=True, check=True).stdout)
