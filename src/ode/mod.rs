@@ -545,6 +545,18 @@ struct Shared {
     strobe: envelope::Strobe,
 }
 
+impl Shared {
+    /// Buffers for an `n`-dimensional system (the strobe sizes itself per run).
+    fn sized(n: usize) -> Self {
+        Shared {
+            atol: vec![0.0; n],
+            out: vec![0.0; n],
+            init: [vec![0.0; n], vec![0.0; n], vec![0.0; n]],
+            strobe: envelope::Strobe::default(),
+        }
+    }
+}
+
 impl Solver {
     /// A solver for `method`; the workspace is sized on the first call.
     pub fn new(method: Method) -> Self {
@@ -552,12 +564,7 @@ impl Solver {
             method,
             dim: 0,
             ws: Workspace::Empty,
-            shared: Shared {
-                atol: vec![],
-                out: vec![],
-                init: [vec![], vec![], vec![]],
-                strobe: envelope::Strobe::default(),
-            },
+            shared: Shared::sized(0),
         }
     }
 
@@ -576,12 +583,7 @@ impl Solver {
             Method::Rodas4 => Workspace::Rodas4(rodas::Rodas4::new(n)),
             Method::Dopri5 => Workspace::Dopri5(dopri5::Dopri5::new(n)),
         };
-        self.shared = Shared {
-            atol: vec![0.0; n],
-            out: vec![0.0; n],
-            init: [vec![0.0; n], vec![0.0; n], vec![0.0; n]],
-            strobe: envelope::Strobe::default(),
-        };
+        self.shared = Shared::sized(n);
     }
 
     /// Integrates `sys` from `(t0, y0)` to `t1 > t0`, calling `observe(t, y)` at every time of
