@@ -233,7 +233,10 @@ impl Analyzer {
         let settled = if d1 * d2 > 0.0 && d2.abs() < d1.abs() {
             let q = d2 / d1;
             let asymptote = m2 + d2 * q / (1.0 - q);
+            // With q ≤ 1/2 what is left of the approach beyond the last third is at most d2,
+            // so thirds that agree to the drift bound it as well.
             (mean - asymptote).abs() < drift * asymptote.abs()
+                || (q <= 0.5 && d1.abs().max(d2.abs()) < drift * mean.abs())
         } else {
             // Not a monotone approach: the thirds must agree to the drift.
             d1.abs().max(d2.abs()) < drift * mean.abs()

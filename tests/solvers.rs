@@ -549,12 +549,18 @@ fn envelope_following_skips_periods_and_stays_on_the_closed_form() {
         count: 2000 * samples + 1,
     };
     let t1 = grid.time(grid.count - 1);
-    let env = Envelope {
-        tol: 1e-3,
-        ..Envelope::new(samples)
-    };
-    assert!(env.validate().is_ok());
-    for method in [Method::Dopri5, Method::Rodas4] {
+    for (method, baseline) in [
+        (Method::Dopri5, 1),
+        (Method::Dopri5, 4),
+        (Method::Rodas4, 1),
+        (Method::Rodas4, 4),
+    ] {
+        let env = Envelope {
+            tol: 1e-3,
+            baseline,
+            ..Envelope::new(samples)
+        };
+        assert!(env.validate().is_ok());
         let o = opts(1e-8, 1e-8);
         let mut y = ramped(0.0).to_vec();
         let (mut worst, mut seen, mut last_t) = (0.0f64, 0u64, -1.0);
@@ -583,10 +589,13 @@ fn envelope_following_skips_periods_and_stays_on_the_closed_form() {
         let skipped = rep.stats.skipped_periods;
         assert!(
             skipped > 1500,
-            "{method}: only {skipped} of 2000 periods skipped"
+            "{method}, baseline {baseline}: only {skipped} of 2000 periods skipped"
         );
         // Each jump's extrapolation error is held below tol; the damping keeps them from adding up.
-        assert!(worst < 2.0 * env.tol, "{method}: worst error {worst:.2e}");
+        assert!(
+            worst < 2.0 * env.tol,
+            "{method}, baseline {baseline}: worst error {worst:.2e}"
+        );
         // Without envelope following: same problem, every period integrated, no skips.
         let mut y = ramped(0.0).to_vec();
         let direct = Solver::new(method).solve(&Ramped, 0.0, t1, &mut y, &o, grid, |_, _| {});
@@ -614,4 +623,11 @@ fn envelope_options_are_validated_with_the_bound_quoted() {
         Envelope::new(1).validate().unwrap_err().field,
         "envelope.period_samples"
     );
+    let e = Envelope {
+        baseline: 0,
+        ..Envelope::new(16)
+    };
+    let err = e.validate().unwrap_err();
+    assert_eq!((err.field, err.value), ("envelope.baseline", 0.0));
+    assert!(err.allowed.contains("50"), "{}", err.allowed);
 }

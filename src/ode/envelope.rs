@@ -3,15 +3,20 @@
 
 use super::Envelope;
 
-/// Buffers of one run, sized once per dimension and period (no allocation while stepping).
+/// Buffers of one run, sized once per dimension, period and baseline (no allocation while
+/// stepping).
 #[derive(Default)]
 pub(crate) struct Strobe {
     n: usize,
     ps: u64,
+    /// Ring length of the stroboscopic samples: `2 L + 1` for a baseline of `L` periods.
+    ring: usize,
     /// The last `ps` output samples, by grid index modulo `ps` (row-major, `ps × n`).
     samples: Vec<f64>,
-    /// The last three stroboscopic samples `S_{k−2}, S_{k−1}, S_k` (oldest first).
-    s: [Vec<f64>; 3],
+    /// The last `ring` stroboscopic samples, by boundary count modulo `ring` (row-major).
+    s: Vec<f64>,
+    /// Boundaries recorded in the run (the landing of a jump counts as one).
+    boundaries: u64,
     /// Boundaries recorded since the run started or the last jump landed (its target counts 0).
     since: u32,
     /// Last jump [periods].
@@ -25,22 +30,40 @@ pub(crate) struct Strobe {
 }
 
 impl Strobe {
-    /// Prepares for a run of an `n`-dimensional system with `ps` samples per period.
-    pub fn reset(&mut self, n: usize, ps: u64, scale: impl Fn(usize) -> f64) {
-        if self.n != n || self.ps != ps {
+    /// Prepares for a run of an `n`-dimensional system with `ps` samples per period and slopes
+    /// measured over `baseline` periods.
+    pub fn reset(&mut self, n: usize, ps: u64, baseline: u32, scale: impl Fn(usize) -> f64) {
+        let ring = 2 * baseline as usize + 1;
+        if self.n != n || self.ps != ps || self.ring != ring {
             self.n = n;
             self.ps = ps;
+            self.ring = ring;
             self.samples = vec![0.0; ps as usize * n];
-            self.s = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
+            self.s = vec![0.0; ring * n];
             self.slope = vec![0.0; n];
             self.scale = vec![0.0; n];
         }
         for (i, w) in self.scale.iter_mut().enumerate() {
             *w = scale(i);
         }
+        self.boundaries = 0;
         self.since = 0;
         self.from_period = None;
         self.last_jump = 0;
+    }
+
+    /// Stores a stroboscopic sample.
+    fn push(&mut self, y: &[f64]) {
+        let r = (self.boundaries % self.ring as u64) as usize * self.n;
+        self.s[r..r + self.n].copy_from_slice(y);
+        self.boundaries += 1;
+    }
+
+    /// Component `i` of the stroboscopic sample `back` boundaries before the latest.
+    #[inline]
+    fn strobe(&self, back: usize, i: usize) -> f64 {
+        let b = (self.boundaries - 1 - back as u64) % self.ring as u64;
+        self.s[b as usize * self.n + i]
     }
 
     /// Records the output sample of grid index `g`.
@@ -49,8 +72,7 @@ impl Strobe {
         let r = (g % self.ps) as usize * self.n;
         self.samples[r..r + self.n].copy_from_slice(y);
         if g % self.ps == 0 {
-            self.s.rotate_left(1);
-            self.s[2].copy_from_slice(y);
+            self.push(y);
             self.since += 1;
         }
     }
@@ -60,28 +82,32 @@ impl Strobe {
     pub fn plan(&mut self, g: u64, env: &Envelope, room: u64) -> u64 {
         let k = g / self.ps;
         let settle = env.settle;
-        // A slope needs two settled boundaries after the last jump target.
-        if self.since < settle + 1 {
+        let l = env.baseline;
+        let lf = l as f64;
+        let (lu, n) = (l as usize, self.n);
+        // A slope needs a baseline of settled periods after the last jump target.
+        if self.since < settle + l {
             return 0;
         }
-        let n = self.n;
-        let [a, b, c] = &self.s;
-        // Change of the slope per period: over the last two periods when both are settled, and
-        // across the previous jump right after one (its baseline spans the jump).
+        // Change of the slope per period: between the last two baselines when both are
+        // settled, and across the previous jump right after one (its baseline spans the jump).
+        // Slopes over L periods average out what repeats from period to period without drift
+        // (the integrator's noise, a decaying alternating mode).
         let mut curv = 0.0f64;
         let mut known = false;
-        if self.since >= settle + 2 {
+        if self.since >= settle + 2 * l {
             for i in 0..n {
-                let d = (c[i] - 2.0 * b[i] + a[i]) / self.scale[i];
-                curv = curv.max(d.abs());
+                let d2 = self.strobe(0, i) - 2.0 * self.strobe(lu, i) + self.strobe(2 * lu, i);
+                curv = curv.max((d2 / (lf * lf) / self.scale[i]).abs());
             }
             known = true;
         }
         if let Some(at) = self.from_period {
-            if self.since <= settle + 2 {
+            if self.since <= settle + 2 * l {
                 let span = (k - at) as f64;
                 for i in 0..n {
-                    let d = ((c[i] - b[i]) - self.slope[i]) / span / self.scale[i];
+                    let slope = (self.strobe(0, i) - self.strobe(lu, i)) / lf;
+                    let d = (slope - self.slope[i]) / span / self.scale[i];
                     curv = curv.max(d.abs());
                 }
                 known = true;
@@ -90,9 +116,10 @@ impl Strobe {
         if !known {
             return 0;
         }
-        // Largest M with M (M+1)/2 · ‖c‖ ≤ tol.
+        // Largest M with M (M+L)/2 · ‖c‖ ≤ tol: the slope, a mean over the baseline, lags the
+        // one at its end by L/2 periods of curvature.
         let m_tol = if curv > 0.0 {
-            ((-1.0 + (1.0 + 8.0 * env.tol / curv).sqrt()) / 2.0).floor()
+            ((-lf + (lf * lf + 8.0 * env.tol / curv).sqrt()) / 2.0).floor()
         } else {
             f64::INFINITY
         };
@@ -106,7 +133,7 @@ impl Strobe {
             return 0;
         }
         for i in 0..n {
-            self.slope[i] = c[i] - b[i];
+            self.slope[i] = (self.strobe(0, i) - self.strobe(lu, i)) / lf;
         }
         self.from_period = Some(k);
         self.last_jump = m;
@@ -130,8 +157,7 @@ impl Strobe {
 
     /// Marks the landing of a jump: the target boundary is the new `S_0`.
     pub fn landed(&mut self, y: &[f64]) {
-        self.s.rotate_left(1);
-        self.s[2].copy_from_slice(y);
+        self.push(y);
         self.since = 0;
     }
 }

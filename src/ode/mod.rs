@@ -254,19 +254,23 @@ impl OutputGrid {
 ///
 /// The state sampled once per period, `S_n = y(t0 + n T)`, changes slowly while the forced
 /// response settles to a slowly drifting periodic one (here: sticking or steady sliding under
-/// vibration). The driver integrates the full system period by period; once the slope
-/// `Δ_n = S_n − S_{n−1}` is known over settled periods, it jumps `M` whole periods at once,
+/// vibration). The driver integrates the full system period by period; once the slope over a
+/// baseline of `L` settled periods, `Δ_n = (S_n − S_{n−L}) / L`, is known, it jumps `M` whole
+/// periods at once,
 ///
 /// ```text
 /// S_{n+M} = S_n + M Δ_n,
 /// ```
 ///
-/// choosing the largest `M` whose extrapolation error `M (M+1)/2 · ‖c‖` stays below [`tol`]
-/// (`c`, the change of the slope per period, is measured over the last two settled periods and
-/// over the previous jump; `‖·‖` is the max norm over all components, in units of
-/// [`OdeSystem::scale`]). The slopes are differences of integrated states, so the integrator's
-/// own error must lie well below `tol`: [`Envelope::inner_tolerance`] gives the tolerance the
-/// periods are integrated with. Output
+/// choosing the largest `M` whose extrapolation error `M (M+L)/2 · ‖c‖` stays below [`tol`]
+/// (`c`, the change of the slope per period, is measured between the last two baselines,
+/// `(S_n − 2 S_{n−L} + S_{n−2L}) / L²`, and across the previous jump; the slope, a mean over the
+/// baseline, lags the one at `S_n` by `L/2` periods of `c`; `‖·‖` is the max norm over all
+/// components, in units of [`OdeSystem::scale`]). A baseline of several periods averages out
+/// what changes from period to period without drifting (the integrator's noise, a decaying
+/// alternating mode), which one-period differences would read as curvature. The slopes are
+/// differences of integrated states, so the integrator's own error must lie well below `tol`:
+/// [`Envelope::inner_tolerance`] gives the tolerance the periods are integrated with. Output
 /// times inside a jump get the last integrated period's samples at the same phase, shifted by the
 /// envelope (`y(t + mT) ≈ y(t) + m Δ_n`), so a moving average over one period sees the drift
 /// only. Fast transients that a jump excites in stiff components decay during the [`settle`]
@@ -289,6 +293,9 @@ pub struct Envelope {
     /// Periods integrated after a jump before the slope is measured again. Default 1.
     /// Range 1 to 100.
     pub settle: u32,
+    /// Periods each slope is measured over (`L`): the slope is `(S_n − S_{n−L})/L` and its
+    /// change comes from two such baselines. Default 1. Range 1 to 50.
+    pub baseline: u32,
     /// Longest jump [periods]. Default 200. Range ≥ 2.
     pub max_jump: u64,
 }
@@ -300,6 +307,7 @@ impl Envelope {
             period_samples,
             tol: 2e-3,
             settle: 1,
+            baseline: 1,
             max_jump: 200,
         }
     }
@@ -332,6 +340,13 @@ impl Envelope {
         }
         if !(1..=100).contains(&self.settle) {
             return bad("envelope.settle", self.settle as f64, "1 <= settle <= 100");
+        }
+        if !(1..=50).contains(&self.baseline) {
+            return bad(
+                "envelope.baseline",
+                self.baseline as f64,
+                "1 <= baseline <= 50",
+            );
         }
         if self.max_jump < 2 {
             return bad("envelope.max_jump", self.max_jump as f64, "max_jump >= 2");
@@ -651,7 +666,7 @@ impl Solver {
         if let Some(e) = envelope {
             self.shared
                 .strobe
-                .reset(n, e.period_samples, |i| sys.scale(i));
+                .reset(n, e.period_samples, e.baseline, |i| sys.scale(i));
         }
         let sh = &mut self.shared;
         let env = envelope;

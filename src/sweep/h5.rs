@@ -14,6 +14,7 @@
 //! | `status` | 1 | 0 success, 1 step too small, 2 max steps, 3 Newton failure, 4 non-finite, −1 not run yet |
 //! | `steps`, `rejected`, `rhs_evals`, `jac_evals`, `lu_decomps` | 1 | solver statistics of the point's own run |
 //! | `wall_time` | s | wall time of the point's own run |
+//! | `t_end` | s | simulated time of the point's own run (shorter than planned where it stopped early) |
 //! | `u0_grid`, `v_a_grid` | m, m/s | the vibration amplitude and velocity amplitude of each point |
 //!
 //! Root attributes: the sweep file's text, the resolved fixed parameters, solver settings, the
@@ -113,6 +114,12 @@ fn grids(spec: &SweepSpec, plan: &Plan, res: &Results) -> Vec<Grid> {
         ("lu_decomps", "1", "LU factorisations", vec![]),
         ("wall_time", "s", "wall time of the run", vec![]),
         (
+            "t_end",
+            "s",
+            "simulated time of the run (shorter than planned where it stopped early)",
+            vec![],
+        ),
+        (
             "u0_grid",
             "m",
             "vibration amplitude u0 of the point",
@@ -167,6 +174,7 @@ fn grids(spec: &SweepSpec, plan: &Plan, res: &Results) -> Vec<Grid> {
             sv(|s| s.jac_evals),
             sv(|s| s.lu_decomps),
             own.map(|r| r.wall_time).unwrap_or(f64::NAN),
+            own.map(|r| r.t_end).unwrap_or(f64::NAN),
             p.u0,
             p.v_a(),
         ];
