@@ -230,16 +230,16 @@ impl Analyzer {
         let m2 = Totals::of(&w[2 * third..]).mean();
         let mean = all.mean();
         let (d1, d2) = (m1 - m0, m2 - m1);
+        let thirds_agree = d1.abs().max(d2.abs()) < drift * mean.abs();
         let settled = if d1 * d2 > 0.0 && d2.abs() < d1.abs() {
             let q = d2 / d1;
             let asymptote = m2 + d2 * q / (1.0 - q);
             // With q ≤ 1/2 what is left of the approach beyond the last third is at most d2,
             // so thirds that agree to the drift bound it as well.
-            (mean - asymptote).abs() < drift * asymptote.abs()
-                || (q <= 0.5 && d1.abs().max(d2.abs()) < drift * mean.abs())
+            (mean - asymptote).abs() < drift * asymptote.abs() || (q <= 0.5 && thirds_agree)
         } else {
             // Not a monotone approach: the thirds must agree to the drift.
-            d1.abs().max(d2.abs()) < drift * mean.abs()
+            thirds_agree
         };
         if !settled {
             return None;

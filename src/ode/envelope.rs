@@ -66,6 +66,12 @@ impl Strobe {
         self.s[b as usize * self.n + i]
     }
 
+    /// Slope of component `i` over the last `l` periods, `(S_n − S_{n−l}) / l`.
+    #[inline]
+    fn baseline_slope(&self, i: usize, l: usize) -> f64 {
+        (self.strobe(0, i) - self.strobe(l, i)) / l as f64
+    }
+
     /// Records the output sample of grid index `g`.
     #[inline]
     pub fn record(&mut self, g: u64, y: &[f64]) {
@@ -106,8 +112,7 @@ impl Strobe {
             if self.since <= settle + 2 * l {
                 let span = (k - at) as f64;
                 for i in 0..n {
-                    let slope = (self.strobe(0, i) - self.strobe(lu, i)) / lf;
-                    let d = (slope - self.slope[i]) / span / self.scale[i];
+                    let d = (self.baseline_slope(i, lu) - self.slope[i]) / span / self.scale[i];
                     curv = curv.max(d.abs());
                 }
                 known = true;
@@ -133,7 +138,7 @@ impl Strobe {
             return 0;
         }
         for i in 0..n {
-            self.slope[i] = (self.strobe(0, i) - self.strobe(lu, i)) / lf;
+            self.slope[i] = self.baseline_slope(i, lu);
         }
         self.from_period = Some(k);
         self.last_jump = m;
