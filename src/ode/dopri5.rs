@@ -67,6 +67,8 @@ pub(crate) struct Dopri5 {
     /// Dense output coefficients of the last accepted step.
     rc: [Vec<f64>; 5],
     facold: f64,
+    /// `facold^β`, computed once per accepted step.
+    facold_beta: f64,
     reject: bool,
 }
 
@@ -92,6 +94,7 @@ impl Dopri5 {
             ytmp: v(),
             rc: [v(), v(), v(), v(), v()],
             facold: 1e-4,
+            facold_beta: 1e-4f64.powf(BETA),
             reject: false,
         }
     }
@@ -113,6 +116,7 @@ impl Stepper for Dopri5 {
         sys.rhs(t0, y0, &mut self.k1);
         st.rhs_evals += 1;
         self.facold = 1e-4;
+        self.facold_beta = self.facold.powf(BETA);
         self.reject = false;
         self.rc[0].copy_from_slice(y0);
         for c in self.rc[1..].iter_mut() {
@@ -192,9 +196,10 @@ impl Stepper for Dopri5 {
         }
         // PI controller with Lund stabilisation.
         let fac11 = err.powf(0.2 - BETA * 0.75);
-        let fac = (fac11 / self.facold.powf(BETA) / SAFE).clamp(1.0 / FAC2, 1.0 / FAC1);
+        let fac = (fac11 / self.facold_beta / SAFE).clamp(1.0 / FAC2, 1.0 / FAC1);
         if err <= 1.0 {
             self.facold = err.max(1e-4);
+            self.facold_beta = self.facold.powf(BETA);
             // Dense output coefficients.
             for i in 0..n {
                 let ydiff = self.ynew[i] - self.y[i];
