@@ -336,19 +336,19 @@ pub fn run(a: &RunArgs) -> Result<(), AppError> {
         output::write_trace_csv(path, tr)?;
         written.push(path.clone());
     }
-    if a.plot {
-        if let Some(tr) = &res.run.trace {
-            let p = &case.params;
-            let title = format!(
-                "k_d = {} N/m, v_d = {} mm/s, f = {} Hz, v_a = {:.3} mm/s: r = {:.3}",
-                p.k_d,
-                p.v_d * 1e3,
-                p.f,
-                p.v_a() * 1e3,
-                res.r
-            );
-            written.extend(plot::trace_figure(&a.out.with_extension(""), tr, &title)?);
-        }
+    if a.plot
+        && let Some(tr) = &res.run.trace
+    {
+        let p = &case.params;
+        let title = format!(
+            "k_d = {} N/m, v_d = {} mm/s, f = {} Hz, v_a = {:.3} mm/s: r = {:.3}",
+            p.k_d,
+            p.v_d * 1e3,
+            p.f,
+            p.v_a() * 1e3,
+            res.r
+        );
+        written.extend(plot::trace_figure(&a.out.with_extension(""), tr, &title)?);
     }
     let mut out = std::io::stdout().lock();
     if a.json {

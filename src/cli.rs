@@ -504,14 +504,14 @@ impl SweepArgs {
         &self,
     ) -> Result<(crate::sweep::spec::SweepSpec, crate::sweep::SweepOptions), CliError> {
         let spec = crate::sweep::spec::SweepSpec::load(&self.file)?;
-        if let Some(t) = self.threads {
-            if t == 0 || t > 1024 {
-                return Err(CliError::Flag {
-                    flag: "threads".into(),
-                    value: t.to_string(),
-                    msg: "must be from 1 to 1024".into(),
-                });
-            }
+        if let Some(t) = self.threads
+            && (t == 0 || t > 1024)
+        {
+            return Err(CliError::Flag {
+                flag: "threads".into(),
+                value: t.to_string(),
+                msg: "must be from 1 to 1024".into(),
+            });
         }
         if !(self.checkpoint_every >= 1.0 && self.checkpoint_every.is_finite()) {
             return Err(CliError::Flag {

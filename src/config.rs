@@ -114,12 +114,11 @@ impl Doc {
                 }
                 continue;
             }
-            if current == section {
-                if let Some((k, _)) = l.split_once('=') {
-                    if k.trim().trim_matches('"') == key {
-                        return i + 1;
-                    }
-                }
+            if current == section
+                && let Some((k, _)) = l.split_once('=')
+                && k.trim().trim_matches('"') == key
+            {
+                return i + 1;
             }
         }
         0

@@ -509,12 +509,13 @@ mod tests {
             for i in 0..40_000 {
                 let t = i as f64 * dt;
                 a.push(t, 3.0 - 2.0 * (-t / tau).exp(), 1.0);
-                if i % 100 == 0 && i > 0 {
-                    if let Some(m) = a.steady_sliding(t, 10.0, drift) {
-                        let err = (m.mean_force - 3.0).abs() / 3.0;
-                        assert!(err < drift, "tau {tau}, t {t}: mean {}", m.mean_force);
-                        first.get_or_insert(t);
-                    }
+                if i % 100 == 0
+                    && i > 0
+                    && let Some(m) = a.steady_sliding(t, 10.0, drift)
+                {
+                    let err = (m.mean_force - 3.0).abs() / 3.0;
+                    assert!(err < drift, "tau {tau}, t {t}: mean {}", m.mean_force);
+                    first.get_or_insert(t);
                 }
             }
             let t = first.expect("never settled");

@@ -109,10 +109,10 @@ impl RunOptions {
                 "1 <= min_cycles <= 1000",
             );
         }
-        if let Some(t) = self.t_end {
-            if !(t > 0.0 && t.is_finite()) {
-                return bad("t_end", t, "finite and > 0 s");
-            }
+        if let Some(t) = self.t_end
+            && !(t > 0.0 && t.is_finite())
+        {
+            return bad("t_end", t, "finite and > 0 s");
         }
         if !(4..=4096).contains(&self.samples_per_period) {
             return bad(
@@ -121,10 +121,10 @@ impl RunOptions {
                 "4 <= samples_per_period <= 4096",
             );
         }
-        if let Some(tol) = self.envelope {
-            if !(1e-8..=0.1).contains(&tol) {
-                return bad("envelope", tol, "1e-8 <= envelope <= 0.1");
-            }
+        if let Some(tol) = self.envelope
+            && !(1e-8..=0.1).contains(&tol)
+        {
+            return bad("envelope", tol, "1e-8 <= envelope <= 0.1");
         }
         if self.trace_points < 100 {
             return bad(
@@ -357,18 +357,18 @@ fn integrate(rig: &Rig, t_end: f64, opts: &RunOptions, solver: &mut Solver) -> R
         let f = rig.measured_force(t, y);
         let v_r = rig.relative_velocity(t, y);
         let smooth = an.push(t, f, v_r);
-        if let Some(tr) = trace.as_mut() {
-            if idx % stride == 0 {
-                tr.t.push(t);
-                tr.f_d.push(f);
-                tr.f_d_smooth.push(if k > 1 { smooth } else { f });
-                tr.x_s.push(y[X]);
-                tr.x_d.push(rig.drive_displacement(t));
-                tr.s.push(rig.deformation(y));
-                tr.v_r.push(v_r);
-                tr.v.push(y[V]);
-                tr.u.push(rig.substrate_displacement(t));
-            }
+        if let Some(tr) = trace.as_mut()
+            && idx.is_multiple_of(stride)
+        {
+            tr.t.push(t);
+            tr.f_d.push(f);
+            tr.f_d_smooth.push(if k > 1 { smooth } else { f });
+            tr.x_s.push(y[X]);
+            tr.x_d.push(rig.drive_displacement(t));
+            tr.s.push(rig.deformation(y));
+            tr.v_r.push(v_r);
+            tr.v.push(y[V]);
+            tr.u.push(rig.substrate_displacement(t));
         }
         idx += 1;
         if early && t >= next_check {

@@ -428,15 +428,16 @@ fn locate(c: &Campaign, held: &[bool], base: &Model, best: Option<&Model>) -> Wh
     let mut summary = describe(&features, &phases, &conditions, with_vibration);
     let sq: Vec<f64> = recordings.iter().map(|r| r.gap_base * r.gap_base).collect();
     let total_sq: f64 = sq.iter().sum();
-    if let Some(i) = (0..sq.len()).max_by(|&a, &b| sq[a].total_cmp(&sq[b])) {
-        if total_sq > 0.0 && sq[i] / total_sq > 0.3 {
-            summary += &format!(
-                " Recording {} alone carries {:.0} % of it (gap {:.2}).",
-                recordings[i].name,
-                100.0 * sq[i] / total_sq,
-                recordings[i].gap_base
-            );
-        }
+    if let Some(i) = (0..sq.len()).max_by(|&a, &b| sq[a].total_cmp(&sq[b]))
+        && total_sq > 0.0
+        && sq[i] / total_sq > 0.3
+    {
+        summary += &format!(
+            " Recording {} alone carries {:.0} % of it (gap {:.2}).",
+            recordings[i].name,
+            100.0 * sq[i] / total_sq,
+            recordings[i].gap_base
+        );
     }
     Where {
         features,

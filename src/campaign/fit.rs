@@ -553,15 +553,17 @@ pub fn starts(target: &Target, base: &Model, kind: EffectKind) -> Model {
     let mut candidates: Vec<Model> = vec![];
     let mut m0 = base.clone();
     m0.effects.enable(kind);
-    let mut d0 = Model::default();
-    d0.effects = m0.effects.clone();
-    if kind == EffectKind::DriveRipple {
-        if let Some((a, lambda)) = ripple_from_drive(&target.recs) {
-            let mut m = m0.clone();
-            let _ = m.effects.set(kind, "a", a.clamp(0.0, 1e-3));
-            let _ = m.effects.set(kind, "wavelength", lambda.clamp(1e-6, 0.1));
-            return m;
-        }
+    let d0 = Model {
+        effects: m0.effects.clone(),
+        ..Model::default()
+    };
+    if kind == EffectKind::DriveRipple
+        && let Some((a, lambda)) = ripple_from_drive(&target.recs)
+    {
+        let mut m = m0.clone();
+        let _ = m.effects.set(kind, "a", a.clamp(0.0, 1e-3));
+        let _ = m.effects.set(kind, "wavelength", lambda.clamp(1e-6, 0.1));
+        return m;
     }
     let ranges: Vec<(&str, f64, f64, bool)> = super::synth::REALISTIC
         .iter()

@@ -77,7 +77,7 @@ impl Strobe {
     pub fn record(&mut self, g: u64, y: &[f64]) {
         let r = (g % self.ps) as usize * self.n;
         self.samples[r..r + self.n].copy_from_slice(y);
-        if g % self.ps == 0 {
+        if g.is_multiple_of(self.ps) {
             self.push(y);
             self.since += 1;
         }
@@ -108,15 +108,15 @@ impl Strobe {
             }
             known = true;
         }
-        if let Some(at) = self.from_period {
-            if self.since <= settle + 2 * l {
-                let span = (k - at) as f64;
-                for i in 0..n {
-                    let d = (self.baseline_slope(i, lu) - self.slope[i]) / span / self.scale[i];
-                    curv = curv.max(d.abs());
-                }
-                known = true;
+        if let Some(at) = self.from_period
+            && self.since <= settle + 2 * l
+        {
+            let span = (k - at) as f64;
+            for i in 0..n {
+                let d = (self.baseline_slope(i, lu) - self.slope[i]) / span / self.scale[i];
+                curv = curv.max(d.abs());
             }
+            known = true;
         }
         if !known {
             return 0;

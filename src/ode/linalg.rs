@@ -160,7 +160,7 @@ impl<T: Scalar> DenseLu<T> {
                 a[i * n + k] = l;
                 for j in k + 1..n {
                     let u = a[k * n + j];
-                    a[i * n + j] = a[i * n + j] - l * u;
+                    a[i * n + j] -= l * u;
                 }
             }
         }
@@ -200,14 +200,14 @@ impl<T: Scalar> DenseLu<T> {
         for i in 1..n {
             let mut s = b[i];
             for j in 0..i {
-                s = s - a[i * n + j] * b[j];
+                s -= a[i * n + j] * b[j];
             }
             b[i] = s;
         }
         for i in (0..n).rev() {
             let mut s = b[i];
             for j in i + 1..n {
-                s = s - a[i * n + j] * b[j];
+                s -= a[i * n + j] * b[j];
             }
             b[i] = s / a[i * n + i];
         }
@@ -225,7 +225,7 @@ mod tests {
         let mut b = vec![T::default(); n];
         for i in 0..n {
             for j in 0..n {
-                b[i] = b[i] + m(i, j) * x[j];
+                b[i] += m(i, j) * x[j];
             }
         }
         let mut lu = DenseLu::<T>::new(n);
@@ -265,9 +265,7 @@ mod tests {
             let mut lu = DenseLu::<f64>::new(n);
             // Two equal rows.
             let res = lu.factor(|i, j| {
-                if i == 1 {
-                    (j + 1) as f64
-                } else if i == 0 {
+                if i <= 1 {
                     (j + 1) as f64
                 } else {
                     (i * j) as f64 + if i == j { 1.0 } else { 0.0 }

@@ -544,7 +544,9 @@ pub struct Solver {
     shared: Shared,
 }
 
-/// The method's own buffers and controller state.
+/// The method's own buffers and controller state (made once per solver, so the size of the
+/// largest variant does not matter).
+#[allow(clippy::large_enum_variant)]
 enum Workspace {
     Empty,
     Radau5(radau5::Radau5),
@@ -816,7 +818,7 @@ fn drive<M: Stepper, S: OdeSystem>(
                     }
                     let Some(e) = env else { continue };
                     strobe.record(g, out);
-                    if g % e.period_samples != 0 {
+                    if !g.is_multiple_of(e.period_samples) {
                         continue;
                     }
                     let jump = strobe.plan(g, e, (g_last - g) / e.period_samples);

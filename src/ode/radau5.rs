@@ -12,6 +12,9 @@
 //! - Tolerances are transformed as in RADAU5: `rtol' = 0.1 rtol^(2/3)`,
 //!   `atol' = rtol' · atol / rtol`, because the error estimate is of lower order than the method.
 
+// The transformation matrices below carry the digits RADAU5 publishes, more than an f64 holds.
+#![allow(clippy::excessive_precision)]
+
 use super::linalg::DenseLu;
 use super::{OdeSystem, Stats, Status, StepOutcome, Stepper, error_norm};
 use num_complex::Complex64;

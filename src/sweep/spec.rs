@@ -309,13 +309,13 @@ impl SweepSpec {
                 ),
             ));
         }
-        if !amp.is_empty() && self.fixed_amplitude.is_some() {
+        if let (Some(axis), Some(fixed)) = (amp.first(), self.fixed_amplitude.as_ref()) {
             return Err(doc.err(
                 "fixed",
-                &self.fixed_amplitude.as_ref().unwrap().0,
+                &fixed.0,
                 format!(
                     "the axis `{}` sets the amplitude; remove it from [fixed]",
-                    amp[0].name
+                    axis.name
                 ),
             ));
         }
