@@ -329,7 +329,16 @@ pub fn boundary_cmd(a: &BoundaryArgs) -> Result<(), AppError> {
 pub fn run(a: &RunArgs) -> Result<(), AppError> {
     let case = a.resolve()?;
     let mut solver = Solver::new(case.run.method);
-    let res = sim::run_case_with(&case.params, &case.effects, &case.run, &mut solver)?;
+    let mut res = sim::run_case_with(&case.params, &case.effects, &case.run, &mut solver)?;
+    // Timing: the run's own wall time (as `wall_time`; the reference without vibration is timed
+    // apart), its median over the repeats, as hyperfine and the peers' timing loops report.
+    let mut times = vec![res.run.wall_time];
+    for _ in 1..a.repeats {
+        res = sim::run_case_with(&case.params, &case.effects, &case.run, &mut solver)?;
+        times.push(res.run.wall_time);
+    }
+    times.sort_by(f64::total_cmp);
+    let timing = (a.repeats > 1).then(|| (times[times.len() / 2], times[0]));
     output::write_case_h5(&a.out, &res, &case.run)?;
     let mut written = vec![a.out.clone()];
     if let (Some(path), Some(tr)) = (&a.csv, &res.run.trace) {
@@ -352,9 +361,25 @@ pub fn run(a: &RunArgs) -> Result<(), AppError> {
     }
     let mut out = std::io::stdout().lock();
     if a.json {
-        let _ = writeln!(out, "{}", case_json(&res, &case.run));
+        let mut v = case_json(&res, &case.run);
+        if let Some((median, min)) = timing {
+            let obj = v.as_object_mut().expect("object");
+            obj.insert("repeats".into(), serde_json::json!(a.repeats));
+            obj.insert("wall_time_median".into(), serde_json::json!(median));
+            obj.insert("wall_time_min".into(), serde_json::json!(min));
+        }
+        let _ = writeln!(out, "{v}");
     } else {
         let _ = write!(out, "{}", case_summary(&res, &case.run));
+        if let Some((median, min)) = timing {
+            let _ = writeln!(
+                out,
+                "wall time over {} repeats: median {:.3} ms, fastest {:.3} ms",
+                a.repeats,
+                median * 1e3,
+                min * 1e3
+            );
+        }
         for w in &written {
             let _ = writeln!(out, "wrote {}", w.display());
         }
@@ -388,6 +413,7 @@ fn run_json(r: &sim::RunResult) -> serde_json::Value {
         "t_end": r.t_end,
         "window_start": r.window_start,
         "wall_time": r.wall_time,
+        "continued_from": r.continued_from,
         "stats": r.stats,
     })
 }

@@ -456,6 +456,11 @@ pub struct RunArgs {
     #[arg(long)]
     pub no_early_stop: bool,
 
+    /// Without vibration, integrate every cycle instead of continuing along the limit cycle
+    /// once two successive slips pass the same state.
+    #[arg(long)]
+    pub no_periodic: bool,
+
     /// Envelope following with vibration: skip whole vibration periods where the state sampled
     /// once per period drifts smoothly, with this extrapolation tolerance per jump (1e-8 to 0.1,
     /// in units of each state's characteristic size).
@@ -465,6 +470,16 @@ pub struct RunArgs {
     /// Print the results as one JSON object on stdout (no other output there).
     #[arg(long)]
     pub json: bool,
+
+    /// Keep no time traces: the HDF5 file gets the results only (no CSV or plot either).
+    #[arg(long, conflicts_with_all = ["csv", "plot"])]
+    pub no_trace: bool,
+
+    /// Run the case this many times in one process (1 to 1000) and report the median wall time
+    /// (and the fastest): the first run pays for cold caches and fresh pages, as a timing loop
+    /// inside any other tool does. Results and traces are those of the last run.
+    #[arg(long, value_name = "N", default_value_t = 1)]
+    pub repeats: u32,
 
     /// HDF5 file for the traces and results.
     #[arg(short, long, value_name = "FILE", default_value = "results/run.h5")]
@@ -615,10 +630,20 @@ impl RunArgs {
         if self.no_early_stop {
             o.early_stop = false;
         }
+        if self.no_periodic {
+            o.periodic = false;
+        }
         if let Some(v) = self.envelope {
             o.envelope = Some(v);
         }
-        o.trace = true;
+        o.trace = !self.no_trace;
+        if !(1..=1000).contains(&self.repeats) {
+            return Err(CliError::Flag {
+                flag: "repeats".into(),
+                value: self.repeats.to_string(),
+                msg: "must be from 1 to 1000".into(),
+            });
+        }
         o.validate().map_err(|e| CliError::Flag {
             flag: e.field.replace('_', "-"),
             value: e.value.to_string(),

@@ -20,6 +20,7 @@
 //! min_cycles = 3
 //! samples_per_period = 16
 //! early_stop = true  # end once the answer is known (steady sliding, or dF to 0.5 %)
+//! periodic = true    # without vibration, continue along the limit cycle once it repeats
 //! envelope = 1e-4    # skip vibration periods where the envelope is smooth (omitted: off)
 //! ```
 
@@ -298,13 +299,18 @@ pub fn apply_run(doc: &Doc, table: &toml::Table, o: &mut RunOptions) -> Result<(
                     .as_bool()
                     .ok_or_else(|| doc.err(sec, k, "expected true or false"))?;
             }
+            "periodic" => {
+                o.periodic = v
+                    .as_bool()
+                    .ok_or_else(|| doc.err(sec, k, "expected true or false"))?;
+            }
             "envelope" => o.envelope = Some(doc.number(sec, k, v)?),
             _ => {
                 return Err(doc.err(
                     sec,
                     k,
                     "unknown key; allowed: t_end, min_cycles, samples_per_period, early_stop, \
-                     envelope",
+                     periodic, envelope",
                 ));
             }
         }

@@ -152,23 +152,15 @@ impl Analyzer {
     /// Feeds one sample and returns the smoothed force (NaN until one period is filled).
     pub fn push(&mut self, t: f64, force: f64, v_rel: f64) -> f64 {
         let k = self.ring_f.len();
-        // Running sums are refreshed from the buffer once per period, so round-off cannot drift.
-        self.sum_f += force - self.ring_f[self.pos];
-        self.sum_v += v_rel - self.ring_v[self.pos];
-        self.ring_f[self.pos] = force;
-        self.ring_v[self.pos] = v_rel;
-        self.pos += 1;
-        if self.pos == k {
-            self.pos = 0;
-            self.sum_f = self.ring_f.iter().sum();
-            self.sum_v = self.ring_v.iter().sum();
-        }
-        self.filled = (self.filled + 1).min(k);
-        if self.filled < k {
-            return f64::NAN;
-        }
-        let sf = self.sum_f / k as f64;
-        let sv = self.sum_v / k as f64;
+        let (sf, sv) = if k == 1 {
+            // Without vibration nothing is smoothed.
+            (force, v_rel)
+        } else {
+            match self.smooth(force, v_rel) {
+                Some(s) => s,
+                None => return f64::NAN,
+            }
+        };
         if self.block_width.is_finite() {
             if self.cur.n == 0 {
                 self.cur.start = t;
@@ -197,6 +189,25 @@ impl Analyzer {
             self.window.push(t, sf);
         }
         sf
+    }
+
+    /// The moving averages of the force and the relative velocity over one period, once the
+    /// period is filled.
+    fn smooth(&mut self, force: f64, v_rel: f64) -> Option<(f64, f64)> {
+        let k = self.ring_f.len();
+        // Running sums are refreshed from the buffer once per period, so round-off cannot drift.
+        self.sum_f += force - self.ring_f[self.pos];
+        self.sum_v += v_rel - self.ring_v[self.pos];
+        self.ring_f[self.pos] = force;
+        self.ring_v[self.pos] = v_rel;
+        self.pos += 1;
+        if self.pos == k {
+            self.pos = 0;
+            self.sum_f = self.ring_f.iter().sum();
+            self.sum_v = self.ring_v.iter().sum();
+        }
+        self.filled = (self.filled + 1).min(k);
+        (self.filled == k).then(|| (self.sum_f / k as f64, self.sum_v / k as f64))
     }
 
     /// The whole blocks of the window `[t/2, t]`.

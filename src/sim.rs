@@ -1,6 +1,7 @@
 //! One simulated test: the run policy (simulated time, sampling), the integration, the measures,
 //! and the reduction coefficient `r` against the automatic run without vibration.
 
+use crate::cycle::LimitCycle;
 use crate::measures::{Analyzer, DROP_THRESHOLD, Measures, STICK_VELOCITY};
 use crate::model::{Effects, Params, Rig, RigError, V, X};
 use crate::ode::{
@@ -36,6 +37,11 @@ pub struct RunOptions {
     /// `min_cycles` stick-slip cycles of the run without vibration and gives dF to
     /// [`EARLY_STOP_STDERR`]. Applies to the automatic simulated time only. Default true.
     pub early_stop: bool,
+    /// Without vibration (base model): once two successive slips pass the same state, with a
+    /// stick between them, read the rest of the samples off that limit cycle instead of
+    /// integrating them (see [`cycle`](crate::cycle); `RunResult::continued_from` says from
+    /// when). The measures are those of the whole run to about 1e-6 of dF. Default true.
+    pub periodic: bool,
     /// Envelope following for runs with vibration: the extrapolation tolerance of one jump over
     /// whole vibration periods (see [`ode::Envelope`](crate::ode::Envelope)), in units of each
     /// state's characteristic size; `None` integrates every period. Default `None`.
@@ -86,6 +92,7 @@ impl Default for RunOptions {
             trace: false,
             trace_points: 400_000,
             early_stop: true,
+            periodic: true,
             envelope: None,
         }
     }
@@ -255,6 +262,10 @@ pub struct RunResult {
     pub window_start: f64,
     /// Wall-clock time of the integration and analysis [s].
     pub wall_time: f64,
+    /// Time from which the samples were read off the run's limit cycle instead of integrated
+    /// ([`RunOptions::periodic`]) [s]; `None` where every sample was integrated.
+    #[serde(default)]
+    pub continued_from: Option<f64>,
     /// Time traces, when asked for.
     #[serde(skip)]
     pub trace: Option<Trace>,
@@ -352,25 +363,19 @@ fn integrate(rig: &Rig, t_end: f64, opts: &RunOptions, solver: &mut Solver) -> R
         },
         None => opts.ode.clone(),
     };
+    // Without vibration the base model is autonomous: watch for its limit cycle.
+    let mut cycle = (opts.periodic && !p.vibrates() && !rig.has_effects())
+        .then(|| LimitCycle::new(rig, dt, &ode));
     let rep = solver.solve_envelope(rig, 0.0, t_end, &mut y, &ode, grid, env, |t, y| {
         // The force the sensor records (the drive force itself without sensor dynamics).
         let f = rig.measured_force(t, y);
-        let v_r = rig.relative_velocity(t, y);
-        let smooth = an.push(t, f, v_r);
-        if let Some(tr) = trace.as_mut()
-            && idx.is_multiple_of(stride)
-        {
-            tr.t.push(t);
-            tr.f_d.push(f);
-            tr.f_d_smooth.push(if k > 1 { smooth } else { f });
-            tr.x_s.push(y[X]);
-            tr.x_d.push(rig.drive_displacement(t));
-            tr.s.push(rig.deformation(y));
-            tr.v_r.push(v_r);
-            tr.v.push(y[V]);
-            tr.u.push(rig.substrate_displacement(t));
-        }
+        record(rig, &mut an, trace.as_mut(), stride, idx, k, t, f, y);
         idx += 1;
+        if let Some(c) = cycle.as_mut()
+            && c.push(t, f, y)
+        {
+            return false;
+        }
         if early && t >= next_check {
             next_check += check_every;
             let known = an.steady_sliding(t, range, EARLY_STOP_DRIFT).or_else(|| {
@@ -387,6 +392,15 @@ fn integrate(rig: &Rig, t_end: f64, opts: &RunOptions, solver: &mut Solver) -> R
         }
         true
     });
+    // A periodic run: the remaining samples are the last cycle's.
+    let continued_from = cycle.as_ref().and_then(LimitCycle::continued_from);
+    if let Some(c) = cycle.as_ref()
+        && rep.status == Status::Success
+    {
+        c.replay(&grid, idx, |i, t, f, y| {
+            record(rig, &mut an, trace.as_mut(), stride, i, k, t, f, y)
+        });
+    }
     let (t_end, window_start) = match &stopped {
         Some((t, _)) => (*t, 0.5 * t),
         None => (t_end, window_start),
@@ -404,7 +418,38 @@ fn integrate(rig: &Rig, t_end: f64, opts: &RunOptions, solver: &mut Solver) -> R
         t_end,
         window_start,
         wall_time: start.elapsed().as_secs_f64(),
+        continued_from,
         trace,
+    }
+}
+
+/// Feeds sample `i` (time `t`, measured force `f`, state `y`) to the analyzer and, every
+/// `stride` samples, to the trace.
+fn record(
+    rig: &Rig,
+    an: &mut Analyzer,
+    trace: Option<&mut Trace>,
+    stride: u64,
+    i: u64,
+    k: usize,
+    t: f64,
+    f: f64,
+    y: &[f64],
+) {
+    let v_r = rig.relative_velocity(t, y);
+    let smooth = an.push(t, f, v_r);
+    if let Some(tr) = trace
+        && i.is_multiple_of(stride)
+    {
+        tr.t.push(t);
+        tr.f_d.push(f);
+        tr.f_d_smooth.push(if k > 1 { smooth } else { f });
+        tr.x_s.push(y[X]);
+        tr.x_d.push(rig.drive_displacement(t));
+        tr.s.push(rig.deformation(y));
+        tr.v_r.push(v_r);
+        tr.v.push(y[V]);
+        tr.u.push(rig.substrate_displacement(t));
     }
 }
 

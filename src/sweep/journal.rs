@@ -8,16 +8,18 @@
 //! ```text
 //! <kind> <index> <status> <t_end> <window_start> <wall_time> <steps> <rejected> <rhs> <jac> <lu>
 //!        <newton> <dF> <dF_stderr> <mean_force> <stick_fraction> <period> <peak> <trough> <cycles> <skipped_periods>
+//!        <continued_from>
 //! ```
 //!
-//! with `kind` `ref` or `pt`. Floats use Rust's shortest round-trip form, so resumed results are
-//! bit-identical.
+//! with `kind` `ref` or `pt` and `continued_from` NaN where the run was integrated to its end.
+//! Floats use Rust's shortest round-trip form, so resumed results are bit-identical. Only lines
+//! ended by a newline are read.
 
 use crate::measures::Measures;
 use crate::ode::{Stats, Status};
 use crate::sim::RunResult;
 use std::fs::{File, OpenOptions};
-use std::io::{BufRead, BufReader, Write};
+use std::io::Write;
 use std::path::{Path, PathBuf};
 
 /// Which run a record belongs to.
@@ -59,7 +61,7 @@ pub fn format_record(task: Task, r: &RunResult) -> String {
     let s = &r.stats;
     let m = &r.measures;
     format!(
-        "{kind} {i} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {}",
+        "{kind} {i} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {}",
         r.status.code(),
         r.t_end,
         r.window_start,
@@ -78,15 +80,17 @@ pub fn format_record(task: Task, r: &RunResult) -> String {
         m.peak_force,
         m.trough_force,
         m.cycles,
-        s.skipped_periods
+        s.skipped_periods,
+        r.continued_from.unwrap_or(f64::NAN)
     )
 }
 
 /// Parses one record; `None` for a torn or foreign line.
 pub fn parse_record(line: &str) -> Option<(Task, RunResult)> {
     let f: Vec<&str> = line.split(' ').collect();
-    // 21 fields; 20 in journals written before envelope following (no skipped periods).
-    if f.len() != 20 && f.len() != 21 {
+    // 22 fields; 21 in journals written before the limit-cycle continuation, 20 before
+    // envelope following (no skipped periods).
+    if !(20..=22).contains(&f.len()) {
         return None;
     }
     let i: usize = f[1].parse().ok()?;
@@ -111,7 +115,7 @@ pub fn parse_record(line: &str) -> Option<(Task, RunResult)> {
                 jac_evals: u(9)?,
                 lu_decomps: u(10)?,
                 newton_iters: u(11)?,
-                skipped_periods: if f.len() == 21 { u(20)? } else { 0 },
+                skipped_periods: if f.len() >= 21 { u(20)? } else { 0 },
             },
             measures: Measures {
                 d_f: x(12)?,
@@ -123,6 +127,11 @@ pub fn parse_record(line: &str) -> Option<(Task, RunResult)> {
                 trough_force: x(18)?,
                 cycles: f[19].parse().ok()?,
             },
+            continued_from: if f.len() == 22 {
+                Some(x(21)?).filter(|t| t.is_finite())
+            } else {
+                None
+            },
             trace: None,
         },
     ))
@@ -131,13 +140,16 @@ pub fn parse_record(line: &str) -> Option<(Task, RunResult)> {
 /// Reads a journal written for fingerprint `fp`. Errors when the journal belongs to another
 /// sweep. Later records of the same task replace earlier ones.
 pub fn read(path: &Path, fp: &str) -> Result<Vec<(Task, RunResult)>, String> {
-    let f = File::open(path).map_err(|e| format!("{}: {e}", path.display()))?;
-    let mut lines = BufReader::new(f).lines();
-    let first = lines
-        .next()
-        .transpose()
-        .map_err(|e| e.to_string())?
-        .unwrap_or_default();
+    let text = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    // Only whole lines count: a last line without its newline was torn by a kill mid-write,
+    // and a torn number may still parse (a float cut short), so it is dropped unread.
+    let whole = text
+        .iter()
+        .rposition(|&b| b == b'\n')
+        .map_or(&text[..0], |p| &text[..p]);
+    let whole = String::from_utf8_lossy(whole);
+    let mut lines = whole.lines();
+    let first = lines.next().unwrap_or_default();
     if first != header(fp) {
         return Err(format!(
             "{} was written for another sweep file or program version (header `{first}`, expected `{}`); \
@@ -146,11 +158,7 @@ pub fn read(path: &Path, fp: &str) -> Result<Vec<(Task, RunResult)>, String> {
             header(fp)
         ));
     }
-    // A read error (a torn, non-UTF-8 tail) ends the journal like a torn line does.
-    Ok(lines
-        .map_while(Result::ok)
-        .filter_map(|l| parse_record(&l))
-        .collect())
+    Ok(lines.filter_map(parse_record).collect())
 }
 
 /// An open journal, appending.
@@ -236,6 +244,7 @@ mod tests {
             t_end: 9.85,
             window_start: 4.925,
             wall_time: 0.123456789,
+            continued_from: Some(1.0 / 7.0),
             trace: None,
         };
         let line = format_record(Task::Point(42), &r);
@@ -249,8 +258,14 @@ mod tests {
         );
         assert_eq!(back.stats, r.stats);
         assert_eq!(back.status, r.status);
-        // A torn line is rejected.
-        assert!(parse_record(&line[..line.len() - 3]).is_none());
+        assert_eq!(back.continued_from, r.continued_from);
+        let integrated = RunResult {
+            continued_from: None,
+            ..r.clone()
+        };
+        let (_, back) = parse_record(&format_record(Task::Ref(1), &integrated)).unwrap();
+        assert_eq!(back.continued_from, None);
+        // A line cut short of its fields is rejected (a torn number is caught by `read`).
         assert!(parse_record("pt 1 0 1.0").is_none());
     }
 
@@ -266,9 +281,16 @@ mod tests {
             j.record(Task::Ref(0), &r).unwrap();
             j.record(Task::Point(3), &r).unwrap();
         }
-        // Simulate a kill in the middle of a write.
+        // Simulate a kill in the middle of a write: a torn record, even one whose last number
+        // still parses, is not read.
         let mut f = OpenOptions::new().append(true).open(&p).unwrap();
-        f.write_all(b"pt 4 0 1 0.5").unwrap();
+        let continued = RunResult {
+            continued_from: Some(0.123456),
+            ..r.clone()
+        };
+        let full = format_record(Task::Point(4), &continued);
+        f.write_all(&full.as_bytes()[..full.len() - 2]).unwrap();
+        assert!(parse_record(&full[..full.len() - 2]).is_some());
         assert_eq!(read(&p, "abc").unwrap().len(), 2);
         assert!(read(&p, "xyz").unwrap_err().contains("another sweep"));
         let mut j = Journal::append(&p).unwrap();
