@@ -119,15 +119,15 @@ pub struct BenchRow {
     pub method: Method,
     /// Tolerance.
     pub tol: f64,
-    /// Median wall time of the run [s].
+    /// Median wall time of the run \[s\].
     pub time: f64,
-    /// Fastest of the repeats [s].
+    /// Fastest of the repeats \[s\].
     pub time_min: f64,
     /// Results.
     pub r: f64,
-    /// Mean drive force [N].
+    /// Mean drive force \[N\].
     pub mean_force: f64,
-    /// dF [N].
+    /// dF \[N\].
     pub d_f: f64,
     /// |r − r_ref|.
     pub err_r: f64,

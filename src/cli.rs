@@ -1,6 +1,10 @@
 //! Command-line arguments (clap) and their translation into validated configurations.
 //! Nothing here runs a simulation: [`crate::app`] does, from what this module resolves.
 
+// The doc comments here are also clap's help text, where units in brackets ([s], [N]) and
+// placeholders (<stem>) read as written; rustdoc would take them for links and HTML.
+#![allow(rustdoc::broken_intra_doc_links, rustdoc::invalid_html_tags)]
+
 use crate::config::{self, Case};
 use crate::model::Params;
 use crate::model::params::{PARAMS, ParamInfo};

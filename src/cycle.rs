@@ -57,9 +57,9 @@ struct Section {
 /// found, continues them along it. Built per run by [`sim`](crate::sim); see the module docs.
 #[derive(Clone, Debug)]
 pub struct LimitCycle {
-    /// Sample spacing [s]; sample `i` lies at `i · dt`.
+    /// Sample spacing \[s\]; sample `i` lies at `i · dt`.
     dt: f64,
-    /// Section level `F_c` [N].
+    /// Section level `F_c` \[N\].
     level: f64,
     v_d: f64,
     k_d: f64,
@@ -75,7 +75,7 @@ pub struct LimitCycle {
     /// Samples stuck since the last section.
     stuck: u64,
     last: Option<Section>,
-    /// Once periodic: the period [s] and the later of the two agreeing sections.
+    /// Once periodic: the period \[s\] and the later of the two agreeing sections.
     found: Option<(f64, Section)>,
 }
 
@@ -108,7 +108,7 @@ impl LimitCycle {
     }
 
     /// Takes the next sample (drive force `f` and state `y` at `t = i · dt`, in order from
-    /// `i = 0`); returns true once the run is periodic, after which [`LimitCycle::sample`]
+    /// `i = 0`); returns true once the run is periodic, after which [`LimitCycle::replay`]
     /// gives every later sample.
     pub fn push(&mut self, t: f64, f: f64, y: &[f64]) -> bool {
         if self.found.is_some() {
@@ -199,12 +199,12 @@ impl LimitCycle {
         u
     }
 
-    /// The period [s], once found.
+    /// The period \[s\], once found.
     pub fn period(&self) -> Option<f64> {
         self.found.map(|(p, _)| p)
     }
 
-    /// The time of the section from which the run is continued [s], once found.
+    /// The time of the section from which the run is continued \[s\], once found.
     pub fn continued_from(&self) -> Option<f64> {
         self.found.map(|(_, s)| s.t)
     }

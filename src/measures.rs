@@ -27,21 +27,21 @@ pub const STICK_VELOCITY: f64 = 0.05;
 /// The measures of one run.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Measures {
-    /// Stick-slip amplitude dF [N].
+    /// Stick-slip amplitude dF \[N\].
     #[serde(rename = "dF")]
     pub d_f: f64,
-    /// Standard error of dF over the cycles [N] (0 when no cycle remains).
+    /// Standard error of dF over the cycles \[N\] (0 when no cycle remains).
     #[serde(rename = "dF_stderr")]
     pub d_f_stderr: f64,
-    /// Mean drive force over the steady window [N].
+    /// Mean drive force over the steady window \[N\].
     pub mean_force: f64,
     /// Share of the steady window spent sticking [-].
     pub stick_fraction: f64,
-    /// Mean stick-slip period [s] (NaN with fewer than two peaks).
+    /// Mean stick-slip period \[s\] (NaN with fewer than two peaks).
     pub period: f64,
-    /// Mean peak of the smoothed drive force before a slip [N].
+    /// Mean peak of the smoothed drive force before a slip \[N\].
     pub peak_force: f64,
-    /// Mean trough of the smoothed drive force after a slip [N].
+    /// Mean trough of the smoothed drive force after a slip \[N\].
     pub trough_force: f64,
     /// Number of drops counted in the steady window.
     pub cycles: u32,
@@ -104,7 +104,7 @@ pub struct Analyzer {
 
 impl Analyzer {
     /// An analyser for samples `period_samples` per vibration period (1: no smoothing), a steady
-    /// window from `window_start`, drop threshold `threshold` [N] and stick speed [m/s].
+    /// window from `window_start`, drop threshold `threshold` \[N\] and stick speed [m/s].
     pub fn new(period_samples: usize, window_start: f64, threshold: f64, stick_speed: f64) -> Self {
         Self::with_blocks(
             period_samples,
@@ -217,7 +217,7 @@ impl Analyzer {
     }
 
     /// Whether the window `[t/2, t]` (whole blocks) shows steady sliding: the smoothed force
-    /// stays within `range` [N] (so no stick-slip drop of that size), its range does not grow
+    /// stays within `range` \[N\] (so no stick-slip drop of that size), its range does not grow
     /// from the third quarter to the last, and the window's mean force lies within `drift`
     /// (relative) of the asymptote extrapolated from the means of its thirds (or, when they do
     /// not approach one monotonically, the thirds agree to `drift`). Then returns the measures
@@ -276,7 +276,7 @@ impl Analyzer {
 
     /// Whether the window `[t/2, t]` (whole blocks) already gives the stick-slip amplitude and
     /// the mean force to the requested precision: at least `min_drops` drops whose peaks lie in
-    /// it, a standard error of their mean of at most `stderr` [N], and a mean force that differs
+    /// it, a standard error of their mean of at most `stderr` \[N\], and a mean force that differs
     /// by less than `drift` (relative) from the mean over the whole cycles in the window (first to
     /// last peak), so that the cycle cut by the window's ends does not bias it. Then returns the
     /// measures of that window, as [`Analyzer::finish`] would give them for a run ending at `t`
@@ -427,7 +427,7 @@ impl Totals {
         )
     }
 
-    /// Mean raw force [N] (NaN without samples).
+    /// Mean raw force \[N\] (NaN without samples).
     fn mean(&self) -> f64 {
         self.sum / self.n as f64
     }

@@ -228,7 +228,7 @@ pub fn write_trace_group(
     Ok(g)
 }
 
-/// Writes a trace as CSV with a header of names and units (`t [s],F_d [N],...`).
+/// Writes a trace as CSV with a header of names and units (`t \[s\],F_d \[N\],...`).
 pub fn write_trace_csv(path: &Path, tr: &Trace) -> Result<()> {
     ensure_parent(path)?;
     let tmp = temp_path(path);

@@ -22,7 +22,7 @@ pub struct RunOptions {
     /// Stick-slip cycles (of the run without vibration) the steady window must hold.
     /// Default 3. Range 1 to 1000.
     pub min_cycles: u32,
-    /// Simulated time [s]; `None` (default) chooses it from the run (see [`simulated_time`]).
+    /// Simulated time \[s\]; `None` (default) chooses it from the run (see [`simulated_time`]).
     /// Range: > 0.
     pub t_end: Option<f64>,
     /// Samples per vibration period for the smoothing (more when the stick-slip needs a finer
@@ -145,7 +145,7 @@ impl RunOptions {
     }
 }
 
-/// Simulated time chosen for a run [s]: long enough that the second half (the steady window)
+/// Simulated time chosen for a run \[s\]: long enough that the second half (the steady window)
 /// holds `min_cycles` stick-slip cycles of the run without vibration plus a spare 1.5, and that
 /// the first loading of the spring from rest (`F_s / (k_d v_d)`) and one more cycle lie before it:
 ///
@@ -164,12 +164,12 @@ pub fn simulated_time(p: &Params, min_cycles: u32) -> f64 {
     2.0 * a.max(b).max(c)
 }
 
-/// Time for the drive to load the spring from rest to `F_s` [s]: `F_s / (k_d v_d)`.
+/// Time for the drive to load the spring from rest to `F_s` \[s\]: `F_s / (k_d v_d)`.
 fn first_loading(p: &Params) -> f64 {
     p.f_s / (p.k_d * p.v_d)
 }
 
-/// The sampling of a run: spacing [s] and samples per vibration period (1 without vibration).
+/// The sampling of a run: spacing \[s\] and samples per vibration period (1 without vibration).
 pub fn sampling(p: &Params, samples_per_period: usize) -> (f64, usize) {
     // Fine enough for the slip (40 samples per slip: a trough error below 0.05 % of dF) and for
     // the cycle (2000 per cycle).
@@ -184,23 +184,23 @@ pub fn sampling(p: &Params, samples_per_period: usize) -> (f64, usize) {
 /// Time traces of a run, in SI units.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Trace {
-    /// Time [s].
+    /// Time \[s\].
     pub t: Vec<f64>,
-    /// Drive force `F_d` [N].
+    /// Drive force `F_d` \[N\].
     pub f_d: Vec<f64>,
-    /// Drive force smoothed over one vibration period [N] (NaN during the first period).
+    /// Drive force smoothed over one vibration period \[N\] (NaN during the first period).
     pub f_d_smooth: Vec<f64>,
-    /// Body displacement `x_s` [m].
+    /// Body displacement `x_s` \[m\].
     pub x_s: Vec<f64>,
-    /// Drive displacement `x_d = v_d t` [m].
+    /// Drive displacement `x_d = v_d t` \[m\].
     pub x_d: Vec<f64>,
-    /// Contact deformation `s` [m].
+    /// Contact deformation `s` \[m\].
     pub s: Vec<f64>,
     /// Relative velocity `v_r = v − u'(t)` [m/s].
     pub v_r: Vec<f64>,
     /// Body velocity `v` [m/s].
     pub v: Vec<f64>,
-    /// Substrate displacement `u` [m].
+    /// Substrate displacement `u` \[m\].
     pub u: Vec<f64>,
 }
 
@@ -257,14 +257,14 @@ pub struct RunResult {
     pub stats: Stats,
     /// The measures (NaN where the run failed).
     pub measures: Measures,
-    /// Simulated time [s].
+    /// Simulated time \[s\].
     pub t_end: f64,
-    /// Start of the steady window [s].
+    /// Start of the steady window \[s\].
     pub window_start: f64,
-    /// Wall-clock time of the integration and analysis [s].
+    /// Wall-clock time of the integration and analysis \[s\].
     pub wall_time: f64,
     /// Time from which the samples were read off the run's limit cycle instead of integrated
-    /// ([`RunOptions::periodic`]) [s]; `None` where every sample was integrated.
+    /// ([`RunOptions::periodic`]) \[s\]; `None` where every sample was integrated.
     #[serde(default)]
     pub continued_from: Option<f64>,
     /// Time traces, when asked for.

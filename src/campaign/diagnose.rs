@@ -154,7 +154,7 @@ pub struct Diagnosis {
     pub location: Where,
     /// Names of the held-out recordings.
     pub held_out: Vec<String>,
-    /// Wall time [s].
+    /// Wall time \[s\].
     pub wall_time: f64,
 }
 

@@ -11,15 +11,15 @@
 //! | feature | phase | definition |
 //! |---|---|---|
 //! | `stick_slope` [N/s] | loading | slope of a line fitted to the middle half of the loading |
-//! | `period` [s] | loading | peak to next peak |
-//! | `peak` [N] | breakaway | smoothed force at the peak |
-//! | `rounding` [N] | breakaway | loading line at the peak time minus the peak: how far the force bends before breakaway |
-//! | `dF` [N] | slip | peak minus next trough (max − min of the smoothed force without cycles) |
-//! | `slip_time` [s] | slip | peak to next trough |
-//! | `trough` [N] | re-stick | smoothed force at the trough |
-//! | `restick_ripple` [N] | re-stick | RMS of the smoothed force about the loading line over the first fifth of the loading |
-//! | `mean_force` [N] | whole cycle | mean of the force over the window |
-//! | `drive_ripple` [m] | whole cycle | RMS of `x_d` about a straight line, less the noise estimated from its differences |
+//! | `period` \[s\] | loading | peak to next peak |
+//! | `peak` \[N\] | breakaway | smoothed force at the peak |
+//! | `rounding` \[N\] | breakaway | loading line at the peak time minus the peak: how far the force bends before breakaway |
+//! | `dF` \[N\] | slip | peak minus next trough (max − min of the smoothed force without cycles) |
+//! | `slip_time` \[s\] | slip | peak to next trough |
+//! | `trough` \[N\] | re-stick | smoothed force at the trough |
+//! | `restick_ripple` \[N\] | re-stick | RMS of the smoothed force about the loading line over the first fifth of the loading |
+//! | `mean_force` \[N\] | whole cycle | mean of the force over the window |
+//! | `drive_ripple` \[m\] | whole cycle | RMS of `x_d` about a straight line, less the noise estimated from its differences |
 //! | `r` [-] | whole cycle | dF over dF of the recording without vibration at the same `v_d`, `k_d` (set by the campaign) |
 //!
 //! Each feature carries its standard error (spread over cycles / √n; block means for the mean
@@ -197,8 +197,8 @@ pub fn smooth(y: &[f64], dt: f64, w: f64) -> Vec<f64> {
         .collect()
 }
 
-/// Features of a trace sampled every `dt` seconds: force `f` [N] and drive displacement `x_d`
-/// [m], at vibration frequency `freq` [Hz] (0 without vibration). `r` is left NaN.
+/// Features of a trace sampled every `dt` seconds: force `f` \[N\] and drive displacement `x_d`
+/// \[m\], at vibration frequency `freq` \[Hz\] (0 without vibration). `r` is left NaN.
 pub fn extract(f: &[f64], x_d: &[f64], dt: f64, freq: f64) -> FeatureSet {
     let n = f.len();
     let i0 = n / 2;

@@ -30,9 +30,9 @@ pub const BASE_FITTED: [&str; 4] = ["F_s", "F_c", "v_s", "h_d"];
 /// recording's) and effects.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Model {
-    /// `F_s` [N].
+    /// `F_s` \[N\].
     pub f_s: f64,
-    /// `F_c` [N].
+    /// `F_c` \[N\].
     pub f_c: f64,
     /// `v_s` [m/s].
     pub v_s: f64,

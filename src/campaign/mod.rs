@@ -3,8 +3,8 @@
 //!
 //! # Format
 //! A campaign is a directory. Each recording is two files with the same stem:
-//! - `NAME.csv`: a header row, then one row per sample with at least the columns `t` [s],
-//!   `F_d` [N] (measured drive force), `x_s` [m] (body displacement) and `x_d` [m] (drive
+//! - `NAME.csv`: a header row, then one row per sample with at least the columns `t` \[s\],
+//!   `F_d` \[N\] (measured drive force), `x_s` \[m\] (body displacement) and `x_d` \[m\] (drive
 //!   displacement), in any order; other columns are ignored. Uniform sampling at any rate
 //!   (the spacing may vary by at most 1 %), at least 200 rows, time increasing.
 //! - `NAME.toml`: the conditions in SI units: `v_d`, `k_d`, `f` and `u0` (or `v_a`, or
@@ -35,18 +35,18 @@ pub struct Recording {
     pub name: String,
     /// Conditions: the model parameters with the campaign's and the recording's values.
     pub params: Params,
-    /// Sample times [s] (uniform).
+    /// Sample times \[s\] (uniform).
     pub t: Vec<f64>,
-    /// Measured drive force [N].
+    /// Measured drive force \[N\].
     pub f_d: Vec<f64>,
-    /// Body displacement [m].
+    /// Body displacement \[m\].
     pub x_s: Vec<f64>,
-    /// Drive displacement [m].
+    /// Drive displacement \[m\].
     pub x_d: Vec<f64>,
 }
 
 impl Recording {
-    /// Sampling interval [s].
+    /// Sampling interval \[s\].
     pub fn dt(&self) -> f64 {
         (self.t[self.t.len() - 1] - self.t[0]) / (self.t.len() - 1) as f64
     }
@@ -315,11 +315,11 @@ fn read_csv(path: &Path) -> Result<Columns, CampaignError> {
 /// recording's times.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct SimTrace {
-    /// Recorded drive force [N] (the sensor's output with `sensor_dynamics`).
+    /// Recorded drive force \[N\] (the sensor's output with `sensor_dynamics`).
     pub f_d: Vec<f64>,
-    /// Body displacement [m].
+    /// Body displacement \[m\].
     pub x_s: Vec<f64>,
-    /// Drive displacement [m].
+    /// Drive displacement \[m\].
     pub x_d: Vec<f64>,
     /// How the integration ended.
     pub status: Status,

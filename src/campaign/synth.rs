@@ -55,7 +55,7 @@ impl std::str::FromStr for Design {
 }
 
 impl Design {
-    /// `(v_d [m/s], k_d [N/m])` of each drive and `(f [Hz], v_a/v_d)` of each vibration.
+    /// `(v_d [m/s], k_d [N/m])` of each drive and `(f \[Hz\], v_a/v_d)` of each vibration.
     fn grid(self) -> (Vec<(f64, f64)>, Vec<(f64, f64)>) {
         match self {
             Design::Full => (
@@ -97,11 +97,11 @@ pub struct SynthSpec {
     pub effects: Effects,
     /// Conditions design.
     pub design: Design,
-    /// Sampling rate [Hz]. Default 10 000. Range 1000 to 1e6.
+    /// Sampling rate \[Hz\]. Default 10 000. Range 1000 to 1e6.
     pub rate: f64,
-    /// Force sensor noise, standard deviation [N]. Default 0.02. Range 0 to 1.
+    /// Force sensor noise, standard deviation \[N\]. Default 0.02. Range 0 to 1.
     pub noise_force: f64,
-    /// Displacement sensor noise, standard deviation [m]. Default 5e-8. Range 0 to 1e-5.
+    /// Displacement sensor noise, standard deviation \[m\]. Default 5e-8. Range 0 to 1e-5.
     pub noise_x: f64,
     /// Stick-slip cycles in the second half of each recording (as `run --min-cycles`). Default 3.
     pub min_cycles: u32,

@@ -28,11 +28,11 @@ use effects::Resolved;
 
 use crate::ode::OdeSystem;
 
-/// Index of the body displacement `x` [m] in the state.
+/// Index of the body displacement `x` \[m\] in the state.
 pub const X: usize = 0;
 /// Index of the body velocity `v` [m/s].
 pub const V: usize = 1;
-/// Index of the contact deformation `s` [m].
+/// Index of the contact deformation `s` \[m\].
 pub const S: usize = 2;
 /// Number of state components of the base model.
 pub const BASE_DIM: usize = 3;
@@ -43,7 +43,7 @@ pub const BASE_DIM: usize = 3;
 pub struct Contact {
     /// Deformation rate `s'` [m/s] (Eq. 4.6).
     pub s_dot: f64,
-    /// Friction force `F_F` [N] (Eq. 4.5).
+    /// Friction force `F_F` \[N\] (Eq. 4.5).
     pub force: f64,
     /// `∂s'/∂v_r` [-].
     pub ds_dot_dvr: f64,
@@ -109,7 +109,7 @@ pub struct Rig {
     /// The parameters (validated by [`Rig::new`]).
     pub p: Params,
     omega: f64,
-    /// Actuated amplitude `A u0` [m] (`u0` without the actuator effect).
+    /// Actuated amplitude `A u0` \[m\] (`u0` without the actuator effect).
     u0: f64,
     fx: Resolved,
 }
@@ -156,7 +156,7 @@ impl Rig {
         vec![0.0; self.fx.dim]
     }
 
-    /// Substrate displacement `u(t) = u0 sin(ω t)` [m] (4.1).
+    /// Substrate displacement `u(t) = u0 sin(ω t)` \[m\] (4.1).
     #[inline]
     pub fn substrate_displacement(&self, t: f64) -> f64 {
         if self.u0 == 0.0 {
@@ -177,7 +177,7 @@ impl Rig {
         }
     }
 
-    /// Drive displacement `x_d = v_d t` [m] (plus the ripple when that effect is on).
+    /// Drive displacement `x_d = v_d t` \[m\] (plus the ripple when that effect is on).
     #[inline]
     pub fn drive_displacement(&self, t: f64) -> f64 {
         match self.fx.ripple {
@@ -195,7 +195,7 @@ impl Rig {
         }
     }
 
-    /// Drive force `F_d = k_d (x_d − x) + h_d (x_d' − v)` [N] (4.3, 4.4).
+    /// Drive force `F_d = k_d (x_d − x) + h_d (x_d' − v)` \[N\] (4.3, 4.4).
     #[inline]
     pub fn drive_force(&self, t: f64, y: &[f64]) -> f64 {
         if self.fx.ripple.is_none() {
@@ -206,7 +206,7 @@ impl Rig {
     }
 
     /// The drive force as the force sensor records it: the sensor's output with the
-    /// `sensor_dynamics` effect, the drive force itself otherwise [N].
+    /// `sensor_dynamics` effect, the drive force itself otherwise \[N\].
     #[inline]
     pub fn measured_force(&self, t: f64, y: &[f64]) -> f64 {
         match self.fx.sensor {
@@ -215,7 +215,7 @@ impl Rig {
         }
     }
 
-    /// The mean contact deformation over the presliding elements [m] (`s` of the base model).
+    /// The mean contact deformation over the presliding elements \[m\] (`s` of the base model).
     pub fn deformation(&self, y: &[f64]) -> f64 {
         let n = self.fx.elements;
         if n == 1 {

@@ -11,7 +11,7 @@ use std::fmt;
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Params {
-    /// Mass of the shifted body `m` [kg]: dead weight 6.52 N / g.
+    /// Mass of the shifted body `m` \[kg\]: dead weight 6.52 N / g.
     pub m: f64,
     /// Contact stiffness `k_t` [N/m].
     pub k_t: f64,
@@ -19,10 +19,10 @@ pub struct Params {
     pub h_t: f64,
     /// Viscous damping of the contact `h_v` [N s/m].
     pub h_v: f64,
-    /// Coulomb force `F_c` [N].
+    /// Coulomb force `F_c` \[N\].
     #[serde(rename = "F_c")]
     pub f_c: f64,
-    /// Static force `F_s` [N].
+    /// Static force `F_s` \[N\].
     #[serde(rename = "F_s")]
     pub f_s: f64,
     /// Stribeck velocity `v_s` [m/s].
@@ -33,11 +33,11 @@ pub struct Params {
     pub h_d: f64,
     /// Drive velocity `v_d` [m/s].
     pub v_d: f64,
-    /// Vibration frequency `f` [Hz].
+    /// Vibration frequency `f` \[Hz\].
     pub f: f64,
-    /// Vibration amplitude `u0` [m].
+    /// Vibration amplitude `u0` \[m\].
     pub u0: f64,
-    /// Normal load `F_N` [N] (`F_g + F_z`); the base model does not use it, load-varying
+    /// Normal load `F_N` \[N\] (`F_g + F_z`); the base model does not use it, load-varying
     /// extensions scale `F_c` and `F_s` with it.
     #[serde(rename = "F_N")]
     pub f_n: f64,
@@ -273,12 +273,12 @@ impl Params {
         self.u0 = if v_a == 0.0 { 0.0 } else { v_a / self.omega() };
     }
 
-    /// MODEL.md's estimate of one stick-slip cycle without vibration, `2 (F_s − F_c) / (k_d v_d)` [s].
+    /// MODEL.md's estimate of one stick-slip cycle without vibration, `2 (F_s − F_c) / (k_d v_d)` \[s\].
     pub fn cycle_estimate(&self) -> f64 {
         2.0 * (self.f_s - self.f_c) / (self.k_d * self.v_d)
     }
 
-    /// Half period of the body on the drive spring, `π √(m / k_d)` [s]: the duration of a slip.
+    /// Half period of the body on the drive spring, `π √(m / k_d)` \[s\]: the duration of a slip.
     pub fn slip_duration(&self) -> f64 {
         std::f64::consts::PI * (self.m / self.k_d).sqrt()
     }

@@ -2,7 +2,7 @@
 //!
 //! The pieces are kept apart, as in RADAU5, SUNDIALS and diffsol:
 //! - the **problem**: an [`OdeSystem`] (right-hand side and Jacobian) plus an initial state and a
-//!   time span, given to [`solve`];
+//!   time span, given to [`Solver::solve`];
 //! - the **method** and its knobs: [`Method`];
 //! - the **workspace**: buffers and controller history, allocated once per [`Solver`] and reused
 //!   across runs (the inner loop allocates nothing);
@@ -296,7 +296,7 @@ pub struct Envelope {
     /// Periods each slope is measured over (`L`): the slope is `(S_n − S_{n−L})/L` and its
     /// change comes from two such baselines. Default 1. Range 1 to 50.
     pub baseline: u32,
-    /// Longest jump [periods]. Default 200. Range ≥ 2.
+    /// Longest jump \[periods\]. Default 200. Range ≥ 2.
     pub max_jump: u64,
 }
 

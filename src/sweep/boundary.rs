@@ -16,13 +16,13 @@ pub const ELIMINATED: f64 = 0.05;
 pub struct BoundaryPoint {
     /// Coordinates of the other dimensions (name, value), the amplitude dimension excluded.
     pub coords: Vec<(String, f64)>,
-    /// Boundary amplitude [m] (NaN: not eliminated in the grid's range).
+    /// Boundary amplitude \[m\] (NaN: not eliminated in the grid's range).
     pub u0: f64,
     /// `v_a = 2π f u0` at the boundary [m/s].
     pub v_a: f64,
     /// `v_a / v_d` at the boundary.
     pub va_ratio: f64,
-    /// Rule of thumb `u0 = v_d / (2π f)` [m].
+    /// Rule of thumb `u0 = v_d / (2π f)` \[m\].
     pub u0_rule: f64,
     /// Whether even the smallest amplitude of the grid eliminates (the boundary lies below it).
     pub below_range: bool,

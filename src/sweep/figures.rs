@@ -135,11 +135,11 @@ impl Figure for Lines {
 pub struct Map {
     /// Title.
     pub title: String,
-    /// Frequencies [Hz] (ascending or descending).
+    /// Frequencies \[Hz\] (ascending or descending).
     pub f: Vec<f64>,
-    /// Amplitudes [m].
+    /// Amplitudes \[m\].
     pub u0: Vec<f64>,
-    /// r at (f[i], u0[j]) as `r[i][j]`.
+    /// r at `(f[i], u0[j])` as `r[i][j]`.
     pub r: Vec<Vec<f64>>,
     /// Drive velocity for the rule of thumb [m/s].
     pub v_d: f64,

@@ -182,7 +182,7 @@ pub struct SweepOutcome {
     pub runs_resumed: usize,
     /// Points whose run (or reference) did not succeed.
     pub failed: usize,
-    /// Wall time of this invocation [s].
+    /// Wall time of this invocation \[s\].
     pub wall_time: f64,
     /// The output file.
     pub out: PathBuf,

@@ -27,9 +27,9 @@ pub struct SweepData {
     pub dims: Vec<DimData>,
     /// Reduction coefficient.
     pub r: ArrayD<f64>,
-    /// Mean drive force [N].
+    /// Mean drive force \[N\].
     pub mean_force: ArrayD<f64>,
-    /// Vibration amplitude per point [m].
+    /// Vibration amplitude per point \[m\].
     pub u0: ArrayD<f64>,
     /// Vibration velocity amplitude per point [m/s].
     pub v_a: ArrayD<f64>,
