@@ -398,7 +398,7 @@ fn integrate(rig: &Rig, t_end: f64, opts: &RunOptions, solver: &mut Solver) -> R
     if let Some(c) = cycle.as_ref()
         && rep.status == Status::Success
     {
-        c.replay(&grid, idx, |i, t, f, y| {
+        c.replay(&grid, idx, t_end, |i, t, f, y| {
             record(rig, &mut an, trace.as_mut(), stride, i, k, t, f, y)
         });
     }

@@ -411,3 +411,69 @@ fn limit_cycle_continuation_keeps_the_measures_of_the_integrated_run() {
     );
     assert_eq!(cont.stats, full.stats);
 }
+
+/// The same over random parameter sets well beyond the paper's (mass, contact, friction, drive
+/// damping, viscous contact damping; seeded): dF within 3e-4 of the integrated run's (the drive
+/// damping adds `h_d v`, which has the re-stick's kink), the mean force within 1e-5, the stick
+/// fraction within 2e-3, the same cycles and status; most runs continued, with far fewer steps.
+#[test]
+fn limit_cycle_continuation_holds_over_random_parameters() {
+    use stickslip::sim::simulate;
+    let mut rng = StdRng::seed_from_u64(7);
+    let (mut continued, mut steps_cont, mut steps_full) = (0, 0, 0);
+    let n = 200;
+    for k in 0..n {
+        let f_c = rng.random_range(5.0..10.0);
+        let critical = 2.0 * (0.6646f64 * 71.318e6).sqrt();
+        let p = Params {
+            m: rng.random_range(0.3..1.5),
+            k_t: rng.random_range(1e7..1e8),
+            h_t: critical * rng.random_range(0.3..2.0),
+            h_v: if rng.random_bool(0.3) {
+                rng.random_range(0.0..100.0)
+            } else {
+                0.0
+            },
+            f_c,
+            f_s: f_c * rng.random_range(1.0..1.5),
+            v_s: rng.random_range(0.1e-3..1e-3),
+            k_d: rng.random_range(1000.0..20000.0),
+            h_d: if rng.random_bool(0.3) {
+                rng.random_range(0.0..50.0)
+            } else {
+                0.0
+            },
+            v_d: rng.random_range(0.1e-3..2e-3),
+            ..Params::default()
+        };
+        let opts = |periodic| RunOptions {
+            periodic,
+            ..RunOptions::default()
+        };
+        let mut s = Solver::new(Method::Radau5);
+        let cont = simulate(&p, &opts(true), &mut s).unwrap();
+        let full = simulate(&p, &opts(false), &mut s).unwrap();
+        let (c, f) = (&cont.measures, &full.measures);
+        let at = format!("set {k} {p:?}: {c:?} vs {f:?}");
+        assert_eq!(cont.status, full.status, "{at}");
+        assert_eq!(c.cycles, f.cycles, "{at}");
+        // dF relative to itself, or to a thousandth of F_s where there is no stick-slip.
+        assert!(
+            (c.d_f - f.d_f).abs() <= 3e-4 * f.d_f.max(1e-3 * p.f_s),
+            "{at}"
+        );
+        assert!(
+            ((c.mean_force - f.mean_force) / f.mean_force).abs() < 1e-5,
+            "{at}"
+        );
+        assert!((c.stick_fraction - f.stick_fraction).abs() < 2e-3, "{at}");
+        continued += usize::from(cont.continued_from.is_some());
+        steps_cont += cont.stats.steps;
+        steps_full += full.stats.steps;
+    }
+    assert!(continued >= 9 * n / 10, "{continued} of {n} continued");
+    assert!(
+        3 * steps_cont < steps_full,
+        "{steps_cont} vs {steps_full} steps"
+    );
+}
