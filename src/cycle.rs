@@ -144,19 +144,6 @@ impl LimitCycle {
             t: (self.first + base as u64 + 1) as f64 * self.dt + u * self.dt,
             z,
         };
-        if std::env::var("CYCDBG").is_ok() {
-            eprintln!(
-                "section t {:.9} z {:.12e} v {:.12e} s {:.12e} stuck {}",
-                sec.t, sec.z[0], sec.z[1], sec.z[2], self.stuck
-            );
-        }
-        if std::env::var("CYCDBG").is_ok() && self.last.is_some() {
-            self.last = Some(sec);
-            self.buf.drain(..base);
-            self.first += base as u64;
-            self.stuck = 0;
-            return false;
-        }
         if let Some(prev) = self.last {
             let period = sec.t - prev.t;
             let stuck = self.stuck as f64 * self.dt >= STICK_SHARE * period;
@@ -199,11 +186,6 @@ impl LimitCycle {
             u = (u - p / dp).clamp(0.0, 1.0);
         }
         u
-    }
-
-    /// The period \[s\], once found.
-    pub fn period(&self) -> Option<f64> {
-        self.found.map(|(p, _)| p)
     }
 
     /// The time of the section from which the run is continued \[s\], once found.

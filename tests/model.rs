@@ -321,6 +321,22 @@ fn envelope_following_keeps_r_and_the_mean_force_of_the_full_run() {
     assert_eq!(bad.validate().unwrap_err().field, "envelope");
 }
 
+/// A run without vibration with the limit-cycle continuation and the same run integrated to the
+/// end (Radau5, the other options as given).
+fn continued_and_integrated(
+    p: &Params,
+    opts: &RunOptions,
+) -> (stickslip::sim::RunResult, stickslip::sim::RunResult) {
+    let run = |periodic| {
+        let o = RunOptions {
+            periodic,
+            ..opts.clone()
+        };
+        stickslip::sim::simulate(p, &o, &mut Solver::new(Method::Radau5)).unwrap()
+    };
+    (run(true), run(false))
+}
+
 /// Without vibration, continuing along the limit cycle once two successive slips pass the same
 /// state gives the measures of the fully integrated run, over the paper's ranges of v_d and k_d
 /// (to 1e-4 of dF: the re-stick is a kink between samples; the measured spread is 4e-5), with
@@ -328,11 +344,7 @@ fn envelope_following_keeps_r_and_the_mean_force_of_the_full_run() {
 /// the run is integrated to the end, unchanged.
 #[test]
 fn limit_cycle_continuation_keeps_the_measures_of_the_integrated_run() {
-    use stickslip::sim::simulate;
-    let opts = |periodic| RunOptions {
-        periodic,
-        ..RunOptions::default()
-    };
+    let default = RunOptions::default();
     for v_d in [0.1e-3, 0.5e-3, 2e-3] {
         for k_d in [1000.0, 11_700.0, 20_000.0] {
             let p = Params {
@@ -340,9 +352,7 @@ fn limit_cycle_continuation_keeps_the_measures_of_the_integrated_run() {
                 k_d,
                 ..Params::default()
             };
-            let mut s = Solver::new(Method::Radau5);
-            let cont = simulate(&p, &opts(true), &mut s).unwrap();
-            let full = simulate(&p, &opts(false), &mut s).unwrap();
+            let (cont, full) = continued_and_integrated(&p, &default);
             let (c, f) = (&cont.measures, &full.measures);
             let at = format!("v_d {v_d}, k_d {k_d}: {c:?} vs {f:?}");
             assert!(
@@ -368,13 +378,11 @@ fn limit_cycle_continuation_keeps_the_measures_of_the_integrated_run() {
     // falls at k_d v ≈ 400 N/s, so the integration's own timing error (1e-7 of a period per
     // cycle at the default tolerance) shows as 1e-4 of dF within a few cycles.
     let p = Params::default();
-    let traced = |periodic| RunOptions {
+    let traced = RunOptions {
         trace: true,
-        ..opts(periodic)
+        ..RunOptions::default()
     };
-    let mut s = Solver::new(Method::Radau5);
-    let cont = simulate(&p, &traced(true), &mut s).unwrap();
-    let full = simulate(&p, &traced(false), &mut s).unwrap();
+    let (cont, full) = continued_and_integrated(&p, &traced);
     let (a, b) = (cont.trace.unwrap(), full.trace.unwrap());
     assert_eq!(a.t, b.t);
     let d_f = full.measures.d_f;
@@ -401,8 +409,7 @@ fn limit_cycle_continuation_keeps_the_measures_of_the_integrated_run() {
         h_d: 200.0,
         ..Params::default()
     };
-    let cont = simulate(&sliding, &opts(true), &mut s).unwrap();
-    let full = simulate(&sliding, &opts(false), &mut s).unwrap();
+    let (cont, full) = continued_and_integrated(&sliding, &default);
     assert!(cont.continued_from.is_none());
     // (Compared as text: the period of a run without cycles is NaN.)
     assert_eq!(
@@ -418,7 +425,6 @@ fn limit_cycle_continuation_keeps_the_measures_of_the_integrated_run() {
 /// fraction within 2e-3, the same cycles and status; most runs continued, with far fewer steps.
 #[test]
 fn limit_cycle_continuation_holds_over_random_parameters() {
-    use stickslip::sim::simulate;
     let mut rng = StdRng::seed_from_u64(7);
     let (mut continued, mut steps_cont, mut steps_full) = (0, 0, 0);
     let n = 200;
@@ -446,13 +452,7 @@ fn limit_cycle_continuation_holds_over_random_parameters() {
             v_d: rng.random_range(0.1e-3..2e-3),
             ..Params::default()
         };
-        let opts = |periodic| RunOptions {
-            periodic,
-            ..RunOptions::default()
-        };
-        let mut s = Solver::new(Method::Radau5);
-        let cont = simulate(&p, &opts(true), &mut s).unwrap();
-        let full = simulate(&p, &opts(false), &mut s).unwrap();
+        let (cont, full) = continued_and_integrated(&p, &RunOptions::default());
         let (c, f) = (&cont.measures, &full.measures);
         let at = format!("set {k} {p:?}: {c:?} vs {f:?}");
         assert_eq!(cont.status, full.status, "{at}");
