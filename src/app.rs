@@ -414,6 +414,7 @@ fn run_json(r: &sim::RunResult) -> serde_json::Value {
         "window_start": r.window_start,
         "wall_time": r.wall_time,
         "continued_from": r.continued_from,
+        "predicted": r.predicted,
         "stats": r.stats,
     })
 }
@@ -493,8 +494,21 @@ pub fn case_summary(c: &CaseResult, o: &RunOptions) -> String {
     }
     let _ = writeln!(
         s,
-        "window    {:.3} s to {:.3} s (second half of the run)",
-        c.run.window_start, c.run.t_end
+        "window    {:.3} s to {:.3} s {}",
+        c.run.window_start,
+        if c.run.predicted {
+            2.0 * c.run.window_start
+        } else {
+            c.run.t_end
+        },
+        if c.run.predicted {
+            format!(
+                "(planned; predicted from the force settling along one exponential up to {:.3} s)",
+                c.run.t_end
+            )
+        } else {
+            "(second half of the run)".to_string()
+        }
     );
     let st = c.total_stats();
     let wall = c.run.wall_time + c.reference.as_ref().map(|r| r.wall_time).unwrap_or(0.0);

@@ -9,7 +9,7 @@ use crate::config::{self, Case};
 use crate::model::Params;
 use crate::model::params::{PARAMS, ParamInfo};
 use crate::ode::Method;
-use crate::sim::RunOptions;
+use crate::sim::{EarlyStop, RunOptions};
 use clap::{Arg, ArgAction, ArgMatches, Args, FromArgMatches, Parser, Subcommand};
 use std::path::PathBuf;
 
@@ -457,8 +457,13 @@ pub struct RunArgs {
 
     /// Run the whole automatic simulated time even once the answer is known (steady sliding, or
     /// the stick-slip cycles of the window give dF to 0.5 %).
-    #[arg(long)]
+    #[arg(long, conflicts_with = "early_stop")]
     pub no_early_stop: bool,
+
+    /// End early once the answer is known also with --t-end, which is then the longest
+    /// simulated time (without it a given --t-end is run in full)
+    #[arg(long)]
+    pub early_stop: bool,
 
     /// Without vibration, integrate every cycle instead of continuing along the limit cycle
     /// once two successive slips pass the same state.
@@ -632,7 +637,10 @@ impl RunArgs {
             o.min_cycles = v;
         }
         if self.no_early_stop {
-            o.early_stop = false;
+            o.early_stop = EarlyStop::Off;
+        }
+        if self.early_stop {
+            o.early_stop = EarlyStop::Always;
         }
         if self.no_periodic {
             o.periodic = false;

@@ -19,7 +19,8 @@
 //! t_end = 12.0       # s; omitted: chosen from the run
 //! min_cycles = 3
 //! samples_per_period = 16
-//! early_stop = true  # end once the answer is known (steady sliding, or dF to 0.5 %)
+//! early_stop = true  # end once the answer is known (steady sliding, or dF to 0.5 %);
+//!                    # "always": also with t_end given, which is then the longest time
 //! periodic = true    # without vibration, continue along the limit cycle once it repeats
 //! envelope = 1e-4    # skip vibration periods where the envelope is smooth (omitted: off)
 //! ```
@@ -27,7 +28,7 @@
 use crate::model::effects::{self, EffectKind, Effects};
 use crate::model::{Params, params};
 use crate::ode::Method;
-use crate::sim::RunOptions;
+use crate::sim::{EarlyStop, RunOptions};
 use std::path::{Path, PathBuf};
 
 /// A problem in a configuration file.
@@ -295,9 +296,19 @@ pub fn apply_run(doc: &Doc, table: &toml::Table, o: &mut RunOptions) -> Result<(
                 o.samples_per_period = n as usize;
             }
             "early_stop" => {
-                o.early_stop = v
-                    .as_bool()
-                    .ok_or_else(|| doc.err(sec, k, "expected true or false"))?;
+                o.early_stop = match (v.as_bool(), v.as_str()) {
+                    (Some(true), _) => EarlyStop::Automatic,
+                    (Some(false), _) => EarlyStop::Off,
+                    (_, Some("always")) => EarlyStop::Always,
+                    _ => {
+                        return Err(doc.err(
+                            sec,
+                            k,
+                            "expected true (automatic simulated time only), false or \"always\" \
+                             (a given t_end is the longest time)",
+                        ));
+                    }
+                };
             }
             "periodic" => {
                 o.periodic = v

@@ -274,6 +274,97 @@ impl Analyzer {
         })
     }
 
+    /// Whether the force, sliding without stick-slip, settles so plainly along one exponential
+    /// that the measures of the planned window `[t_plan/2, t_plan]` follow from the run so far.
+    ///
+    /// Sliding under vibration makes the friction viscous-like, so the drive force approaches
+    /// its sliding level as `F(s) = A − K e^{−s/τ}`, with `τ` up to tens of seconds at low `v_d`
+    /// and `k_d`; the steady window's max − min is then that drift, and no window short of the
+    /// planned one gives it. The window `[t/2, t]` (whole blocks, no drop of the smoothed force
+    /// in it) is cut into six equal parts with means `m_0 … m_5`; an exponential through the
+    /// means of parts 0, 1, 2 and another through those of parts 3, 4, 5 (means over equal
+    /// spans of an exponential are geometric: Aitken's Δ²) each give the planned window's
+    /// max − min `|F(t_plan) − F(t_plan/2)|` and mean. When the two agree to `range_tol` \[N\]
+    /// and to `mean_tol` (relative), and the smoothed force in the last part strays from the
+    /// exponential by at most `ripple` \[N\] (added to the range), returns the second fit's
+    /// measures with the two fits' difference of the range as `d_f_stderr`.
+    pub fn settling(
+        &self,
+        t: f64,
+        t_plan: f64,
+        slope: f64,
+        ripple: f64,
+        range_tol: f64,
+        mean_tol: f64,
+    ) -> Option<Measures> {
+        let z = self.whole.as_ref()?;
+        let w = self.window_blocks(t);
+        let per = w.len() / 6;
+        if per < 4 {
+            return None;
+        }
+        let w = &w[w.len() - 6 * per..];
+        if z.drops.last().is_some_and(|d| d.peak_t >= w[0].start) {
+            return None;
+        }
+        let part = |j: usize| Totals::of(&w[j * per..(j + 1) * per]);
+        let m: [f64; 6] = std::array::from_fn(|j| part(j).mean());
+        // Parts span equal numbers of blocks of equal width.
+        let h = w[per].start - w[0].start;
+        let s0 = w[0].start;
+        let half = 0.5 * t_plan;
+        // One exponential through the means of parts j, j + 1, j + 2: F(s) = A − K e^{−(s−c)/τ}
+        // with c the start of part j + 2.
+        let fit = |j: usize| -> Option<(f64, f64, f64, f64, f64)> {
+            let (d1, d2) = (m[j + 1] - m[j], m[j + 2] - m[j + 1]);
+            if !(d1 * d2 > 0.0) {
+                return None;
+            }
+            let q = d2 / d1;
+            if !(q < 0.95) {
+                return None;
+            }
+            let tau = -h / q.ln();
+            let a = m[j + 2] + d2 * q / (1.0 - q);
+            let c = s0 + (j + 2) as f64 * h;
+            // The mean over [c, c + h] is A − K τ/h (1 − e^{−h/τ}).
+            let k = (a - m[j + 2]) * (h / tau) / (-(-h / tau).exp_m1());
+            let f = |s: f64| a - k * (-(s - c) / tau).exp();
+            let span = t_plan - half;
+            let mean = a - k * tau / span * ((-(half - c) / tau).exp() - (-(t_plan - c) / tau).exp());
+            // The change of the trend over the last part, for the ripple on top of it.
+            let last = (f(s0 + 6.0 * h) - f(s0 + 5.0 * h)).abs();
+            let (fa, fb) = (f(half), f(t_plan));
+            Some(((fb - fa).abs(), mean, last, fa.min(fb), fa.max(fb)))
+        };
+        // Near its sliding level only: there the relaxation is linear, with one time constant.
+        if !((m[5] - m[4]).abs() <= slope * h) {
+            return None;
+        }
+        let (r0, mean0, ..) = fit(0)?;
+        let (r1, mean1, last, lo, hi) = fit(3)?;
+        let tail = part(5);
+        let excess = (tail.hi - tail.lo - last).max(0.0);
+        if excess > ripple
+            || (r1 - r0).abs() > range_tol
+            || (mean1 - mean0).abs() > mean_tol * mean1.abs()
+        {
+            return None;
+        }
+        let all = Totals::of(w);
+        let d_f = r1 + excess;
+        Some(Measures {
+            d_f,
+            d_f_stderr: (r1 - r0).abs(),
+            mean_force: mean1,
+            stick_fraction: all.stick_fraction(),
+            period: f64::NAN,
+            peak_force: hi + excess,
+            trough_force: lo,
+            cycles: 0,
+        })
+    }
+
     /// Whether the window `[t/2, t]` (whole blocks) already gives the stick-slip amplitude and
     /// the mean force to the requested precision: at least `min_drops` drops whose peaks lie in
     /// it, a standard error of their mean of at most `stderr` \[N\], and a mean force that differs
@@ -532,6 +623,56 @@ mod tests {
             let t = first.expect("never settled");
             // The window [t/2, t] mean is within 0.1 % once 2 e^{-t/2τ} τ/(t/2) < 3e-3.
             assert!(t < 30.0 * tau, "tau {tau}: settled only at {t}");
+        }
+    }
+
+    /// A force settling on 3 N, smoothed over a 100 Hz ripple: once the slope allows, the
+    /// predicted max − min and mean of the planned window [T/2, T] are the force's own (by
+    /// quadrature). A single exponential is predicted within the first half of the planned
+    /// time; one with two time constants only once the faster has died out, never while it
+    /// bends the approach; none while the force changes faster than the slope bound.
+    #[test]
+    fn settling_predicts_the_planned_window_of_an_exponential_approach() {
+        let (k, t_plan, tau) = (20, 20.0, 2.0);
+        let dt = 1.0 / (100.0 * k as f64);
+        let one = |s: f64| 3.0 - 2.0 * (-s / tau).exp();
+        let two = |s: f64| 3.0 - (-s / tau).exp() - (-s / (4.0 * tau)).exp();
+        // (force, slope bound, predicted at all, earliest allowed prediction)
+        for (force, slope, expect, earliest) in [
+            (&one as &dyn Fn(f64) -> f64, 0.05, true, 0.0),
+            (&one, 1e-4, false, 0.0),
+            (&two, 0.05, true, 12.0),
+        ] {
+            let mut a = Analyzer::with_blocks(k, f64::INFINITY, 0.5, 1e-4, t_plan / 4000.0, 4000);
+            let mut found = None;
+            for i in 0..(t_plan / dt) as usize {
+                let t = i as f64 * dt;
+                let w = 2.0 * std::f64::consts::PI * 100.0 * t;
+                a.push(t, force(t) + 0.2 * w.sin(), 1.0);
+                if i % 1000 == 0
+                    && i > 0
+                    && let Some(m) = a.settling(t, t_plan, slope, 1e-3, 1e-3, 1e-3)
+                {
+                    found = Some((t, m));
+                    break;
+                }
+            }
+            assert_eq!(found.is_some(), expect, "slope {slope}: {found:?}");
+            if let Some((t, m)) = found {
+                assert!(t >= earliest, "predicted at {t}, before {earliest}: {m:?}");
+                if earliest == 0.0 {
+                    assert!(t < 0.5 * t_plan, "predicted only at {t}");
+                }
+                let range = force(t_plan) - force(0.5 * t_plan);
+                let n = 100_000;
+                let mean = (0..n)
+                    .map(|j| force(0.5 * t_plan * (1.0 + (j as f64 + 0.5) / n as f64)))
+                    .sum::<f64>()
+                    / n as f64;
+                assert!((m.d_f - range).abs() < 3e-3, "t {t}: {m:?} vs {range}");
+                assert!((m.mean_force - mean).abs() < 1e-3 * mean, "{m:?} vs {mean}");
+                assert_eq!(m.cycles, 0);
+            }
         }
     }
 

@@ -35,8 +35,8 @@ pub struct RunOptions {
     /// End a run with vibration early once its answer is known: once steady sliding is
     /// established (see [`EARLY_STOP_RANGE`]), or once the steady window of the run so far holds
     /// `min_cycles` stick-slip cycles of the run without vibration and gives dF to
-    /// [`EARLY_STOP_STDERR`]. Applies to the automatic simulated time only. Default true.
-    pub early_stop: bool,
+    /// [`EARLY_STOP_STDERR`]. Default [`EarlyStop::Automatic`].
+    pub early_stop: EarlyStop,
     /// Without vibration (base model): once two successive slips pass the same state, with a
     /// stick between them, read the rest of the samples off that limit cycle instead of
     /// integrating them (see [`cycle`](crate::cycle); `RunResult::continued_from` says from
@@ -50,6 +50,21 @@ pub struct RunOptions {
     pub envelope: Option<f64>,
 }
 
+/// When a run with vibration may end before its simulated time ([`RunOptions::early_stop`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum EarlyStop {
+    /// Always run the whole simulated time.
+    Off,
+    /// End early only where the simulated time is chosen automatically (`t_end` not given):
+    /// a given `t_end` is run in full, so its window is the one asked for.
+    #[default]
+    Automatic,
+    /// End early also where `t_end` is given, which then is the longest simulated time: the
+    /// checks and the stick-slip rule are planned on it as on an automatic time.
+    Always,
+}
+
 /// Early stop: the smoothed drive force over the second half of the run so far must stay within
 /// this share of the nominal stick-slip amplitude `2 (F_s − F_c)` (so `r` below it, a tenth of
 /// the elimination threshold) ...
@@ -57,6 +72,16 @@ pub const EARLY_STOP_RANGE: f64 = 0.005;
 /// ... and the window's mean force must lie within this relative distance of the asymptote
 /// extrapolated from its thirds, a fifth of the 0.5 % accuracy of the mean force.
 pub const EARLY_STOP_DRIFT: f64 = 0.001;
+/// Early stop of a settling sliding run ([`Analyzer::settling`]): two exponential fits must
+/// predict the planned window's max − min of the smoothed force to this share of the nominal
+/// amplitude `2 (F_s − F_c)` (`r` to about 0.002, a fifth of MODEL.md's 0.01), and the ripple
+/// about the exponential must stay below it too.
+pub const SETTLING_TOL: f64 = 0.002;
+/// ... and the force may change by at most this share of `k_d v_d` per second: the body slides
+/// within 5 % of `v_d`, where the friction's relaxation is linear, with one time constant
+/// (further from it the approach follows the friction's nonlinear dependence on the velocity,
+/// and an exponential through the run so far aims at the wrong level).
+pub const SETTLING_SLOPE: f64 = 0.05;
 /// Early stop: the first check comes at this share of the planned simulated time (its window,
 /// the second half of the run so far, is then 2.5 % of the planned time long, at least 8
 /// blocks of one vibration period each) ...
@@ -92,7 +117,7 @@ impl Default for RunOptions {
             samples_per_period: 16,
             trace: false,
             trace_points: 400_000,
-            early_stop: true,
+            early_stop: EarlyStop::Automatic,
             periodic: true,
             envelope: None,
         }
@@ -267,6 +292,11 @@ pub struct RunResult {
     /// ([`RunOptions::periodic`]) \[s\]; `None` where every sample was integrated.
     #[serde(default)]
     pub continued_from: Option<f64>,
+    /// Whether the measures are those of the planned window `[window_start, 2 window_start]`,
+    /// predicted from the force settling along one exponential up to `t_end`
+    /// ([`Analyzer::settling`](crate::measures::Analyzer::settling)) instead of integrated.
+    #[serde(default)]
+    pub predicted: bool,
     /// Time traces, when asked for.
     #[serde(skip)]
     pub trace: Option<Trace>,
@@ -299,7 +329,12 @@ fn integrate(rig: &Rig, t_end: f64, opts: &RunOptions, solver: &mut Solver) -> R
     let count = (t_end / dt).floor() as u64 + 1;
     let window_start = 0.5 * t_end;
     // Blocks for the early-stop test: a few thousand over the run, at least a vibration period.
-    let early = opts.early_stop && opts.t_end.is_none() && p.vibrates();
+    let early = p.vibrates()
+        && match opts.early_stop {
+            EarlyStop::Off => false,
+            EarlyStop::Automatic => opts.t_end.is_none(),
+            EarlyStop::Always => true,
+        };
     let block = (t_end / 4000.0).max(k as f64 * dt);
     let (block_width, capacity) = if early {
         (block, (t_end / block) as usize + 2)
@@ -322,7 +357,7 @@ fn integrate(rig: &Rig, t_end: f64, opts: &RunOptions, solver: &mut Solver) -> R
     // Stick-slip is judged once the window can hold the cycles the planned time is made for.
     let tc = p.cycle_estimate();
     let cycles_from = 2.0 * (opts.min_cycles as f64 * tc).max(first_loading(p) + tc);
-    let mut stopped: Option<(f64, Measures)> = None;
+    let mut stopped: Option<(f64, Measures, bool)> = None;
     let stride = if opts.trace {
         count.div_ceil(opts.trace_points as u64).max(1)
     } else {
@@ -379,15 +414,30 @@ fn integrate(rig: &Rig, t_end: f64, opts: &RunOptions, solver: &mut Solver) -> R
         }
         if early && t >= next_check {
             next_check += check_every;
-            let known = an.steady_sliding(t, range, EARLY_STOP_DRIFT).or_else(|| {
+            let known = an
+                .steady_sliding(t, range, EARLY_STOP_DRIFT)
+                .map(|m| (m, false))
+                .or_else(|| {
+                    an.settling(
+                        t,
+                        t_end,
+                        SETTLING_SLOPE * p.k_d * p.v_d,
+                        SETTLING_TOL * nominal,
+                        SETTLING_TOL * nominal,
+                        EARLY_STOP_DRIFT,
+                    )
+                    .map(|m| (m, true))
+                })
+                .or_else(|| {
                 if t < cycles_from {
                     return None;
                 }
                 let drops = opts.min_cycles as usize;
                 an.steady_cycles(t, drops, EARLY_STOP_STDERR * nominal, EARLY_STOP_DRIFT)
+                    .map(|m| (m, false))
             });
-            if let Some(m) = known {
-                stopped = Some((t, m));
+            if let Some((m, predicted)) = known {
+                stopped = Some((t, m, predicted));
                 return false;
             }
         }
@@ -402,12 +452,15 @@ fn integrate(rig: &Rig, t_end: f64, opts: &RunOptions, solver: &mut Solver) -> R
             record(rig, &mut an, trace.as_mut(), stride, i, k, t, f, y)
         });
     }
+    // A prediction describes the planned window; otherwise the window is the run's second half.
+    let predicted = matches!(stopped, Some((_, _, true)));
     let (t_end, window_start) = match &stopped {
-        Some((t, _)) => (*t, 0.5 * t),
+        Some((t, _, false)) => (*t, 0.5 * t),
+        Some((t, _, true)) => (*t, window_start),
         None => (t_end, window_start),
     };
     let measures = match (rep.status, stopped) {
-        (Status::Success, Some((_, m))) => m,
+        (Status::Success, Some((_, m, _))) => m,
         (Status::Success, None) => an.finish(),
         _ => nan_measures(),
     };
@@ -420,6 +473,7 @@ fn integrate(rig: &Rig, t_end: f64, opts: &RunOptions, solver: &mut Solver) -> R
         window_start,
         wall_time: start.elapsed().as_secs_f64(),
         continued_from,
+        predicted,
         trace,
     }
 }

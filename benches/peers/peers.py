@@ -4,7 +4,8 @@ stickslip, side by side with stickslip in one run, on the same machine.
 Peers: SciPy solve_ivp (Radau, BDF, LSODA; right-hand side and Jacobian compiled with numba),
 SUNDIALS CVODE (BDF, through scikit-sundae), numbalsoda (LSODA, DOP853) and the diffsol crate
 (BDF, Tsit5; benches/peers/diffsol); stickslip's Radau5, Rodas4, Dopri5 and Dopri5 with
-envelope following (`stickslip-envelope`). Every peer integrates the same equations in the same scaled
+envelope following (`stickslip-envelope`); a `+early` suffix (`stickslip-envelope+early`) lets
+stickslip end once the answer is known (`--early-stop`). Every peer integrates the same equations in the same scaled
 variables z = y / w (w = F_s/k_d, v_d + v_a, F_s/k_t, the scales stickslip's atol uses), is
 sampled on stickslip's output grid, and is measured with the same definitions (MODEL.md): dF over
 the second half of the run, r against a tight run without vibration, the mean drive force.
@@ -261,8 +262,12 @@ def diffsol_peer(method):
 def stickslip_run(ratio, t_end, method, tol, repeats=1, flags=()):
     """One stickslip run; method `envelope` (or `envelope-<method>`) is Dopri5 (or that method)
     with envelope following, its extrapolation tolerance a hundred times the integration
-    tolerance (the periods it integrates at `tol`)."""
+    tolerance (the periods it integrates at `tol`); a `+early` suffix adds `--early-stop`."""
     extra = list(flags)
+    # `<method>+early`: end once the answer is known (`--early-stop`; --t-end is then the longest
+    # simulated time, and a settling force predicts the measures of the 3 to 6 s window).
+    if method.endswith("+early"):
+        method, extra = method[: -len("+early")], extra + ["--early-stop"]
     if method.startswith("envelope"):
         inner = method.split("-", 1)[1] if "-" in method else "dopri5"
         method, extra = inner, extra + ["--envelope", repr(min(0.1, 100 * tol))]

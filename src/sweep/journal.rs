@@ -8,10 +8,11 @@
 //! ```text
 //! <kind> <index> <status> <t_end> <window_start> <wall_time> <steps> <rejected> <rhs> <jac> <lu>
 //!        <newton> <dF> <dF_stderr> <mean_force> <stick_fraction> <period> <peak> <trough> <cycles> <skipped_periods>
-//!        <continued_from>
+//!        <continued_from> <predicted>
 //! ```
 //!
-//! with `kind` `ref` or `pt` and `continued_from` NaN where the run was integrated to its end.
+//! with `kind` `ref` or `pt`, `continued_from` NaN where the run was integrated to its end and
+//! `predicted` 1 where the measures were predicted for the planned window, else 0.
 //! Floats use Rust's shortest round-trip form, so resumed results are bit-identical. Only lines
 //! ended by a newline are read.
 
@@ -61,7 +62,7 @@ pub fn format_record(task: Task, r: &RunResult) -> String {
     let s = &r.stats;
     let m = &r.measures;
     format!(
-        "{kind} {i} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {}",
+        "{kind} {i} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {}",
         r.status.code(),
         r.t_end,
         r.window_start,
@@ -81,16 +82,17 @@ pub fn format_record(task: Task, r: &RunResult) -> String {
         m.trough_force,
         m.cycles,
         s.skipped_periods,
-        r.continued_from.unwrap_or(f64::NAN)
+        r.continued_from.unwrap_or(f64::NAN),
+        u8::from(r.predicted)
     )
 }
 
 /// Parses one record; `None` for a torn or foreign line.
 pub fn parse_record(line: &str) -> Option<(Task, RunResult)> {
     let f: Vec<&str> = line.split(' ').collect();
-    // 22 fields; 21 in journals written before the limit-cycle continuation, 20 before
-    // envelope following (no skipped periods).
-    if !(20..=22).contains(&f.len()) {
+    // 23 fields; 22 in journals written before predicted windows, 21 before the limit-cycle
+    // continuation, 20 before envelope following (no skipped periods).
+    if !(20..=23).contains(&f.len()) {
         return None;
     }
     let i: usize = f[1].parse().ok()?;
@@ -127,10 +129,15 @@ pub fn parse_record(line: &str) -> Option<(Task, RunResult)> {
                 trough_force: x(18)?,
                 cycles: f[19].parse().ok()?,
             },
-            continued_from: if f.len() == 22 {
+            continued_from: if f.len() >= 22 {
                 Some(x(21)?).filter(|t| t.is_finite())
             } else {
                 None
+            },
+            predicted: match f.get(22).copied() {
+                None | Some("0") => false,
+                Some("1") => true,
+                Some(_) => return None,
             },
             trace: None,
         },
@@ -245,6 +252,7 @@ mod tests {
             window_start: 4.925,
             wall_time: 0.123456789,
             continued_from: Some(1.0 / 7.0),
+            predicted: true,
             trace: None,
         };
         let line = format_record(Task::Point(42), &r);
@@ -259,12 +267,15 @@ mod tests {
         assert_eq!(back.stats, r.stats);
         assert_eq!(back.status, r.status);
         assert_eq!(back.continued_from, r.continued_from);
+        assert!(back.predicted);
         let integrated = RunResult {
             continued_from: None,
+            predicted: false,
             ..r.clone()
         };
         let (_, back) = parse_record(&format_record(Task::Ref(1), &integrated)).unwrap();
         assert_eq!(back.continued_from, None);
+        assert!(!back.predicted);
         // A line cut short of its fields is rejected (a torn number is caught by `read`).
         assert!(parse_record("pt 1 0 1.0").is_none());
     }
