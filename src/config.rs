@@ -447,5 +447,21 @@ mod tests {
         assert!(e.msg.contains("expected a number"), "{e}");
         let e = parse("k_d = = 3\n").unwrap_err();
         assert!(e.msg.contains("TOML") && e.line == 1, "{e}");
+        let e = parse("[run]\nearly_stop = \"sometimes\"\n").unwrap_err();
+        assert_eq!((e.line, e.key.as_str()), (2, "run.early_stop"));
+        assert!(e.msg.contains("\"always\""), "{e}");
+    }
+
+    #[test]
+    fn early_stop_is_on_off_or_always() {
+        for (text, want) in [
+            ("true", EarlyStop::Automatic),
+            ("false", EarlyStop::Off),
+            ("\"always\"", EarlyStop::Always),
+        ] {
+            let c = parse(&format!("[run]\nt_end = 3.0\nearly_stop = {text}\n")).unwrap();
+            assert_eq!(c.run.early_stop, want, "{text}");
+        }
+        assert_eq!(parse("").unwrap().run.early_stop, EarlyStop::Automatic);
     }
 }

@@ -331,7 +331,8 @@ impl Analyzer {
             let k = (a - m[j + 2]) * (h / tau) / (-(-h / tau).exp_m1());
             let f = |s: f64| a - k * (-(s - c) / tau).exp();
             let span = t_plan - half;
-            let mean = a - k * tau / span * ((-(half - c) / tau).exp() - (-(t_plan - c) / tau).exp());
+            let mean =
+                a - k * tau / span * ((-(half - c) / tau).exp() - (-(t_plan - c) / tau).exp());
             // The change of the trend over the last part, for the ripple on top of it.
             let last = (f(s0 + 6.0 * h) - f(s0 + 5.0 * h)).abs();
             let (fa, fb) = (f(half), f(t_plan));

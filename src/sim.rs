@@ -429,13 +429,13 @@ fn integrate(rig: &Rig, t_end: f64, opts: &RunOptions, solver: &mut Solver) -> R
                     .map(|m| (m, true))
                 })
                 .or_else(|| {
-                if t < cycles_from {
-                    return None;
-                }
-                let drops = opts.min_cycles as usize;
-                an.steady_cycles(t, drops, EARLY_STOP_STDERR * nominal, EARLY_STOP_DRIFT)
-                    .map(|m| (m, false))
-            });
+                    if t < cycles_from {
+                        return None;
+                    }
+                    let drops = opts.min_cycles as usize;
+                    an.steady_cycles(t, drops, EARLY_STOP_STDERR * nominal, EARLY_STOP_DRIFT)
+                        .map(|m| (m, false))
+                });
             if let Some((m, predicted)) = known {
                 stopped = Some((t, m, predicted));
                 return false;
