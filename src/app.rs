@@ -492,23 +492,22 @@ pub fn case_summary(c: &CaseResult, o: &RunOptions) -> String {
             rm.d_f, rm.d_f_stderr, rm.mean_force, rm.period
         );
     }
+    // A predicted run reports its planned window, integrated only up to where it stopped.
+    let (end, how) = if c.run.predicted {
+        (
+            2.0 * c.run.window_start,
+            format!(
+                "planned; predicted from the force settling along one exponential up to {:.3} s",
+                c.run.t_end
+            ),
+        )
+    } else {
+        (c.run.t_end, "second half of the run".to_string())
+    };
     let _ = writeln!(
         s,
-        "window    {:.3} s to {:.3} s {}",
-        c.run.window_start,
-        if c.run.predicted {
-            2.0 * c.run.window_start
-        } else {
-            c.run.t_end
-        },
-        if c.run.predicted {
-            format!(
-                "(planned; predicted from the force settling along one exponential up to {:.3} s)",
-                c.run.t_end
-            )
-        } else {
-            "(second half of the run)".to_string()
-        }
+        "window    {:.3} s to {:.3} s ({how})",
+        c.run.window_start, end
     );
     let st = c.total_stats();
     let wall = c.run.wall_time + c.reference.as_ref().map(|r| r.wall_time).unwrap_or(0.0);

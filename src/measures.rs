@@ -311,6 +311,10 @@ impl Analyzer {
         let m: [f64; 6] = std::array::from_fn(|j| part(j).mean());
         // Parts span equal numbers of blocks of equal width.
         let h = w[per].start - w[0].start;
+        // Near its sliding level only: there the relaxation is linear, with one time constant.
+        if !((m[5] - m[4]).abs() <= slope * h) {
+            return None;
+        }
         let s0 = w[0].start;
         let half = 0.5 * t_plan;
         // One exponential through the means of parts j, j + 1, j + 2: F(s) = A − K e^{−(s−c)/τ}
@@ -338,10 +342,6 @@ impl Analyzer {
             let (fa, fb) = (f(half), f(t_plan));
             Some(((fb - fa).abs(), mean, last, fa.min(fb), fa.max(fb)))
         };
-        // Near its sliding level only: there the relaxation is linear, with one time constant.
-        if !((m[5] - m[4]).abs() <= slope * h) {
-            return None;
-        }
         let (r0, mean0, ..) = fit(0)?;
         let (r1, mean1, last, lo, hi) = fit(3)?;
         let tail = part(5);
@@ -352,13 +352,11 @@ impl Analyzer {
         {
             return None;
         }
-        let all = Totals::of(w);
-        let d_f = r1 + excess;
         Some(Measures {
-            d_f,
+            d_f: r1 + excess,
             d_f_stderr: (r1 - r0).abs(),
             mean_force: mean1,
-            stick_fraction: all.stick_fraction(),
+            stick_fraction: Totals::of(w).stick_fraction(),
             period: f64::NAN,
             peak_force: hi + excess,
             trough_force: lo,
