@@ -115,6 +115,29 @@ fn shipped_sweeps_validate() {
     assert!(overnight.len() >= 65_536);
 }
 
+/// The timing samples in `benches/overnight/` are the even and the odd indices of every axis of
+/// the overnight grid, with its solver, run options and measures.
+#[test]
+fn overnight_samples_are_the_grids_two_parities() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let grid = SweepSpec::load(&root.join("sweeps/overnight.toml")).unwrap();
+    for (name, parity) in [("even", 0), ("odd", 1)] {
+        let s = SweepSpec::load(&root.join(format!("benches/overnight/{name}.toml"))).unwrap();
+        assert_eq!(s.axes.len(), grid.axes.len(), "{name}");
+        for (a, g) in s.axes.iter().zip(&grid.axes) {
+            assert_eq!(a.name, g.name, "{name}");
+            let want: Vec<f64> = g.values.iter().skip(parity).step_by(2).copied().collect();
+            assert_eq!(a.values.len(), want.len(), "{name} {}", a.name);
+            for (x, w) in a.values.iter().zip(&want) {
+                assert!((x / w - 1.0).abs() < 1e-12, "{name} {}: {x} against {w}", a.name);
+            }
+        }
+        assert_eq!(s.run, grid.run, "{name}");
+        assert_eq!(s.measures, grid.measures, "{name}");
+        assert_eq!(s.len() * 16, grid.len(), "{name}");
+    }
+}
+
 #[test]
 fn planner_runs_each_reference_once() {
     let spec =
