@@ -86,9 +86,20 @@ pub const SETTLING_SLOPE: f64 = 0.05;
 /// the second half of the run so far, is then 2.5 % of the planned time long, at least 8
 /// blocks of one vibration period each) ...
 pub const EARLY_STOP_FIRST: f64 = 0.05;
-/// ... and the next ones every planned time over this. Sliding runs whose force settles in
-/// milliseconds (large `v_a`, a small mean friction) end at the first checks.
+/// ... and the next ones every planned time over this (or, from an earlier first check, a
+/// quarter of the time so far apart while that is shorter: [`EARLY_STOP_GROWTH`]).
 pub const EARLY_STOP_CHECKS: f64 = 256.0;
+/// Early stop where vibration well above the drive velocity (`v_a > 2 v_d`) makes the force
+/// settle fast: the first check waits this many settling times
+/// `τ = 2 F_c / (π k_d √(v_a² − v_d²))` (vibration-averaged Coulomb friction against the drive
+/// spring), if that is sooner than [`EARLY_STOP_FIRST`] ...
+pub const EARLY_STOP_SETTLED: f64 = 10.0;
+/// ... and at least this share of the planned time (a window of 0.2 % of it) and 32 blocks ...
+pub const EARLY_STOP_EARLIEST: f64 = 0.004;
+/// ... and the checks after it are this share of the time so far apart, up to the planned time
+/// over [`EARLY_STOP_CHECKS`]. Sliding runs whose force settles in milliseconds (large `v_a`,
+/// a small mean friction) end at the first checks.
+pub const EARLY_STOP_GROWTH: f64 = 0.25;
 /// Envelope following in [`simulate`]: the slopes are measured over this many vibration periods
 /// ([`Envelope::baseline`](crate::ode::Envelope::baseline)). Averaging over four periods removes
 /// most of the integrator's period-to-period noise and of the alternating mode a jump excites
@@ -187,6 +198,27 @@ pub fn simulated_time(p: &Params, min_cycles: u32) -> f64 {
     let b = t_load + 2.0 * tc;
     let c = 20.0 * p.slip_duration();
     2.0 * a.max(b).max(c)
+}
+
+/// The first early-stop check \[s\] of a run planned for `t_plan` with blocks `block` wide:
+/// [`EARLY_STOP_FIRST`] of `t_plan`, or sooner where vibration well above the drive velocity
+/// (`v_a > 2 v_d`) makes the friction viscous-like and the drive force settles fast. Averaged
+/// over the vibration phase, Coulomb friction at a body velocity `v` near `v_d` is
+/// `(2 F_c / π) asin(v / v_a)`, whose slope `2 F_c / (π √(v_a² − v_d²))` against the drive
+/// spring `k_d` gives the settling time `τ`; the first check waits [`EARLY_STOP_SETTLED`] `τ`
+/// (the window, the run's second half, then spans five), a window of 16 blocks, and
+/// [`EARLY_STOP_EARLIEST`] of `t_plan`.
+fn first_check(p: &Params, t_plan: f64, block: f64) -> f64 {
+    let late = EARLY_STOP_FIRST * t_plan;
+    let (v_a, v_d) = (p.v_a(), p.v_d);
+    if v_a <= 2.0 * v_d {
+        return late;
+    }
+    let tau = 2.0 * p.f_c / (std::f64::consts::PI * p.k_d * (v_a * v_a - v_d * v_d).sqrt());
+    (EARLY_STOP_SETTLED * tau)
+        .max(32.0 * block)
+        .max(EARLY_STOP_EARLIEST * t_plan)
+        .min(late)
 }
 
 /// Time for the drive to load the spring from rest to `F_s` \[s\]: `F_s / (k_d v_d)`.
@@ -349,9 +381,10 @@ fn integrate(rig: &Rig, t_end: f64, opts: &RunOptions, solver: &mut Solver) -> R
         block_width,
         capacity,
     );
-    // Checkpoints: every 1/256 of the planned time, from a twentieth of it on.
+    // Checkpoints: every 1/256 of the planned time, from a twentieth of it on; sooner, and at
+    // first a quarter of the time so far apart, where the force settles fast (`first_check`).
     let check_every = t_end / EARLY_STOP_CHECKS;
-    let mut next_check = EARLY_STOP_FIRST * t_end;
+    let mut next_check = first_check(p, t_end, block);
     let nominal = 2.0 * (p.f_s - p.f_c);
     let range = EARLY_STOP_RANGE * nominal;
     // Stick-slip is judged once the window can hold the cycles the planned time is made for.
@@ -413,7 +446,7 @@ fn integrate(rig: &Rig, t_end: f64, opts: &RunOptions, solver: &mut Solver) -> R
             return false;
         }
         if early && t >= next_check {
-            next_check += check_every;
+            next_check += check_every.min(EARLY_STOP_GROWTH * next_check);
             let known = an
                 .steady_sliding(t, range, EARLY_STOP_DRIFT)
                 .map(|m| (m, false))
