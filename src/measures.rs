@@ -317,7 +317,9 @@ impl Analyzer {
         // a force already at its level with a ripple on top is flat to that bound.
         const BACKSTEP: f64 = 0.3;
         let way = (m[5] - m[0]).signum();
-        if m.windows(2).any(|p| (p[1] - p[0]) * way < -BACKSTEP * mean_tol * p[0].abs()) {
+        if m.windows(2)
+            .any(|p| (p[1] - p[0]) * way < -BACKSTEP * mean_tol * p[0].abs())
+        {
             return None;
         }
         // Parts span equal numbers of blocks of equal width.
@@ -708,9 +710,9 @@ mod tests {
             let n = 200_000;
             let s = |j: usize| 0.5 * t_plan * (1.0 + j as f64 / n as f64);
             let mean = level + (0..n).map(|j| wander(s(j))).sum::<f64>() / n as f64;
-            let (lo, hi) = (0..=n).map(|j| wander(s(j))).fold((f64::MAX, f64::MIN), |(l, h), w| {
-                (l.min(w), h.max(w))
-            });
+            let (lo, hi) = (0..=n)
+                .map(|j| wander(s(j)))
+                .fold((f64::MAX, f64::MIN), |(l, h), w| (l.min(w), h.max(w)));
             let mut a = Analyzer::with_blocks(k, f64::INFINITY, 0.5, 1e-4, t_plan / 4000.0, 4000);
             let mut checks = 0;
             for i in 0..(t_plan / dt) as usize {

@@ -129,7 +129,11 @@ fn overnight_samples_are_the_grids_two_parities() {
             let want: Vec<f64> = g.values.iter().skip(parity).step_by(2).copied().collect();
             assert_eq!(a.values.len(), want.len(), "{name} {}", a.name);
             for (x, w) in a.values.iter().zip(&want) {
-                assert!((x / w - 1.0).abs() < 1e-12, "{name} {}: {x} against {w}", a.name);
+                assert!(
+                    (x / w - 1.0).abs() < 1e-12,
+                    "{name} {}: {x} against {w}",
+                    a.name
+                );
             }
         }
         assert_eq!(s.run, grid.run, "{name}");
