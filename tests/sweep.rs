@@ -116,7 +116,7 @@ fn shipped_sweeps_validate() {
 }
 
 /// The timing samples in `benches/overnight/` are the even and the odd indices of every axis of
-/// the overnight grid, with its solver, run options and measures.
+/// the overnight grid, with its fixed parameters, effects, solver, run options and measures.
 #[test]
 fn overnight_samples_are_the_grids_two_parities() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
@@ -136,6 +136,8 @@ fn overnight_samples_are_the_grids_two_parities() {
                 );
             }
         }
+        assert_eq!(s.fixed, grid.fixed, "{name}");
+        assert_eq!(s.effects, grid.effects, "{name}");
         assert_eq!(s.run, grid.run, "{name}");
         assert_eq!(s.measures, grid.measures, "{name}");
         assert_eq!(s.len() * 16, grid.len(), "{name}");
