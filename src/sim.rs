@@ -541,15 +541,53 @@ fn record(
     }
 }
 
-/// Envelope settings of a run: `k` samples per period, the given tolerance, and jumps of at most
-/// a fiftieth of the stick-slip cycle (so a jump never hides more than 2 % of a loading ramp).
+/// Envelope following in [`simulate`] where a stick-slip cycle spans many vibration periods:
+/// from this longest jump on ([`Envelope::max_jump`], a fiftieth of the cycle estimate in
+/// periods) the periods after a landing and the integration tolerance are those of
+/// [`ENVELOPE_LONG_SETTLE`] and [`ENVELOPE_LONG_INNER`]. On the overnight sample
+/// `benches/overnight/even.toml` long settings from a longest jump of 100 on cost 2.3 times the
+/// right-hand sides at 100–200, 1.33 times at 200–400, 0.80 at 400–800, 0.48 at 800–1600 and
+/// 0.34 above (README, "Speed").
+pub const ENVELOPE_LONG_JUMP: u64 = 400;
+/// Periods integrated after each landing where jumps may be long ([`ENVELOPE_LONG_JUMP`]).
+/// While the body slides under vibration the period map of the rig has a pair of complex
+/// eigenvalues of modulus near 0.785 (the contact's ringing; at v_d = 0.1 mm/s,
+/// k_d = 3314 N/m, f = 2000 Hz, v_a = 1.58 v_d, by finite differences at rtol 1e-11): a landing
+/// excites it, and a jump of `M` periods multiplies what is left of it in the next slope by
+/// about `M / L`, so jumps stay near `L / 0.785^S` periods (4 to 6 with `S = 1`). Twenty-four
+/// periods let it decay by a factor of 330.
+pub const ENVELOPE_LONG_SETTLE: u32 = 24;
+/// [`Envelope::inner`] where jumps may be long ([`ENVELOPE_LONG_JUMP`]): the periods are
+/// integrated at a ten-thousandth of the envelope's tolerance. The sampled velocity's
+/// period-to-period noise is about a hundred times the integration tolerance (1.1e-4, 1.5e-5,
+/// 2.4e-6 and 1.5e-7 of its scale at rtol 1e-6 to 1e-9 in the case above), and a jump of `M`
+/// periods needs it below a few `tol / M`.
+pub const ENVELOPE_LONG_INNER: f64 = 1e-4;
+
+/// Envelope settings of a run: `k` samples per period, the given tolerance, jumps of at most
+/// a fiftieth of the stick-slip cycle (so a jump never hides more than 2 % of a loading ramp),
+/// and, where that allows long jumps, a long settling and a tight integration tolerance
+/// ([`ENVELOPE_LONG_JUMP`]).
 fn envelope_for(p: &Params, k: usize, tol: f64) -> Envelope {
     let per_cycle = p.cycle_estimate() * p.f;
+    let max_jump = ((per_cycle / 50.0).floor() as u64).max(2);
+    let base = Envelope::new(k as u64);
+    let long = max_jump >= ENVELOPE_LONG_JUMP;
     Envelope {
         tol,
-        max_jump: ((per_cycle / 50.0).floor() as u64).max(2),
+        max_jump,
         baseline: ENVELOPE_BASELINE,
-        ..Envelope::new(k as u64)
+        settle: if long {
+            ENVELOPE_LONG_SETTLE
+        } else {
+            base.settle
+        },
+        inner: if long {
+            ENVELOPE_LONG_INNER
+        } else {
+            base.inner
+        },
+        ..base
     }
 }
 

@@ -321,6 +321,69 @@ fn envelope_following_keeps_r_and_the_mean_force_of_the_full_run() {
     assert_eq!(bad.validate().unwrap_err().field, "envelope");
 }
 
+/// Where a stick-slip cycle spans tens of thousands of vibration periods (v_d = 0.1 mm/s), the
+/// envelope's long settings (`sim::ENVELOPE_LONG_JUMP`) skip nine periods in ten and keep r and
+/// the mean force of the run that integrates every period within MODEL.md's accuracy: a sliding
+/// run whose force still creeps toward its level (v_a = 1.58 v_d; with the short settings the
+/// jumps stayed near five periods and half were skipped) and a stick-slip run (v_a = 0.4 v_d).
+#[test]
+fn envelope_following_skips_most_periods_of_the_slow_corner() {
+    let cases = [
+        (3314.454017339985, 2000.0, 1.58, 0.9),
+        (2223.0095692182826, 1515.7165665103978, 0.4, 0.85),
+    ];
+    for (k_d, f, ratio, min_skip) in cases {
+        let mut p = Params {
+            v_d: 1e-4,
+            k_d,
+            f,
+            ..Params::default()
+        };
+        p.set_v_a(ratio * p.v_d);
+        assert!(
+            p.cycle_estimate() * f / 50.0 >= stickslip::sim::ENVELOPE_LONG_JUMP as f64,
+            "the case must allow long jumps"
+        );
+        let base = RunOptions {
+            method: Method::Dopri5,
+            ..RunOptions::default()
+        };
+        let env = RunOptions {
+            envelope: Some(1e-4),
+            ..base.clone()
+        };
+        let full = run_case(&p, &base, &mut Solver::new(Method::Dopri5)).unwrap();
+        let fast = run_case(&p, &env, &mut Solver::new(Method::Dopri5)).unwrap();
+        assert_eq!(fast.status(), Status::Success);
+        let periods = fast.run.t_end * f;
+        let skipped = fast.run.stats.skipped_periods as f64 / periods;
+        assert!(
+            skipped > min_skip,
+            "v_a/v_d = {ratio}: skipped {skipped:.3} of the periods"
+        );
+        let dr = (fast.r - full.r).abs();
+        let spread = fast.r_stderr.hypot(full.r_stderr);
+        assert!(
+            dr <= 0.01 + spread,
+            "v_a/v_d = {ratio}: r {:.4} with envelope, {:.4} without (spread {spread:.4})",
+            fast.r,
+            full.r
+        );
+        let (mf, mb) = (fast.run.measures.mean_force, full.run.measures.mean_force);
+        assert!(
+            ((mf - mb) / mb).abs() < 0.005,
+            "v_a/v_d = {ratio}: mean force {mf:.4} vs {mb:.4}"
+        );
+        // Fewer right-hand sides, not only fewer periods: the periods it integrates cost more.
+        assert!(
+            fast.run.stats.rhs_evals * 3 < full.run.stats.rhs_evals,
+            "v_a/v_d = {ratio}: {} right-hand sides with envelope, {} without",
+            fast.run.stats.rhs_evals,
+            full.run.stats.rhs_evals
+        );
+    }
+}
+
 /// A run without vibration with the limit-cycle continuation and the same run integrated to the
 /// end (Radau5, the other options as given).
 fn continued_and_integrated(

@@ -632,4 +632,19 @@ fn envelope_options_are_validated_with_the_bound_quoted() {
     let err = e.validate().unwrap_err();
     assert_eq!((err.field, err.value), ("envelope.baseline", 0.0));
     assert!(err.allowed.contains("50"), "{}", err.allowed);
+    let e = Envelope {
+        inner: 1e-6,
+        ..Envelope::new(16)
+    };
+    let err = e.validate().unwrap_err();
+    assert_eq!((err.field, err.value), ("envelope.inner", 1e-6));
+    assert!(err.allowed.contains("1e-5"), "{}", err.allowed);
+    // The integration tolerance is lowered to `inner · tol`, never raised.
+    let e = Envelope {
+        tol: 1e-4,
+        inner: 1e-4,
+        ..Envelope::new(16)
+    };
+    assert_eq!(e.inner_tolerance(1e-6), 1e-8);
+    assert_eq!(e.inner_tolerance(1e-9), 1e-9);
 }

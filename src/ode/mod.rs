@@ -270,7 +270,8 @@ impl OutputGrid {
 /// what changes from period to period without drifting (the integrator's noise, a decaying
 /// alternating mode), which one-period differences would read as curvature. The slopes are
 /// differences of integrated states, so the integrator's own error must lie well below `tol`:
-/// [`Envelope::inner_tolerance`] gives the tolerance the periods are integrated with. Output
+/// [`Envelope::inner_tolerance`] gives the tolerance the periods are integrated with ([`inner`]
+/// times `tol` at most). Output
 /// times inside a jump get the last integrated period's samples at the same phase, shifted by the
 /// envelope (`y(t + mT) ≈ y(t) + m Δ_n`), so a moving average over one period sees the drift
 /// only. Fast transients that a jump excites in stiff components decay during the [`settle`]
@@ -282,6 +283,7 @@ impl OutputGrid {
 ///
 /// [`tol`]: Envelope::tol
 /// [`settle`]: Envelope::settle
+/// [`inner`]: Envelope::inner
 /// [`period_samples`]: Envelope::period_samples
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Envelope {
@@ -298,6 +300,13 @@ pub struct Envelope {
     pub baseline: u32,
     /// Longest jump \[periods\]. Default 200. Range ≥ 2.
     pub max_jump: u64,
+    /// Tolerance of the integrated periods as a fraction of [`Envelope::tol`] (the integration
+    /// tolerance asked for is lowered to `inner · tol` where it is larger). The period-to-period
+    /// noise of the sampled states, which the slopes and their change carry, is about a hundred
+    /// times the integration tolerance on the rig, so jumps of `M` periods need `inner` well below
+    /// `1 / M`. Default 0.01. Range 1e-5 ≤ inner ≤ 0.1 (so that `inner · tol` stays a valid
+    /// [`Options::rtol`]).
+    pub inner: f64,
 }
 
 impl Envelope {
@@ -309,14 +318,15 @@ impl Envelope {
             settle: 1,
             baseline: 1,
             max_jump: 200,
+            inner: 0.01,
         }
     }
 
-    /// The tolerance to integrate the periods with, given the one asked for: at most a
-    /// hundredth of [`Envelope::tol`], so that the integrator's error in a slope stays well below
-    /// the extrapolation error allowed.
+    /// The tolerance to integrate the periods with, given the one asked for: at most
+    /// [`Envelope::inner`] times [`Envelope::tol`], so that the integrator's error in a slope
+    /// stays well below the extrapolation error allowed.
     pub fn inner_tolerance(&self, tol: f64) -> f64 {
-        tol.min(0.01 * self.tol)
+        tol.min(self.inner * self.tol)
     }
 
     /// Checks every field against its documented range.
@@ -350,6 +360,9 @@ impl Envelope {
         }
         if self.max_jump < 2 {
             return bad("envelope.max_jump", self.max_jump as f64, "max_jump >= 2");
+        }
+        if !(self.inner >= 1e-5 && self.inner <= 0.1) {
+            return bad("envelope.inner", self.inner, "1e-5 <= inner <= 0.1");
         }
         Ok(())
     }
