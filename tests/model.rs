@@ -266,6 +266,45 @@ fn vibration_averaged_friction_follows_the_arcsine_law() {
     }
 }
 
+/// Runs `p` with every period integrated (`base`) and with envelope following at 1e-4 on the
+/// same options; checks that the envelope run succeeds, skips more than `min_skip` of the
+/// periods it simulates and keeps r (within 0.01 plus the spread over cycles) and the mean force
+/// (within 0.5 %) of the full run. Returns both.
+fn envelope_against_full_run(
+    p: &Params,
+    base: &RunOptions,
+    min_skip: f64,
+) -> (stickslip::sim::CaseResult, stickslip::sim::CaseResult) {
+    let env = RunOptions {
+        envelope: Some(1e-4),
+        ..base.clone()
+    };
+    let full = run_case(p, base, &mut Solver::new(Method::Dopri5)).unwrap();
+    let fast = run_case(p, &env, &mut Solver::new(Method::Dopri5)).unwrap();
+    assert_eq!(fast.status(), Status::Success);
+    assert_eq!(full.run.stats.skipped_periods, 0);
+    let ratio = p.v_a() / p.v_d;
+    let skipped = fast.run.stats.skipped_periods as f64 / (fast.run.t_end * p.f);
+    assert!(
+        skipped > min_skip,
+        "v_a/v_d = {ratio}: skipped {skipped:.3} of the periods"
+    );
+    let dr = (fast.r - full.r).abs();
+    let spread = fast.r_stderr.hypot(full.r_stderr);
+    assert!(
+        dr <= 0.01 + spread,
+        "v_a/v_d = {ratio}: r {:.4} with envelope, {:.4} without (spread {spread:.4})",
+        fast.r,
+        full.r
+    );
+    let (mf, mb) = (fast.run.measures.mean_force, full.run.measures.mean_force);
+    assert!(
+        ((mf - mb) / mb).abs() < 0.005,
+        "v_a/v_d = {ratio}: mean force {mf:.4} vs {mb:.4}"
+    );
+    (fast, full)
+}
+
 /// Envelope following on the rig (k_d = 11 700 N/m, v_d = 0.5 mm/s, f = 1500 Hz, 4 s): where
 /// vibration removes stick-slip (v_a = 2 v_d) and where it only reduces it (v_a = 0.4 v_d), r and
 /// the mean force stay within the accuracy of MODEL.md of the run that integrates every period
@@ -286,33 +325,7 @@ fn envelope_following_keeps_r_and_the_mean_force_of_the_full_run() {
             t_end: Some(4.0),
             ..RunOptions::default()
         };
-        let env = RunOptions {
-            envelope: Some(1e-4),
-            ..base.clone()
-        };
-        let full = run_case(&p, &base, &mut Solver::new(Method::Dopri5)).unwrap();
-        let fast = run_case(&p, &env, &mut Solver::new(Method::Dopri5)).unwrap();
-        assert_eq!(fast.status(), Status::Success);
-        let periods = 4.0 * p.f;
-        let skipped = fast.run.stats.skipped_periods as f64 / periods;
-        assert!(
-            skipped > min_skip,
-            "v_a/v_d = {ratio}: skipped {skipped:.2}"
-        );
-        assert_eq!(full.run.stats.skipped_periods, 0);
-        let dr = (fast.r - full.r).abs();
-        let spread = fast.r_stderr.hypot(full.r_stderr);
-        assert!(
-            dr <= 0.01 + spread,
-            "v_a/v_d = {ratio}: r {:.4} with envelope, {:.4} without (spread {spread:.4})",
-            fast.r,
-            full.r
-        );
-        let (mf, mb) = (fast.run.measures.mean_force, full.run.measures.mean_force);
-        assert!(
-            ((mf - mb) / mb).abs() < 0.005,
-            "v_a/v_d = {ratio}: mean force {mf:.4} vs {mb:.4}"
-        );
+        envelope_against_full_run(&p, &base, min_skip);
     }
     let bad = RunOptions {
         envelope: Some(0.5),
@@ -348,32 +361,7 @@ fn envelope_following_skips_most_periods_of_the_slow_corner() {
             method: Method::Dopri5,
             ..RunOptions::default()
         };
-        let env = RunOptions {
-            envelope: Some(1e-4),
-            ..base.clone()
-        };
-        let full = run_case(&p, &base, &mut Solver::new(Method::Dopri5)).unwrap();
-        let fast = run_case(&p, &env, &mut Solver::new(Method::Dopri5)).unwrap();
-        assert_eq!(fast.status(), Status::Success);
-        let periods = fast.run.t_end * f;
-        let skipped = fast.run.stats.skipped_periods as f64 / periods;
-        assert!(
-            skipped > min_skip,
-            "v_a/v_d = {ratio}: skipped {skipped:.3} of the periods"
-        );
-        let dr = (fast.r - full.r).abs();
-        let spread = fast.r_stderr.hypot(full.r_stderr);
-        assert!(
-            dr <= 0.01 + spread,
-            "v_a/v_d = {ratio}: r {:.4} with envelope, {:.4} without (spread {spread:.4})",
-            fast.r,
-            full.r
-        );
-        let (mf, mb) = (fast.run.measures.mean_force, full.run.measures.mean_force);
-        assert!(
-            ((mf - mb) / mb).abs() < 0.005,
-            "v_a/v_d = {ratio}: mean force {mf:.4} vs {mb:.4}"
-        );
+        let (fast, full) = envelope_against_full_run(&p, &base, min_skip);
         // Fewer right-hand sides, not only fewer periods: the periods it integrates cost more.
         assert!(
             fast.run.stats.rhs_evals * 3 < full.run.stats.rhs_evals,
