@@ -572,21 +572,17 @@ fn envelope_for(p: &Params, k: usize, tol: f64) -> Envelope {
     let per_cycle = p.cycle_estimate() * p.f;
     let max_jump = ((per_cycle / 50.0).floor() as u64).max(2);
     let base = Envelope::new(k as u64);
-    let long = max_jump >= ENVELOPE_LONG_JUMP;
+    let (settle, inner) = if max_jump >= ENVELOPE_LONG_JUMP {
+        (ENVELOPE_LONG_SETTLE, ENVELOPE_LONG_INNER)
+    } else {
+        (base.settle, base.inner)
+    };
     Envelope {
         tol,
         max_jump,
         baseline: ENVELOPE_BASELINE,
-        settle: if long {
-            ENVELOPE_LONG_SETTLE
-        } else {
-            base.settle
-        },
-        inner: if long {
-            ENVELOPE_LONG_INNER
-        } else {
-            base.inner
-        },
+        settle,
+        inner,
         ..base
     }
 }

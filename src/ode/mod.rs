@@ -271,10 +271,9 @@ impl OutputGrid {
 /// alternating mode), which one-period differences would read as curvature. The slopes are
 /// differences of integrated states, so the integrator's own error must lie well below `tol`:
 /// [`Envelope::inner_tolerance`] gives the tolerance the periods are integrated with ([`inner`]
-/// times `tol` at most). Output
-/// times inside a jump get the last integrated period's samples at the same phase, shifted by the
-/// envelope (`y(t + mT) ≈ y(t) + m Δ_n`), so a moving average over one period sees the drift
-/// only. Fast transients that a jump excites in stiff components decay during the [`settle`]
+/// times `tol` at most). Output times inside a jump get the last integrated period's samples at
+/// the same phase, shifted by the envelope (`y(t + mT) ≈ y(t) + m Δ_n`), so a moving average over
+/// one period sees the drift only. Fast transients that a jump excites in stiff components decay during the [`settle`]
 /// periods integrated after it, before the slope is measured again. Where the envelope bends
 /// (a slip starting), `M` falls below 2 and the driver integrates every period.
 ///
