@@ -433,8 +433,9 @@ pub struct RunArgs {
     )]
     pub va_ratio: Option<f64>,
 
-    /// Integration method: radau5 (implicit Radau IIA, order 5), rodas4 (Rosenbrock, order 4)
-    /// or dopri5 (explicit Dormand-Prince 5(4)). Default radau5.
+    /// Integration method: radau5 (implicit Radau IIA, order 5), rodas4 (Rosenbrock, order 4),
+    /// dopri5 (explicit Dormand-Prince 5(4)) or auto (dopri5, switching to radau5 where
+    /// stability rather than accuracy limits its step). Default radau5.
     #[arg(long, value_name = "METHOD")]
     pub solver: Option<Method>,
 

@@ -11,7 +11,7 @@
 //! v_a = 1.1e-3       # m/s: u0 = v_a / (2 pi f)
 //!
 //! [solver]
-//! method = "radau5"  # radau5, rodas4 or dopri5
+//! method = "radau5"  # radau5, rodas4, dopri5 or auto
 //! rtol = 1e-6
 //! atol = 1e-6        # in units of each state's characteristic size
 //!
@@ -247,7 +247,7 @@ pub fn apply_solver(doc: &Doc, table: &toml::Table, o: &mut RunOptions) -> Resul
         match k.as_str() {
             "method" => {
                 let s = v.as_str().ok_or_else(|| {
-                    doc.err(sec, k, "expected a string: radau5, rodas4 or dopri5")
+                    doc.err(sec, k, "expected a string: radau5, rodas4, dopri5 or auto")
                 })?;
                 o.method = s.parse::<Method>().map_err(|e| doc.err(sec, k, e))?;
             }

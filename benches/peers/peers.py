@@ -3,8 +3,8 @@ stickslip, side by side with stickslip in one run, on the same machine.
 
 Peers: SciPy solve_ivp (Radau, BDF, LSODA; right-hand side and Jacobian compiled with numba),
 SUNDIALS CVODE (BDF, through scikit-sundae), numbalsoda (LSODA, DOP853) and the diffsol crate
-(BDF, Tsit5; benches/peers/diffsol); stickslip's Radau5, Rodas4, Dopri5 and Dopri5 with
-envelope following (`stickslip-envelope`); a `+early` suffix (`stickslip-envelope+early`) lets
+(BDF, Tsit5; benches/peers/diffsol); stickslip's Radau5, Rodas4, Dopri5, the switching
+`auto` and Dopri5 with envelope following (`stickslip-envelope`); a `+early` suffix (`stickslip-envelope+early`) lets
 stickslip end once the answer is known (`--early-stop`). Every peer integrates the same equations in the same scaled
 variables z = y / w (w = F_s/k_d, v_d + v_a, F_s/k_t, the scales stickslip's atol uses), is
 sampled on stickslip's output grid, and is measured with the same definitions (MODEL.md): dF over
@@ -284,7 +284,7 @@ def main():
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--tolerances", default="1e-3,1e-4,1e-5,1e-6,1e-7,1e-8")
     ap.add_argument("--cases", default=",".join(CASES))
-    ap.add_argument("--peers", default="scipy-Radau,scipy-BDF,scipy-LSODA,cvode-BDF,numbalsoda-LSODA,numbalsoda-DOP853,diffsol-bdf,diffsol-tsit45,stickslip-radau5,stickslip-rodas4,stickslip-dopri5,stickslip-envelope")
+    ap.add_argument("--peers", default="scipy-Radau,scipy-BDF,scipy-LSODA,cvode-BDF,numbalsoda-LSODA,numbalsoda-DOP853,diffsol-bdf,diffsol-tsit45,stickslip-radau5,stickslip-rodas4,stickslip-dopri5,stickslip-auto,stickslip-envelope")
     ap.add_argument("--max-seconds", type=float, default=20.0, help="skip tighter tolerances of a peer once one run takes longer")
     ap.add_argument("--out", default=str(ROOT / "results" / "peers.json"))
     a = ap.parse_args()

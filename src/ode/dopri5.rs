@@ -70,6 +70,14 @@ pub(crate) struct Dopri5 {
     /// `facold^β`, computed once per accepted step.
     facold_beta: f64,
     reject: bool,
+    /// Whether to run the stiffness test on accepted steps (for [`super::Method::Auto`]).
+    pub(crate) detect: bool,
+    /// `h λ̃` of the last accepted step (0 unless `detect`): the stiffness test of DOPRI5,
+    /// `λ̃ = ‖f(t+h, y₁) − f(t+h, ŷ₆)‖₂ / ‖y₁ − ŷ₆‖₂` from the two evaluations at `t + h`
+    /// (the last stage's state `ŷ₆` and the new state `y₁`) — the local Lipschitz constant
+    /// along the step's last correction; `h λ̃` above 3.25 means the step sits at the edge of
+    /// the method's stability region (Hairer, Nørsett & Wanner, *Solving ODEs I*, Sect. IV.2).
+    pub(crate) h_lambda: f64,
 }
 
 impl Dopri5 {
@@ -96,6 +104,8 @@ impl Dopri5 {
             facold: 1e-4,
             facold_beta: 1e-4f64.powf(BETA),
             reject: false,
+            detect: false,
+            h_lambda: 0.0,
         }
     }
 }
@@ -118,6 +128,7 @@ impl Stepper for Dopri5 {
         self.facold = 1e-4;
         self.facold_beta = self.facold.powf(BETA);
         self.reject = false;
+        self.h_lambda = 0.0;
         self.rc[0].copy_from_slice(y0);
         for c in self.rc[1..].iter_mut() {
             c.fill(0.0);
@@ -198,6 +209,19 @@ impl Stepper for Dopri5 {
         let fac11 = err.powf(0.2 - BETA * 0.75);
         let fac = (fac11 / self.facold_beta / SAFE).clamp(1.0 / FAC2, 1.0 / FAC1);
         if err <= 1.0 {
+            if self.detect {
+                // Stiffness test, before k7 and ytmp are reused.
+                let (mut num, mut den) = (0.0, 0.0);
+                for i in 0..n {
+                    num += (self.k7[i] - self.k6[i]).powi(2);
+                    den += (self.ynew[i] - self.ytmp[i]).powi(2);
+                }
+                self.h_lambda = if den > 0.0 {
+                    h * (num / den).sqrt()
+                } else {
+                    0.0
+                };
+            }
             self.facold = err.max(1e-4);
             self.facold_beta = self.facold.powf(BETA);
             // Dense output coefficients.

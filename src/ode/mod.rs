@@ -24,6 +24,7 @@
 //! `w_i = OdeSystem::scale(i)` is the component's characteristic size (1 unless the system says
 //! otherwise). A step is accepted when `‖e‖ ≤ 1`.
 
+mod auto;
 mod dopri5;
 mod envelope;
 mod linalg;
@@ -98,11 +99,17 @@ pub enum Method {
     /// Dormand–Prince 5(4), explicit, with the PI step controller and the 4th-order continuous
     /// extension (Hairer, Nørsett & Wanner, *Solving ODEs I*, Sect. II.5; the DOPRI5 code).
     Dopri5,
+    /// Dopri5 while the step is set by accuracy, Radau5 while it is set by stability: DOPRI5's
+    /// stiffness estimate `h λ̃` above 2.5 on 16 of the last 32 accepted steps hands over to
+    /// Radau5, which hands back after 20 steps, a wait that doubles (up to 2560) each time
+    /// Dopri5 finds the problem still stiff within 100 steps. Without stiffness it is Dopri5,
+    /// step for step; under envelope following it stays Dopri5.
+    Auto,
 }
 
 impl Method {
     /// All methods, in the order tables and benchmarks list them.
-    pub const ALL: [Method; 3] = [Method::Radau5, Method::Rodas4, Method::Dopri5];
+    pub const ALL: [Method; 4] = [Method::Radau5, Method::Rodas4, Method::Dopri5, Method::Auto];
 
     /// The name used on the command line and in files.
     pub fn name(self) -> &'static str {
@@ -110,10 +117,12 @@ impl Method {
             Method::Radau5 => "radau5",
             Method::Rodas4 => "rodas4",
             Method::Dopri5 => "dopri5",
+            Method::Auto => "auto",
         }
     }
 
-    /// Whether the method is implicit (uses the Jacobian).
+    /// Whether the method is implicit (uses the Jacobian; `auto` does while the problem is
+    /// stiff).
     pub fn is_implicit(self) -> bool {
         !matches!(self, Method::Dopri5)
     }
@@ -131,7 +140,9 @@ impl std::str::FromStr for Method {
         Method::ALL
             .into_iter()
             .find(|m| m.name() == s)
-            .ok_or_else(|| format!("unknown solver '{s}': allowed are radau5, rodas4, dopri5"))
+            .ok_or_else(|| {
+                format!("unknown solver '{s}': allowed are radau5, rodas4, dopri5, auto")
+            })
     }
 }
 
@@ -564,6 +575,7 @@ enum Workspace {
     Radau5(radau5::Radau5),
     Rodas4(rodas::Rodas4),
     Dopri5(dopri5::Dopri5),
+    Auto(auto::Auto),
 }
 
 /// Buffers the driver needs whatever the method.
@@ -611,6 +623,7 @@ impl Solver {
             Method::Radau5 => Workspace::Radau5(radau5::Radau5::new(n)),
             Method::Rodas4 => Workspace::Rodas4(rodas::Rodas4::new(n)),
             Method::Dopri5 => Workspace::Dopri5(dopri5::Dopri5::new(n)),
+            Method::Auto => Workspace::Auto(auto::Auto::new(n)),
         };
         self.shared = Shared::sized(n);
     }
@@ -682,12 +695,16 @@ impl Solver {
                 .strobe
                 .reset(n, e.period_samples, e.baseline, |i| sys.scale(i));
         }
+        if let Workspace::Auto(a) = &mut self.ws {
+            a.switching = envelope.is_none();
+        }
         let sh = &mut self.shared;
         let env = envelope;
         match &mut self.ws {
             Workspace::Radau5(m) => drive(m, sys, t0, t1, y0, opts, grid, env, &mut observe, sh),
             Workspace::Rodas4(m) => drive(m, sys, t0, t1, y0, opts, grid, env, &mut observe, sh),
             Workspace::Dopri5(m) => drive(m, sys, t0, t1, y0, opts, grid, env, &mut observe, sh),
+            Workspace::Auto(m) => drive(m, sys, t0, t1, y0, opts, grid, env, &mut observe, sh),
             Workspace::Empty => unreachable!("ensure() sized the workspace"),
         }
     }
