@@ -238,7 +238,7 @@ pub struct BenchArgs {
     /// Default: all.
     #[arg(long, value_delimiter = ',')]
     pub cases: Vec<String>,
-    /// Methods (comma-separated). Default: radau5,rodas4,dopri5.
+    /// Methods (comma-separated). Default: radau5,rodas4,dopri5,auto.
     #[arg(long, value_delimiter = ',')]
     pub methods: Vec<Method>,
     /// Tolerance ladder, rtol = atol (comma-separated). Default: 1e-3,...,1e-8.
