@@ -11,11 +11,13 @@
 //! Radau5 cannot tell cheaply when the stiffness is gone, so after `wait` accepted Radau5 steps
 //! the run tries Dopri5 again: if the explicit phase then lasts fewer than [`PROBE_STEPS`]
 //! accepted steps before the test fires again, the problem was still stiff and `wait` doubles
-//! (from [`MIN_WAIT`] up to [`MAX_WAIT`]); otherwise it starts again from [`MIN_WAIT`]. On the rig this follows the phases: the contact's
-//! critically damped pole (`h_t / 2m ≈ 1.04·10⁴ /s`) holds Dopri5 while the body sticks
-//! without vibration, and the bristles' relaxation `k_t |v_r| / F_c` (Eq. 4.6) while a large
-//! vibration drags the contact through every period; slips and moderate vibration, where the
-//! forcing sets the step, stay explicit.
+//! (from [`MIN_WAIT`] up to [`MAX_WAIT`]); otherwise it starts again from [`MIN_WAIT`].
+//!
+//! On the rig this follows the phases: the contact's critically damped pole
+//! (`h_t / 2m ≈ 1.04·10⁴ /s`) holds Dopri5 while the body sticks without vibration, and the
+//! bristles' relaxation `k_t |v_r| / F_c` (Eq. 4.6) while a large vibration drags the contact
+//! through every period; slips and moderate vibration, where the forcing sets the step, stay
+//! explicit.
 //!
 //! Under envelope following the run stays explicit: the envelope reads its slopes from the
 //! periods it integrates, and a change of method between them shows as curvature (on the
