@@ -444,7 +444,8 @@ impl Figure for WorkPrecision<'_> {
                 .draw()
                 .map_err(e)?;
             for (k, m) in Method::ALL.iter().enumerate() {
-                let col = [BLUE, RED, RGBColor(30, 140, 30), RGBColor(200, 120, 0)][k % 4];
+                let colours = [BLUE, RED, RGBColor(30, 140, 30), RGBColor(200, 120, 0)];
+                let col = colours[k % colours.len()];
                 let line: Vec<(f64, f64)> = self
                     .rows
                     .iter()

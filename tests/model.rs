@@ -536,10 +536,13 @@ fn limit_cycle_continuation_holds_over_random_parameters() {
 /// with Radau5 in both and costs a fraction of Dopri5.
 #[test]
 fn auto_follows_the_stiff_phases_of_the_rig() {
-    let va = |ratio: f64, f: f64| Params {
-        f,
-        u0: ratio * 0.5e-3 / (2.0 * std::f64::consts::PI * f),
-        ..Params::default()
+    let va = |ratio: f64, f: f64| {
+        let mut p = Params {
+            f,
+            ..Params::default()
+        };
+        p.set_v_a(ratio * p.v_d);
+        p
     };
     for (p, what) in [
         (Params::default(), "no vibration"),

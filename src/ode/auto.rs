@@ -32,18 +32,18 @@ use super::{OdeSystem, Stats, StepOutcome, Stepper};
 
 /// `h λ̃` above which a Dopri5 step counts as limited by stability (the method's stability
 /// region reaches −3.3 on the real axis; the controller keeps such steps near 3.2).
-pub(crate) const STIFF_H_LAMBDA: f64 = 2.5;
+const STIFF_H_LAMBDA: f64 = 2.5;
 /// Stability-limited steps among the last [`WINDOW`] accepted ones that hand over to Radau5.
-pub(crate) const STIFF_STEPS: u32 = 16;
+const STIFF_STEPS: u32 = 16;
 /// Accepted steps the test looks back over.
-pub(crate) const WINDOW: u64 = 32;
+const WINDOW: u64 = 32;
 const WINDOW_MASK: u64 = (1 << WINDOW) - 1;
 /// Radau5 steps before the first try of Dopri5 again.
-pub(crate) const MIN_WAIT: u64 = 20;
+const MIN_WAIT: u64 = 20;
 /// Longest wait between tries, in Radau5 steps.
-pub(crate) const MAX_WAIT: u64 = 2560;
+const MAX_WAIT: u64 = 2560;
 /// An explicit phase shorter than this many accepted steps was a failed try.
-pub(crate) const PROBE_STEPS: u64 = 100;
+const PROBE_STEPS: u64 = 100;
 
 pub(crate) struct Auto {
     ex: Dopri5,
@@ -78,11 +78,16 @@ impl Auto {
         }
     }
 
-    /// Starts the other method at the active one's time, state and next step.
-    fn switch<S: OdeSystem>(&mut self, sys: &S, st: &mut Stats) {
+    /// Begins a phase of Radau5 (`stiff`) or Dopri5, with a fresh count of its steps.
+    fn begin_phase(&mut self, stiff: bool) {
+        self.stiff = stiff;
         self.pending = false;
         self.window = 0;
         self.phase_steps = 0;
+    }
+
+    /// Starts the other method at the active one's time, state and next step.
+    fn switch<S: OdeSystem>(&mut self, sys: &S, st: &mut Stats) {
         if self.stiff {
             let (t, h) = (self.im.t(), self.im.h());
             self.ex.start(sys, t, self.im.y(), h, st);
@@ -90,7 +95,7 @@ impl Auto {
             let (t, h) = (self.ex.t(), self.ex.h());
             self.im.start(sys, t, self.ex.y(), h, st);
         }
-        self.stiff = !self.stiff;
+        self.begin_phase(!self.stiff);
     }
 
     /// Bookkeeping after an accepted step of the active method.
@@ -107,15 +112,13 @@ impl Auto {
         }
         self.window = (self.window << 1) | u64::from(self.ex.h_lambda > STIFF_H_LAMBDA);
         if self.phase_steps >= WINDOW && (self.window & WINDOW_MASK).count_ones() >= STIFF_STEPS {
-            {
-                // A short explicit phase means the last try came too soon.
-                self.wait = if self.phase_steps < PROBE_STEPS {
-                    (2 * self.wait).min(MAX_WAIT)
-                } else {
-                    MIN_WAIT
-                };
-                self.pending = true;
-            }
+            // A short explicit phase means the last try came too soon.
+            self.wait = if self.phase_steps < PROBE_STEPS {
+                (2 * self.wait).min(MAX_WAIT)
+            } else {
+                MIN_WAIT
+            };
+            self.pending = true;
         }
     }
 }
@@ -127,20 +130,14 @@ impl Stepper for Auto {
     fn set_tolerances(&mut self, rtol: f64, atol: &[f64]) {
         self.ex.set_tolerances(rtol, atol);
         self.im.set_tolerances(rtol, atol);
-        self.stiff = false;
-        self.pending = false;
-        self.window = 0;
-        self.phase_steps = 0;
+        self.begin_phase(false);
         self.wait = MIN_WAIT;
     }
 
     /// Restarts the active method (after an envelope jump the phase carries on).
     fn start<S: OdeSystem>(&mut self, sys: &S, t0: f64, y0: &[f64], h: f64, st: &mut Stats) {
         if self.pending {
-            self.pending = false;
-            self.stiff = !self.stiff;
-            self.window = 0;
-            self.phase_steps = 0;
+            self.begin_phase(!self.stiff);
         }
         if self.stiff {
             self.im.start(sys, t0, y0, h, st);

@@ -284,8 +284,8 @@ impl OutputGrid {
 /// [`Envelope::inner_tolerance`] gives the tolerance the periods are integrated with ([`inner`]
 /// times `tol` at most). Output times inside a jump get the last integrated period's samples at
 /// the same phase, shifted by the envelope (`y(t + mT) ≈ y(t) + m Δ_n`), so a moving average over
-/// one period sees the drift only. Fast transients that a jump excites in stiff components decay during the [`settle`]
-/// periods integrated after it, before the slope is measured again. Where the envelope bends
+/// one period sees the drift only. Fast transients that a jump excites in stiff components decay
+/// during the [`settle`] periods integrated after it, before the slope is measured again. Where the envelope bends
 /// (a slip starting), `M` falls below 2 and the driver integrates every period.
 ///
 /// The output grid must start at `t0`, a period boundary, and hold [`period_samples`] samples
