@@ -130,12 +130,12 @@ pub fn calibrate_cmd(a: &CalibrateArgs) -> Result<(), AppError> {
         max_iter: a.max_iter,
         ..Default::default()
     };
-    let base = campaign::fit::fit(&target, &campaign::fit::Model::default(), None, opts);
+    let base = campaign::fit::fit(&target, &campaign::fit::Model::default(), &[], opts);
     let f = match effect {
         None => base,
         Some(k) => {
             let start = campaign::fit::starts(&target, &base.model, k);
-            campaign::fit::fit(&target, &start, Some(k), opts)
+            campaign::fit::fit(&target, &start, &[k], opts)
         }
     };
     print!("{}", campaign::report::calibration_summary(&c, &f));
@@ -350,11 +350,16 @@ pub fn run(a: &RunArgs) -> Result<(), AppError> {
     {
         let p = &case.params;
         let title = format!(
-            "k_d = {} N/m, v_d = {} mm/s, f = {} Hz, v_a = {:.3} mm/s: r = {:.3}",
+            "k_d = {} N/m, v_d = {} mm/s, f = {} Hz, v_a = {:.3} mm/s{}: r = {:.3}",
             p.k_d,
             p.v_d * 1e3,
             p.f,
             p.v_a() * 1e3,
+            if p.two_stage() {
+                format!(" from t = {} s", p.t_on)
+            } else {
+                String::new()
+            },
             res.r
         );
         written.extend(plot::trace_figure(&a.out.with_extension(""), tr, &title)?);
@@ -462,6 +467,13 @@ pub fn case_summary(c: &CaseResult, o: &RunOptions) -> String {
         p.v_a() * 1e3,
         p.v_a() / p.v_d
     );
+    if p.two_stage() {
+        let _ = writeln!(
+            s,
+            "          two stages: resting substrate until t_on = {} s, vibrating after",
+            p.t_on
+        );
+    }
     let _ = writeln!(
         s,
         "          F_s = {} N, F_c = {} N, v_s = {} m/s, k_t = {:e} N/m, h_t = {} N s/m, h_d = {} N s/m, m = {:.4} kg",
@@ -501,6 +513,8 @@ pub fn case_summary(c: &CaseResult, o: &RunOptions) -> String {
                 c.run.t_end
             ),
         )
+    } else if p.two_stage() {
+        (c.run.t_end, "second half of the second stage".to_string())
     } else {
         (c.run.t_end, "second half of the run".to_string())
     };

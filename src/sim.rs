@@ -22,8 +22,8 @@ pub struct RunOptions {
     /// Stick-slip cycles (of the run without vibration) the steady window must hold.
     /// Default 3. Range 1 to 1000.
     pub min_cycles: u32,
-    /// Simulated time \[s\]; `None` (default) chooses it from the run (see [`simulated_time`]).
-    /// Range: > 0.
+    /// Simulated time \[s\]; `None` (default) chooses it from the run (see [`planned_time`]).
+    /// Range: > 0, and past `t_on` in a two-stage run.
     pub t_end: Option<f64>,
     /// Samples per vibration period for the smoothing (more when the stick-slip needs a finer
     /// grid). Default 16. Range 4 to 4096.
@@ -35,7 +35,8 @@ pub struct RunOptions {
     /// End a run with vibration early once its answer is known: once steady sliding is
     /// established (see [`EARLY_STOP_RANGE`]), or once the steady window of the run so far holds
     /// `min_cycles` stick-slip cycles of the run without vibration and gives dF to
-    /// [`EARLY_STOP_STDERR`]. Default [`EarlyStop::Automatic`].
+    /// [`EARLY_STOP_STDERR`]. Default [`EarlyStop::Automatic`]. A two-stage run (`t_on > 0`)
+    /// always runs its whole time.
     pub early_stop: EarlyStop,
     /// Without vibration (base model): once two successive slips pass the same state, with a
     /// stick between them, read the rest of the samples off that limit cycle instead of
@@ -46,7 +47,7 @@ pub struct RunOptions {
     /// Envelope following for runs with vibration: the extrapolation tolerance of one jump over
     /// whole vibration periods (see [`ode::Envelope`](crate::ode::Envelope)), in units of each
     /// state's characteristic size; `None` integrates every period. Default `None`.
-    /// Range 1e-8 to 0.1.
+    /// Range 1e-8 to 0.1. A two-stage run (`t_on > 0`) integrates every period.
     pub envelope: Option<f64>,
 }
 
@@ -200,6 +201,24 @@ pub fn simulated_time(p: &Params, min_cycles: u32) -> f64 {
     2.0 * a.max(b).max(c)
 }
 
+/// Simulated time of a run chosen automatically \[s\]: [`simulated_time`], after the first
+/// stage of a two-stage run (`t_on > 0`, MODEL.md), so that the steady window, the second half
+/// of the second stage, holds as many cycles as a run vibrated from the start.
+pub fn planned_time(p: &Params, min_cycles: u32) -> f64 {
+    let stage = simulated_time(p, min_cycles);
+    if p.two_stage() { p.t_on + stage } else { stage }
+}
+
+/// Start of the steady window of a run ending at `t_end` \[s\]: the second half of the run, or
+/// of its second stage where the vibration is switched on at `t_on > 0` (MODEL.md).
+pub fn window_start(p: &Params, t_end: f64) -> f64 {
+    if p.two_stage() && p.t_on < t_end {
+        p.t_on + 0.5 * (t_end - p.t_on)
+    } else {
+        0.5 * t_end
+    }
+}
+
 /// The first early-stop check \[s\] of a run planned for `t_plan` with blocks `block` wide:
 /// [`EARLY_STOP_FIRST`] of `t_plan`, or sooner where vibration well above the drive velocity
 /// (`v_a > 2 v_d`) makes the friction viscous-like and the drive force settles fast. Averaged
@@ -348,10 +367,23 @@ pub fn simulate_with(
 ) -> Result<RunResult, SimError> {
     opts.validate()?;
     let rig = Rig::with_effects(*p, fx)?;
+    let t_end = end_time(p, opts)?;
+    Ok(integrate(&rig, t_end, opts, solver))
+}
+
+/// The simulated time of a run: the given `t_end`, or [`planned_time`]. A two-stage run must
+/// reach its second stage.
+fn end_time(p: &Params, opts: &RunOptions) -> Result<f64, SimError> {
     let t_end = opts
         .t_end
-        .unwrap_or_else(|| simulated_time(p, opts.min_cycles));
-    Ok(integrate(&rig, t_end, opts, solver))
+        .unwrap_or_else(|| planned_time(p, opts.min_cycles));
+    if p.two_stage() && !(p.t_on < t_end) {
+        return Err(SimError::SwitchOnAfterEnd {
+            t_on: p.t_on,
+            t_end,
+        });
+    }
+    Ok(t_end)
 }
 
 fn integrate(rig: &Rig, t_end: f64, opts: &RunOptions, solver: &mut Solver) -> RunResult {
@@ -359,9 +391,13 @@ fn integrate(rig: &Rig, t_end: f64, opts: &RunOptions, solver: &mut Solver) -> R
     let p = &rig.p;
     let (dt, k) = sampling(p, opts.samples_per_period);
     let count = (t_end / dt).floor() as u64 + 1;
-    let window_start = 0.5 * t_end;
+    let window_start = window_start(p, t_end);
+    // A two-stage run is integrated every period and to its end: the early-stop checks and the
+    // envelope's jumps assume the forcing ran from t = 0.
+    let two_stage = p.two_stage();
     // Blocks for the early-stop test: a few thousand over the run, at least a vibration period.
     let early = p.vibrates()
+        && !two_stage
         && match opts.early_stop {
             EarlyStop::Off => false,
             EarlyStop::Automatic => opts.t_end.is_none(),
@@ -420,7 +456,7 @@ fn integrate(rig: &Rig, t_end: f64, opts: &RunOptions, solver: &mut Solver) -> R
     let mut idx = 0u64;
     let envelope = opts
         .envelope
-        .filter(|_| p.vibrates())
+        .filter(|_| p.vibrates() && !two_stage)
         .map(|tol| envelope_for(p, k, tol));
     let env = envelope.as_ref();
     // The slopes of the envelope are differences of integrated states: integrate finer.
@@ -435,7 +471,7 @@ fn integrate(rig: &Rig, t_end: f64, opts: &RunOptions, solver: &mut Solver) -> R
     // Without vibration the base model is autonomous: watch for its limit cycle.
     let mut cycle = (opts.periodic && !p.vibrates() && !rig.has_effects())
         .then(|| LimitCycle::new(rig, dt, &ode));
-    let rep = solver.solve_envelope(rig, 0.0, t_end, &mut y, &ode, grid, env, |t, y| {
+    let observe = |t: f64, y: &[f64]| -> bool {
         // The force the sensor records (the drive force itself without sensor dynamics).
         let f = rig.measured_force(t, y);
         record(rig, &mut an, trace.as_mut(), stride, idx, k, t, f, y);
@@ -475,7 +511,14 @@ fn integrate(rig: &Rig, t_end: f64, opts: &RunOptions, solver: &mut Solver) -> R
             }
         }
         true
-    });
+    };
+    let rep = if two_stage {
+        // The substrate velocity jumps from 0 to u0 ω at t_on (MODEL.md): integrate the stages
+        // apart, so the step control restarts at the jump instead of rejecting its way down to it.
+        integrate_stages(solver, rig, p.t_on, t_end, &mut y, &ode, grid, observe)
+    } else {
+        solver.solve_envelope(rig, 0.0, t_end, &mut y, &ode, grid, env, observe)
+    };
     // A periodic run: the remaining samples are the last cycle's.
     let continued_from = cycle.as_ref().and_then(LimitCycle::continued_from);
     if let Some(c) = cycle.as_ref()
@@ -509,6 +552,40 @@ fn integrate(rig: &Rig, t_end: f64, opts: &RunOptions, solver: &mut Solver) -> R
         predicted,
         trace,
     }
+}
+
+/// Integrates `[0, t_on]` and `[t_on, t_end]` one after the other, with the output times of
+/// `grid` (from 0) shared out by index, and adds up the work.
+fn integrate_stages(
+    solver: &mut Solver,
+    rig: &Rig,
+    t_on: f64,
+    t_end: f64,
+    y: &mut [f64],
+    ode: &Options,
+    grid: OutputGrid,
+    mut observe: impl FnMut(f64, &[f64]) -> bool,
+) -> crate::ode::RunReport {
+    // Output times i dt <= t_on belong to the first stage.
+    let first = ((t_on / grid.step).floor() as u64 + 1).min(grid.count);
+    let g1 = OutputGrid {
+        count: first,
+        ..grid
+    };
+    let mut rep = solver.solve_until(rig, 0.0, t_on, y, ode, g1, &mut observe);
+    if rep.status != Status::Success || rep.t < t_on {
+        return rep;
+    }
+    let g2 = OutputGrid {
+        start: grid.start + first as f64 * grid.step,
+        step: grid.step,
+        count: grid.count - first,
+    };
+    let second = solver.solve_until(rig, t_on, t_end, y, ode, g2, &mut observe);
+    rep.stats += second.stats;
+    rep.status = second.status;
+    rep.t = second.t;
+    rep
 }
 
 /// Feeds sample `i` (time `t`, measured force `f`, state `y`) to the analyzer and, every
@@ -667,9 +744,7 @@ pub fn run_case_with(
 ) -> Result<CaseResult, SimError> {
     opts.validate()?;
     let rig = Rig::with_effects(*p, fx)?;
-    let t_end = opts
-        .t_end
-        .unwrap_or_else(|| simulated_time(p, opts.min_cycles));
+    let t_end = end_time(p, opts)?;
     let run = integrate(&rig, t_end, opts, solver);
     if !p.vibrates() {
         // Without vibration the run is its own reference: r = 1 by definition.
@@ -705,4 +780,14 @@ pub enum SimError {
     /// A solver or run option is out of range.
     #[error(transparent)]
     Option(#[from] OptionError),
+    /// A two-stage run that ends before its vibration is switched on.
+    #[error(
+        "parameter `t_on` = {t_on} s is not allowed: the vibration must be switched on before the run ends (t_end = {t_end} s); give t_on < t_end, or t_on = 0 to vibrate from the start"
+    )]
+    SwitchOnAfterEnd {
+        /// Switch-on time \[s\].
+        t_on: f64,
+        /// End of the run \[s\].
+        t_end: f64,
+    },
 }

@@ -3,7 +3,7 @@
 //!
 //! ```text
 //! ω      = 2π f                                   (4.1, with MODEL.md's correction)
-//! u'(t)  = u0 ω cos(ω t)                          substrate velocity
+//! u'(t)  = u0 ω cos(ω (t − t_on)) for t ≥ t_on, else 0   substrate velocity (MODEL.md)
 //! v_r    = v − u'(t)                              (4.7)
 //! g(v_r) = (F_c + (F_s − F_c) exp(−(v_r/v_s)²)) / k_t      (4.7)
 //! s'     = v_r − |v_r| s / g(v_r)                 (4.6)
@@ -111,6 +111,8 @@ pub struct Rig {
     omega: f64,
     /// Actuated amplitude `A u0` \[m\] (`u0` without the actuator effect).
     u0: f64,
+    /// Switch-on time of the vibration \[s\] (MODEL.md; 0: from the start).
+    t_on: f64,
     fx: Resolved,
 }
 
@@ -122,6 +124,7 @@ impl Rig {
             p,
             omega: p.omega(),
             u0: p.u0,
+            t_on: p.t_on,
             fx: Resolved::new(&Effects::none(), p.f, p.f_n),
         })
     }
@@ -135,6 +138,7 @@ impl Rig {
             p,
             omega: p.omega(),
             u0: p.u0 * r.gain,
+            t_on: p.t_on,
             fx: r,
         })
     }
@@ -146,6 +150,7 @@ impl Rig {
             p,
             omega: p.omega(),
             u0: 0.0,
+            t_on: 0.0,
             fx: self.fx,
         }
     }
@@ -156,25 +161,32 @@ impl Rig {
         vec![0.0; self.fx.dim]
     }
 
-    /// Substrate displacement `u(t) = u0 sin(ω t)` \[m\] (4.1).
+    /// Substrate displacement `u(t) = u0 sin(ω (t − t_on))` for `t ≥ t_on`, 0 before \[m\]
+    /// (4.1; MODEL.md's two stages).
     #[inline]
     pub fn substrate_displacement(&self, t: f64) -> f64 {
-        if self.u0 == 0.0 {
+        if self.u0 == 0.0 || t < self.t_on {
             0.0
         } else {
-            self.u0 * (self.omega * t).sin()
+            self.u0 * (self.omega * (t - self.t_on)).sin()
         }
     }
 
-    /// Substrate velocity `u'(t) = u0 ω cos(ω t)` [m/s].
+    /// Substrate velocity `u'(t) = u0 ω cos(ω (t − t_on))` for `t ≥ t_on`, 0 before [m/s].
     #[inline]
     pub fn substrate_velocity(&self, t: f64) -> f64 {
         // Without vibration there is no cosine to pay for (half the cost of a sample).
-        if self.u0 == 0.0 {
+        if self.u0 == 0.0 || t < self.t_on {
             0.0
         } else {
-            self.u0 * self.omega * (self.omega * t).cos()
+            self.u0 * self.omega * (self.omega * (t - self.t_on)).cos()
         }
+    }
+
+    /// The vibration's phase `ω (t − t_on)` \[rad\] (meaningful from `t_on` on).
+    #[inline]
+    pub fn vibration_phase(&self, t: f64) -> f64 {
+        self.omega * (t - self.t_on)
     }
 
     /// Drive displacement `x_d = v_d t` \[m\] (plus the ripple when that effect is on).
@@ -240,8 +252,10 @@ impl Rig {
         let a = v_r.abs();
         // Load factor: normal coupling and friction along the track scale F_c and F_s.
         let mut nu = 1.0;
-        if let Some((c, phi)) = fx.normal {
-            nu = (1.0 + c * self.u0 * (self.omega * t + phi).sin()).max(0.0);
+        if let Some((c, phi)) = fx.normal
+            && t >= self.t_on
+        {
+            nu = (1.0 + c * self.u0 * (self.vibration_phase(t) + phi).sin()).max(0.0);
         }
         if let Some((amp, k, x0)) = fx.track {
             nu *= 1.0 + amp * (k * (y[X] + x0)).sin();
@@ -378,7 +392,11 @@ impl OdeSystem for Rig {
         let v_r = self.relative_velocity(t, y);
         let c = contact(p, v_r, y[S]);
         // ∂v_r/∂t = −u''(t) = u0 ω² sin(ω t); ∂F_d/∂t = k_d v_d.
-        let dvr_dt = p.u0 * self.omega * self.omega * (self.omega * t).sin();
+        let dvr_dt = if t < self.t_on {
+            0.0
+        } else {
+            p.u0 * self.omega * self.omega * self.vibration_phase(t).sin()
+        };
         dfdt[X] = 0.0;
         dfdt[V] = (p.k_d * p.v_d - c.dforce_dvr * dvr_dt) / p.m;
         dfdt[S] = c.ds_dot_dvr * dvr_dt;

@@ -41,6 +41,11 @@ pub struct Params {
     /// extensions scale `F_c` and `F_s` with it.
     #[serde(rename = "F_N")]
     pub f_n: f64,
+    /// Time the vibration is switched on `t_on` \[s\]: `u(t) = u0 sin(ω (t − t_on))` for
+    /// `t ≥ t_on` and `u = 0` before (MODEL.md, the paper's two-stage tests of Figs. 3 to 5).
+    /// Default 0: vibrating from the start.
+    #[serde(default)]
+    pub t_on: f64,
 }
 
 impl Default for Params {
@@ -59,6 +64,7 @@ impl Default for Params {
             f: 1500.0,
             u0: 0.0,
             f_n: 36.52,
+            t_on: 0.0,
         }
     }
 }
@@ -139,6 +145,14 @@ pub const PARAMS: &[ParamInfo] = &[
     ),
     p!("u0", "u0", u0, "m", NonNegative, "vibration amplitude"),
     p!("F_N", "f-n", f_n, "N", Positive, "normal load"),
+    p!(
+        "t_on",
+        "t-on",
+        t_on,
+        "s",
+        NonNegative,
+        "time the vibration is switched on (two-stage run; 0: from the start)"
+    ),
 ];
 
 /// A parameter outside its valid range, or an unknown name.
@@ -265,7 +279,17 @@ impl Params {
 
     /// The same rig without vibration (the reference run of `r`, Eq. 5.1).
     pub fn without_vibration(&self) -> Params {
-        Params { u0: 0.0, ..*self }
+        Params {
+            u0: 0.0,
+            t_on: 0.0,
+            ..*self
+        }
+    }
+
+    /// Whether the run has two stages: sliding on the resting substrate until `t_on > 0`,
+    /// then with the vibration on.
+    pub fn two_stage(&self) -> bool {
+        self.vibrates() && self.t_on > 0.0
     }
 
     /// Sets `u0` from a vibration velocity amplitude: `u0 = v_a / (2π f)`.

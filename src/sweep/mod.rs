@@ -39,11 +39,11 @@ pub struct Plan {
     pub effects: crate::model::Effects,
 }
 
-/// The bits of every parameter that a run without vibration depends on (all but u0 and f).
+/// The bits of every parameter that a run without vibration depends on (all but u0, f, t_on).
 fn reference_key(p: &Params) -> Vec<u64> {
     PARAMS
         .iter()
-        .filter(|i| i.name != "u0" && i.name != "f")
+        .filter(|i| !matches!(i.name, "u0" | "f" | "t_on"))
         .map(|i| i.get(p).to_bits())
         .collect()
 }

@@ -635,12 +635,11 @@ fn parse_axis(doc: &Doc, i: usize, t: &toml::Table) -> Result<Axis, ConfigError>
                     }
                 };
                 for &val in &vals {
-                    let ok = match name {
-                        "va_ratio" | "v_a" | "u0" | "f" | "h_t" | "h_v" | "h_d" => {
-                            val.is_finite() && val >= 0.0
-                        }
-                        _ => val.is_finite() && val > 0.0,
-                    };
+                    // Each parameter's own bound (the amplitude ratios may be 0).
+                    let zero_ok = matches!(name, "va_ratio" | "v_a")
+                        || crate::model::params::info(name)
+                            .is_some_and(|i| i.bound == crate::model::params::Bound::NonNegative);
+                    let ok = val.is_finite() && (val > 0.0 || (zero_ok && val == 0.0));
                     if !ok {
                         return Err(here(
                             kind,
