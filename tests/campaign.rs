@@ -33,11 +33,24 @@ fn campaign(effects: Effects, seed: u64) -> (tempfile::TempDir, Campaign) {
 
 fn show(d: &Diagnosis) -> String {
     let mut s = format!(
-        "verdict {:?}, best {:?}, E0 {:.2}, E1 {:.2}, reduction {:.2}\n",
-        d.verdict, d.best_effect, d.gap_before, d.gap_after, d.reduction
+        "verdict {:?}, best {:?}, effects {:?}, partial {}, E0 {:.2} ± {:.2}, E1 {:.2}, reduction {:.2}, {:.0} s (base {} evaluations, converged {})\n",
+        d.verdict,
+        d.best_effect,
+        d.effects,
+        d.partial,
+        d.gap_before,
+        d.gap_before_spread,
+        d.gap_after,
+        d.reduction,
+        d.wall_time,
+        d.base.evaluations,
+        d.base.converged
     );
-    for r in &d.ranking {
-        s += &format!("  {} {:.2} ({:.2})\n", r.effect, r.gap_after, r.reduction);
+    for r in d.ranking.iter().chain(&d.second) {
+        s += &format!(
+            "  {} {:.2} ({:.2}) {:.0} s, {} evaluations\n",
+            r.effect, r.gap_after, r.reduction, r.wall_time, r.fit.evaluations
+        );
     }
     s + &d.location.summary
 }
@@ -48,6 +61,7 @@ fn identifies(kind: EffectKind, seed: u64) {
     let (_dir, c) = campaign(fx.clone(), seed);
     let d = diagnose(&c, &DiagnoseOptions::default());
     let msg = format!("injected {}\n{}", fx.describe(), show(&d));
+    eprintln!("{msg}");
     assert_eq!(d.ranking[0].effect, kind, "{msg}");
     assert_eq!(d.verdict, Verdict::Effect, "{msg}");
     assert_eq!(d.best_effect, Some(kind), "{msg}");
@@ -80,6 +94,7 @@ identification_tests! {
 fn effect_free_data_has_no_significant_gap() {
     let (_dir, c) = campaign(Effects::none(), 21);
     let d = diagnose(&c, &DiagnoseOptions::default());
+    eprintln!("effect-free\n{}", show(&d));
     assert_eq!(d.verdict, Verdict::NoSignificantGap, "{}", show(&d));
     assert_eq!(d.best_effect, None);
     // The calibration recovers the injected base parameters.
@@ -109,6 +124,7 @@ fn friction_along_the_track_is_unexplained_but_located() {
     let (_dir, c) = campaign(fx.clone(), 31);
     let d = diagnose(&c, &DiagnoseOptions::default());
     let msg = format!("injected {}\n{}", fx.describe(), show(&d));
+    eprintln!("{msg}");
     assert_eq!(d.verdict, Verdict::Unexplained, "{msg}");
     assert_eq!(d.best_effect, None, "{msg}");
     assert!(d.gap_before >= 2.0, "{msg}");

@@ -1,13 +1,25 @@
-//! The sim-to-real diagnosis: calibrate the base model on part of a campaign, locate the gap
-//! (features, phases, conditions), attribute it to the effect whose fit shrinks the gap most on
-//! held-out recordings, decide, and quantify.
+//! The sim-to-real diagnosis: calibrate the base model, locate the gap (features, phases,
+//! conditions), attribute it to the effect (or the two effects) whose fit shrinks the gap most
+//! on held-out recordings, decide, and quantify.
 //!
-//! **Split.** Recordings are grouped by drive (`v_d`, `k_d`, load); with the groups sorted from
-//! the longest stick-slip cycle (smallest `k_d v_d`) to the shortest, every third one from the
-//! second on is held out (one recording in three when there is a single drive). The
-//! calibration keeps the longest and the shortest cycles, so it sees the whole range of stick
-//! times, and the held-out drives are conditions no fit has seen. Each group holds runs with and without vibration, so an effect is
-//! active in held-out data at drive conditions the fits never saw.
+//! **Cross-validation over groups of conditions** ([`folds`]). No campaign design is assumed.
+//! Each recording has a *kind*: no vibration, partial reduction (`v_a < v_d`) or elimination
+//! (`v_a ≥ v_d`), with its frequency band (octaves from 250 Hz) for the last two; a two-stage
+//! recording takes the kind of its vibrated stage. A *group* is the recordings of one kind at
+//! one drive (`v_d`, `k_d`, load). The groups of each kind are dealt round-robin into
+//! [`FOLDS`] folds (fewer where the campaign has fewer groups), so every fold's calibration
+//! holds recordings of every kind its held-out part holds, wherever the campaign has two groups
+//! of that kind or more. A kind with a single group cannot be checked on held-out data: its
+//! recordings still calibrate the other folds, are left out of the held-out gaps, and the
+//! report names them ([`Diagnosis::not_checked`]).
+//!
+//! **Fits shared across folds.** Each model (the base, every candidate) is fitted once on all
+//! recordings, with a fresh finite-difference Jacobian at its optimum; each fold's model is
+//! that fit refitted to the fold's calibration residuals by one damped Gauss–Newton step on the
+//! same Jacobian's rows ([`fit::refit_rows`]; halved where it raises the fold's calibration
+//! cost), and simulated once. A held-out gap is `√(mean z²)` over every held-out unit of every
+//! fold (each recording held out once); its spread is the standard deviation of the folds'
+//! own gaps.
 //!
 //! **Gap.** `E = √(mean z²)` over the standardised feature differences ([`super::fit`]); 1 means
 //! "within noise and floors".
@@ -18,10 +30,17 @@
 //! - `effect` when the best candidate cuts the gap by at least [`MIN_REDUCTION`], lowers the gap
 //!   of at least [`MIN_BREADTH`] of the held-out recordings, and its score is at most
 //!   [`CLEAR_MARGIN`] times the runner-up's;
+//! - `effect` with `partial` when it cuts the gap by at least [`MIN_PARTIAL`] only (the effect's
+//!   true form differs from the library's, or a second effect acts), under the same breadth and
+//!   margin rules: the report gives what remains;
 //! - `unexplained` otherwise.
+//!
+//! After a named effect, every other candidate is fitted together with it (forward selection);
+//! a second effect is named when it cuts the remaining held-out gap by at least
+//! [`MIN_SECOND`] and beats the other seconds by the same margin.
 
 use super::Campaign;
-use super::features::{FEATURES, Feature, PHASES};
+use super::features::{FEATURES, Feature, N_FEATURES, PHASES};
 use super::fit::{self, FitOptions, FitResult, Model, Target};
 use crate::model::EffectKind;
 
@@ -37,6 +56,17 @@ pub const CLEAR_MARGIN: f64 = 0.8;
 pub const MIN_BREADTH: f64 = 0.6;
 /// Penalty per fitted effect parameter in the ranking score.
 pub const PARAM_PENALTY: f64 = 0.05;
+/// Smallest held-out reduction for naming an effect as a partial explanation.
+pub const MIN_PARTIAL: f64 = 0.25;
+/// Smallest further held-out reduction, of the gap left by the first effect, for naming a
+/// second one.
+pub const MIN_SECOND: f64 = 0.3;
+/// A candidate whose fit lowers the calibration gap of the model it extends by less than this
+/// share is that model as far as the held-out check can tell: it is ranked with that model's
+/// held-out gap instead of being cross-validated again.
+pub const UNCHANGED: f64 = 0.02;
+/// Folds of the cross-validation (fewer where the campaign has fewer groups of conditions).
+pub const FOLDS: usize = 4;
 
 /// Options of a diagnosis.
 #[derive(Clone, Debug)]
@@ -61,14 +91,20 @@ impl Default for DiagnoseOptions {
 pub struct Ranked {
     /// The effect.
     pub effect: EffectKind,
-    /// Its fit on the calibration split.
+    /// Its fit on all recordings.
     pub fit: FitResult,
-    /// Gap on the held-out split.
+    /// Held-out gap (pooled over the folds).
     pub gap_after: f64,
-    /// `(E0 − E1) / E0` on the held-out split.
+    /// Standard deviation of the folds' held-out gaps.
+    pub gap_spread: f64,
+    /// `(E0 − E1) / E0` on the held-out recordings.
     pub reduction: f64,
     /// Ranking score `E1 (1 + 0.05 k)`.
     pub score: f64,
+    /// Each held-out recording's own gap under the fold's model (NaN where not checked).
+    pub per_recording: Vec<f64>,
+    /// Wall time of its scan, fit and cross-validation \[s\].
+    pub wall_time: f64,
 }
 
 /// Where the gap lies, from the calibrated base model over all recordings.
@@ -81,7 +117,7 @@ pub struct Where {
     /// Per condition: Spearman correlation of the per-recording gap with it.
     pub conditions: Vec<(&'static str, f64)>,
     /// Per recording: name, gap, conditions (v_d, k_d, f, v_a/v_d, stick time, k_t u0/F_c),
-    /// held out or not.
+    /// checked on held-out data or not.
     pub recordings: Vec<RecordingGap>,
     /// The gap on recordings with vibration and without.
     pub with_vibration: (f64, f64),
@@ -98,12 +134,15 @@ pub struct RecordingGap {
     pub gap_base: f64,
     /// Gap under the top-ranked candidate (NaN when none was tried).
     pub gap_best: f64,
-    /// Held out from the fits.
+    /// Checked on held-out data (its kind of condition has two groups or more).
     pub held_out: bool,
+    /// Its fold.
+    pub fold: usize,
     /// `[v_d, k_d, f, v_a/v_d, stick time, k_t u0/F_c]`.
     pub conditions: [f64; 6],
-    /// z per feature under the base model (NaN where undefined).
-    pub z_base: [f64; 11],
+    /// z per feature under the base model, the largest over the recording's stages (NaN where
+    /// undefined).
+    pub z_base: [f64; N_FEATURES],
 }
 
 /// Names of [`RecordingGap::conditions`].
@@ -138,55 +177,242 @@ pub struct Diagnosis {
     pub verdict: Verdict,
     /// The named effect (with verdict `effect`).
     pub best_effect: Option<EffectKind>,
+    /// The named effects in order (the first is `best_effect`; a second when forward selection
+    /// names one).
+    pub effects: Vec<EffectKind>,
+    /// The named effect explains only part of the gap ([`MIN_PARTIAL`] to [`MIN_REDUCTION`]).
+    pub partial: bool,
     /// Held-out gap of the calibrated base model.
     pub gap_before: f64,
-    /// Held-out gap of the best candidate (of the base model when none is named).
+    /// Spread of the folds' held-out gaps of the base model.
+    pub gap_before_spread: f64,
+    /// Held-out gap of the named effects (of the base model when none is named).
     pub gap_after: f64,
+    /// Spread of the folds' held-out gaps of the named effects.
+    pub gap_after_spread: f64,
     /// `(E0 − E1) / E0`.
     pub reduction: f64,
     /// Share of held-out recordings whose gap the top candidate lowers.
     pub breadth: f64,
-    /// The base calibration on the calibration split.
+    /// The base calibration on all recordings.
     pub base: FitResult,
     /// Candidates, best first.
     pub ranking: Vec<Ranked>,
+    /// Second effects tried with the first named one, best first.
+    pub second: Vec<Ranked>,
     /// Where the gap lies.
     pub location: Where,
-    /// Names of the held-out recordings.
+    /// Where the gap left by the named effects lies (empty when none is named).
+    pub remaining: String,
+    /// Number of folds.
+    pub folds: usize,
+    /// Names of the recordings checked on held-out data.
     pub held_out: Vec<String>,
+    /// What the design cannot check on held-out data, one sentence each.
+    pub not_checked: Vec<String>,
     /// Wall time \[s\].
     pub wall_time: f64,
 }
 
-/// Which recordings are held out (see the module docs).
-pub fn split(c: &Campaign) -> Vec<bool> {
+/// A recording's kind for the cross-validation (see the module docs): 0 without vibration,
+/// else `1 + 2 band + (v_a ≥ v_d)` with the octave band from 250 Hz.
+fn kind_of(p: &crate::model::Params) -> usize {
+    if !p.vibrates() {
+        return 0;
+    }
+    let band = (p.f / 250.0).log2().floor().clamp(0.0, 10.0) as usize;
+    1 + 2 * band + usize::from(p.v_a() >= p.v_d)
+}
+
+/// Words for a kind.
+fn kind_name(k: usize) -> String {
+    if k == 0 {
+        return "runs without vibration".into();
+    }
+    let band = (k - 1) / 2;
+    let lo = 250.0 * 2f64.powi(band as i32);
+    format!(
+        "{} at {:.0} to {:.0} Hz",
+        if (k - 1) % 2 == 1 {
+            "runs with v_a >= v_d"
+        } else {
+            "runs with v_a < v_d"
+        },
+        lo,
+        2.0 * lo
+    )
+}
+
+/// The cross-validation folds (see the module docs): each recording's fold, the number of
+/// folds, whether each recording can be checked on held-out data, and a sentence for each kind
+/// that cannot.
+pub fn folds(c: &Campaign) -> (Vec<usize>, usize, Vec<bool>, Vec<String>) {
+    let n = c.recordings.len();
     let key = |p: &crate::model::Params| (p.v_d.to_bits(), p.k_d.to_bits(), p.f_n.to_bits());
-    let mut groups: Vec<crate::model::Params> = vec![];
+    // Groups: (kind, drive), in a fixed order: by kind, then longest stick-slip cycle first.
+    let mut groups: Vec<(usize, crate::model::Params)> = vec![];
     for r in &c.recordings {
-        if !groups.iter().any(|g| key(g) == key(&r.params)) {
-            groups.push(r.params);
+        let k = kind_of(&r.params);
+        if !groups
+            .iter()
+            .any(|(gk, gp)| *gk == k && key(gp) == key(&r.params))
+        {
+            groups.push((k, r.params));
         }
     }
-    // Longest stick-slip cycle first (k_d v_d smallest), so the extremes are held out.
     groups.sort_by(|a, b| {
-        (a.k_d * a.v_d)
-            .total_cmp(&(b.k_d * b.v_d))
-            .then(a.f_n.total_cmp(&b.f_n))
+        a.0.cmp(&b.0)
+            .then((a.1.k_d * a.1.v_d).total_cmp(&(b.1.k_d * b.1.v_d)))
+            .then(a.1.f_n.total_cmp(&b.1.f_n))
     });
-    let n = c.recordings.len();
-    if groups.len() < 3 {
-        return (0..n).map(|i| i % 3 == 1).collect();
+    let mut per_kind: std::collections::BTreeMap<usize, usize> = Default::default();
+    for g in &groups {
+        *per_kind.entry(g.0).or_default() += 1;
     }
-    c.recordings
+    let most = per_kind.values().copied().max().unwrap_or(1);
+    let k_folds = FOLDS.min(most).max(2).min(n.max(2));
+    // Round-robin within each kind, the count running on across kinds so folds stay balanced.
+    let mut group_fold = vec![0; groups.len()];
+    let mut next = 0;
+    for f in group_fold.iter_mut() {
+        *f = next % k_folds;
+        next += 1;
+    }
+    let fold: Vec<usize> = c
+        .recordings
         .iter()
         .map(|r| {
+            let k = kind_of(&r.params);
             let g = groups
                 .iter()
-                .position(|g| key(g) == key(&r.params))
-                .unwrap();
-            g % 3 == 1
+                .position(|(gk, gp)| *gk == k && key(gp) == key(&r.params))
+                .expect("every recording has its group");
+            group_fold[g]
         })
-        .collect()
+        .collect();
+    let checked: Vec<bool> = c
+        .recordings
+        .iter()
+        .map(|r| per_kind[&kind_of(&r.params)] >= 2)
+        .collect();
+    let not_checked: Vec<String> = per_kind
+        .iter()
+        .filter(|(_, count)| **count < 2)
+        .map(|(&k, _)| {
+            let names: Vec<&str> = c
+                .recordings
+                .iter()
+                .filter(|r| kind_of(&r.params) == k)
+                .map(|r| r.name.as_str())
+                .collect();
+            format!(
+                "{} come from one drive only ({}): no calibration without them holds their kind, so they are not checked on held-out data",
+                kind_name(k),
+                names.join(", ")
+            )
+        })
+        .collect();
+    (fold, k_folds, checked, not_checked)
+}
+
+/// The cross-validation of one fitted model: for every fold, the fit refitted without the
+/// fold's recordings, simulated once over all of them.
+struct CrossValidated {
+    /// Pooled held-out gap.
+    gap: f64,
+    /// Spread of the folds' gaps.
+    spread: f64,
+    /// Each recording's held-out gap (NaN where not checked).
+    per_recording: Vec<f64>,
+}
+
+fn cross_validate(
+    all: &Target,
+    fr: &FitResult,
+    start: &Model,
+    fold: &[usize],
+    k_folds: usize,
+    checked: &[bool],
+) -> CrossValidated {
+    // Which residual rows belong to which recording (the layout of Target::residuals).
+    let mut row_rec = vec![];
+    for (u, m) in all.measured.iter().enumerate() {
+        let rec = all.units[u].0;
+        let rows = FEATURES
+            .iter()
+            .filter(|f| m.value[**f as usize].is_finite())
+            .count();
+        row_rec.extend(std::iter::repeat_n(rec, rows));
+    }
+    let n = all.recs.len();
+    let mut per_recording = vec![f64::NAN; n];
+    let mut pooled = vec![];
+    let mut fold_gaps = vec![];
+    let same_layout = row_rec.len() == fr.z.len();
+    for k in 0..k_folds {
+        if !(0..n).any(|i| fold[i] == k && checked[i]) {
+            continue;
+        }
+        let keep: Vec<bool> = row_rec.iter().map(|&r| fold[r] != k).collect();
+        let cal_cost = |z: &[f64]| -> f64 {
+            z.iter()
+                .zip(&keep)
+                .filter(|(_, k)| **k)
+                .map(|(v, _)| v * v)
+                .sum()
+        };
+        let base_cost = cal_cost(&fr.z);
+        // One damped Gauss–Newton step on the fold's rows; halved while it raises their cost.
+        let mut step = 1.0;
+        let mut z = vec![];
+        for _ in 0..3 {
+            let m = if same_layout {
+                fit::refit_rows(fr, start, &keep, step)
+            } else {
+                fr.model.clone()
+            };
+            z = all.residuals(&all.predict(&m));
+            if z.len() != row_rec.len() || cal_cost(&z) <= base_cost * (1.0 + 1e-9) {
+                break;
+            }
+            step *= 0.5;
+            if step < 0.2 {
+                z = fr.z.clone();
+            }
+        }
+        if z.len() != row_rec.len() {
+            z = vec![1e3; row_rec.len()];
+        }
+        let mut fz = vec![];
+        for i in (0..n).filter(|&i| fold[i] == k && checked[i]) {
+            let zi: Vec<f64> = z
+                .iter()
+                .zip(&row_rec)
+                .filter(|(_, r)| **r == i)
+                .map(|(v, _)| *v)
+                .collect();
+            per_recording[i] = fit::gap(&zi);
+            fz.extend(zi);
+        }
+        fold_gaps.push(fit::gap(&fz));
+        pooled.extend(fz);
+    }
+    let mean = fold_gaps.iter().sum::<f64>() / fold_gaps.len().max(1) as f64;
+    let spread = if fold_gaps.len() > 1 {
+        (fold_gaps.iter().map(|g| (g - mean).powi(2)).sum::<f64>() / (fold_gaps.len() - 1) as f64)
+            .sqrt()
+    } else {
+        f64::NAN
+    };
+    CrossValidated {
+        gap: if pooled.is_empty() {
+            f64::NAN
+        } else {
+            fit::gap(&pooled)
+        },
+        spread,
+        per_recording,
+    }
 }
 
 fn ranks(x: &[f64]) -> Vec<f64> {
@@ -225,131 +451,260 @@ pub fn spearman(x: &[f64], y: &[f64]) -> f64 {
     }
 }
 
+/// Fits one candidate (or a candidate added to `with`) from the scan of its starts on `from`,
+/// cross-validates it and ranks it against the held-out gap `e0`.
+#[allow(clippy::too_many_arguments)]
+fn try_candidate(
+    all: &Target,
+    from: &FitResult,
+    from_cv: &CrossValidated,
+    with: &[EffectKind],
+    k: EffectKind,
+    e0: f64,
+    fold: &[usize],
+    k_folds: usize,
+    checked: &[bool],
+    opts: FitOptions,
+) -> Ranked {
+    let clock = std::time::Instant::now();
+    let start = fit::starts(all, &from.model, k);
+    let mut effects = with.to_vec();
+    effects.push(k);
+    let f = fit::fit(all, &start, &effects, opts);
+    // Never worse on the calibration data than the model it extends: at its neutral value the
+    // candidate is that model, so a fit that ends worse reports that model's results.
+    let extra = f.effect_params - from.effect_params;
+    // Never worse than the model it extends; and a fit that moves the gap by less than
+    // UNCHANGED is that model to within the held-out check's resolution: its results.
+    if !(f.gap <= (1.0 - UNCHANGED) * from.gap) {
+        let mut same = from.clone();
+        same.effects = effects;
+        return Ranked {
+            effect: k,
+            score: from_cv.gap * (1.0 + PARAM_PENALTY * extra as f64),
+            reduction: (e0 - from_cv.gap) / e0,
+            gap_after: from_cv.gap,
+            gap_spread: from_cv.spread,
+            per_recording: from_cv.per_recording.clone(),
+            fit: same,
+            wall_time: clock.elapsed().as_secs_f64(),
+        };
+    }
+    let cv = cross_validate(all, &f, &start, fold, k_folds, checked);
+    Ranked {
+        effect: k,
+        score: cv.gap * (1.0 + PARAM_PENALTY * extra as f64),
+        reduction: (e0 - cv.gap) / e0,
+        gap_after: cv.gap,
+        gap_spread: cv.spread,
+        per_recording: cv.per_recording,
+        fit: f,
+        wall_time: clock.elapsed().as_secs_f64(),
+    }
+}
+
+/// Share of the checked recordings whose held-out gap `after` lowers against `before`.
+fn breadth_of(before: &[f64], after: &[f64]) -> f64 {
+    let pairs: Vec<(f64, f64)> = before
+        .iter()
+        .zip(after)
+        .filter(|(a, b)| a.is_finite() && b.is_finite())
+        .map(|(a, b)| (*a, *b))
+        .collect();
+    pairs.iter().filter(|(a, b)| b < a).count() as f64 / pairs.len().max(1) as f64
+}
+
+/// Whether the best of `ranked` (sorted) is clearly ahead of the runner-up.
+fn clear(ranked: &[Ranked]) -> bool {
+    match ranked {
+        [b, r, ..] => b.score <= CLEAR_MARGIN * r.score,
+        _ => true,
+    }
+}
+
 /// Diagnoses a campaign.
 pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Diagnosis {
     let start = std::time::Instant::now();
-    let held = split(c);
-    let cal_recs: Vec<_> = c
-        .recordings
-        .iter()
-        .zip(&held)
-        .filter(|(_, h)| !**h)
-        .map(|(r, _)| r)
-        .collect();
-    let held_recs: Vec<_> = c
-        .recordings
-        .iter()
-        .zip(&held)
-        .filter(|(_, h)| **h)
-        .map(|(r, _)| r)
-        .collect();
-    let cal = Target::new(cal_recs);
-    let test = Target::new(held_recs);
-    let base = fit::fit(&cal, &Model::default(), None, opts.fit);
-    let gap_before = fit::evaluate(&test, &base.model);
+    let (fold, k_folds, checked, not_checked) = folds(c);
+    let all = Target::new(c.recordings.iter().collect());
+    let fo = FitOptions {
+        final_jacobian: true,
+        ..opts.fit
+    };
+    let base = fit::fit(&all, &Model::default(), &[], fo);
+    let base_cv = cross_validate(&all, &base, &Model::default(), &fold, k_folds, &checked);
+    let gap_before = base_cv.gap;
     // Candidates one after another; each fit runs its simulations in parallel.
     let mut ranking: Vec<Ranked> = opts
         .candidates
         .iter()
         .map(|&k| {
-            let start_model = fit::starts(&cal, &base.model, k);
-            // Uncertainties only for the winner (below): its fresh Jacobian is p more runs.
-            let quick = FitOptions {
-                final_jacobian: false,
-                ..opts.fit
-            };
-            let f = fit::fit(&cal, &start_model, Some(k), quick);
-            let e1 = fit::evaluate(&test, &f.model);
-            Ranked {
-                effect: k,
-                score: e1 * (1.0 + PARAM_PENALTY * f.effect_params as f64),
-                reduction: (gap_before - e1) / gap_before,
-                gap_after: e1,
-                fit: f,
-            }
+            try_candidate(
+                &all,
+                &base,
+                &base_cv,
+                &[],
+                k,
+                gap_before,
+                &fold,
+                k_folds,
+                &checked,
+                fo,
+            )
         })
         .collect();
     ranking.sort_by(|a, b| a.score.total_cmp(&b.score));
-    if let Some(top) = ranking.first_mut() {
-        // Uncertainties of the winner from a fresh Jacobian at its optimum (no further steps).
-        let at = FitOptions {
-            max_iter: 0,
-            final_jacobian: true,
-            ..opts.fit
-        };
-        let f = fit::fit(&cal, &top.fit.model, Some(top.effect), at);
-        top.fit.estimates = f.estimates;
-        top.fit.evaluations += f.evaluations;
-    }
-    // Per-recording gaps of the base and the top-ranked candidate (named or not), over all
-    // recordings; the held-out ones give the breadth: the share whose gap the top one lowers.
-    let top_model = ranking.first().map(|b| b.fit.model.clone());
-    let location = locate(c, &held, &base.model, top_model.as_ref());
-    let held_gaps: Vec<&RecordingGap> = location.recordings.iter().filter(|r| r.held_out).collect();
-    let better = held_gaps.iter().filter(|r| r.gap_best < r.gap_base).count();
-    let breadth = better as f64 / held_gaps.len().max(1) as f64;
-    let (verdict, best) = if gap_before < SIGNIFICANT_GAP {
-        (Verdict::NoSignificantGap, None)
+    let breadth = ranking.first().map_or(0.0, |b| {
+        breadth_of(&base_cv.per_recording, &b.per_recording)
+    });
+    let (verdict, partial) = if !(gap_before >= SIGNIFICANT_GAP) {
+        (Verdict::NoSignificantGap, false)
     } else {
-        match ranking.as_slice() {
-            [b, rest @ ..]
-                if b.reduction >= MIN_REDUCTION
-                    && breadth >= MIN_BREADTH
-                    && rest
-                        .first()
-                        .is_none_or(|r| b.score <= CLEAR_MARGIN * r.score) =>
+        match ranking.first() {
+            Some(b)
+                if breadth >= MIN_BREADTH && clear(&ranking) && b.reduction >= MIN_REDUCTION =>
             {
-                (Verdict::Effect, Some(b))
+                (Verdict::Effect, false)
             }
-            _ => (Verdict::Unexplained, None),
+            Some(b) if breadth >= MIN_BREADTH && clear(&ranking) && b.reduction >= MIN_PARTIAL => {
+                (Verdict::Effect, true)
+            }
+            _ => (Verdict::Unexplained, false),
         }
     };
-    let gap_after = best.map(|b| b.gap_after).unwrap_or(gap_before);
+    // Forward selection: a second effect with the first, where a clear gap remains.
+    let mut second: Vec<Ranked> = vec![];
+    let mut effects = vec![];
+    let (mut gap_after, mut gap_after_spread) = (gap_before, base_cv.spread);
+    if verdict == Verdict::Effect {
+        let first = &ranking[0];
+        effects.push(first.effect);
+        gap_after = first.gap_after;
+        gap_after_spread = first.gap_spread;
+        if first.gap_after >= SIGNIFICANT_GAP {
+            second = opts
+                .candidates
+                .iter()
+                .filter(|&&k| k != first.effect)
+                .map(|&k| {
+                    let first_cv = CrossValidated {
+                        gap: first.gap_after,
+                        spread: first.gap_spread,
+                        per_recording: first.per_recording.clone(),
+                    };
+                    try_candidate(
+                        &all,
+                        &first.fit,
+                        &first_cv,
+                        &[first.effect],
+                        k,
+                        first.gap_after,
+                        &fold,
+                        k_folds,
+                        &checked,
+                        fo,
+                    )
+                })
+                .collect();
+            second.sort_by(|a, b| a.score.total_cmp(&b.score));
+            if let Some(s2) = second.first()
+                && s2.reduction >= MIN_SECOND
+                && breadth_of(&first.per_recording, &s2.per_recording) >= MIN_BREADTH
+                && clear(&second)
+            {
+                effects.push(s2.effect);
+                gap_after = s2.gap_after;
+                gap_after_spread = s2.gap_spread;
+            }
+        }
+    }
+    // Partial: the named effects together still leave more than MIN_REDUCTION of the gap.
+    let partial = partial && (gap_before - gap_after) / gap_before < MIN_REDUCTION;
+    // Where the gap lies: the base model over all recordings; the gap left by the named effects.
+    let top_model = ranking.first().map(|b| b.fit.model.clone());
+    let location = locate(c, &all, &fold, &checked, &base.model, top_model.as_ref());
+    let remaining = if effects.is_empty() {
+        String::new()
+    } else {
+        let m = if effects.len() > 1 {
+            &second[0].fit.model
+        } else {
+            &ranking[0].fit.model
+        };
+        locate(c, &all, &fold, &checked, m, None).summary
+    };
     Diagnosis {
         verdict,
-        best_effect: best.map(|b| b.effect),
+        best_effect: effects.first().copied(),
+        partial,
+        effects,
         gap_before,
+        gap_before_spread: base_cv.spread,
         gap_after,
+        gap_after_spread,
         reduction: (gap_before - gap_after) / gap_before,
         breadth,
         base,
         ranking,
+        second,
         location,
+        remaining,
+        folds: k_folds,
         held_out: c
             .recordings
             .iter()
-            .zip(&held)
+            .zip(&checked)
             .filter(|(_, h)| **h)
             .map(|(r, _)| r.name.clone())
             .collect(),
+        not_checked,
         wall_time: start.elapsed().as_secs_f64(),
     }
 }
 
 /// Where the gap of `base` lies, over all recordings.
-fn locate(c: &Campaign, held: &[bool], base: &Model, best: Option<&Model>) -> Where {
-    let all = Target::new(c.recordings.iter().collect());
+fn locate(
+    c: &Campaign,
+    all: &Target,
+    fold: &[usize],
+    checked: &[bool],
+    base: &Model,
+    best: Option<&Model>,
+) -> Where {
     let pred = all.predict(base);
     let pred_best = best.map(|m| all.predict(m));
     let mut recordings = vec![];
-    let mut feat_sum = [0.0; 11];
-    let mut feat_n = [0usize; 11];
+    let mut feat_sum = [0.0; N_FEATURES];
+    let mut feat_n = [0usize; N_FEATURES];
     for (i, rec) in c.recordings.iter().enumerate() {
-        let m = &all.measured[i];
-        let mut z_base = [f64::NAN; 11];
+        let mut z_base = [f64::NAN; N_FEATURES];
         let mut zs = vec![];
-        for f in FEATURES {
-            if let Some(z) = fit::zscore(m, &pred[i], f) {
-                z_base[f as usize] = z;
-                feat_sum[f as usize] += z * z;
-                feat_n[f as usize] += 1;
-                zs.push(z);
+        let mut zs_best = vec![];
+        for u in all.units_of(i) {
+            let m = &all.measured[u];
+            for f in FEATURES {
+                if let Some(z) = fit::zscore(m, &pred[u], f) {
+                    let zb = &mut z_base[f as usize];
+                    if !(zb.abs() >= z.abs()) {
+                        *zb = z;
+                    }
+                    feat_sum[f as usize] += z * z;
+                    feat_n[f as usize] += 1;
+                    zs.push(z);
+                }
+            }
+            if let Some(pb) = &pred_best {
+                zs_best.extend(fit::zscores(m, &pb[u]));
             }
         }
-        let gap_best = pred_best
-            .as_ref()
-            .map_or(f64::NAN, |pb| fit::gap(&fit::zscores(m, &pb[i])));
+        let gap_best = if pred_best.is_some() {
+            fit::gap(&zs_best)
+        } else {
+            f64::NAN
+        };
         let p = &rec.params;
+        // Stick time from the recording's first stage (without vibration where it has two).
+        let m = &all.measured[all.units_of(i).next().expect("a recording has a stage")];
         let period = m.get(Feature::Period);
         let slip = m.get(Feature::SlipTime);
         let stick = if period.is_finite() && slip.is_finite() {
@@ -361,7 +716,8 @@ fn locate(c: &Campaign, held: &[bool], base: &Model, best: Option<&Model>) -> Wh
             name: rec.name.clone(),
             gap_base: fit::gap(&zs),
             gap_best,
-            held_out: held[i],
+            held_out: checked[i],
+            fold: fold[i],
             conditions: [
                 p.v_d,
                 p.k_d,

@@ -16,7 +16,7 @@
 //! afresh when the updated one fails to give a descent step). Parameter uncertainties are
 //! `s √diag((JᵀJ)⁻¹)` with `s² = Σz² / (m − p)`, from a fresh Jacobian at the optimum.
 
-use super::features::{FEATURES, Feature, FeatureSet, extract};
+use super::features::{FEATURES, Feature, FeatureSet, Stage, stage_features, stages};
 use super::{Recording, Solvers, simulate_grid};
 use crate::model::{EffectKind, Effects, Params};
 use faer::Mat;
@@ -112,10 +112,10 @@ impl Coord {
     }
 }
 
-/// The fitted coordinates: `F_s`, `F_c`, `v_s` and `h_d`, and an effect's fitted parameters.
+/// The fitted coordinates: `F_s`, `F_c`, `v_s` and `h_d`, and the effects' fitted parameters.
 /// The base parameters are refitted with every effect: an effect left out of the base model
 /// is partly absorbed by them (viscous friction by the drive damping `h_d`, ageing by `F_s`).
-fn coords(effect: Option<EffectKind>) -> Vec<Coord> {
+fn coords(effects: &[EffectKind]) -> Vec<Coord> {
     let base = |i: usize, name: &str, unit, log, lo: f64, hi: f64, step| Coord {
         name: name.to_string(),
         unit,
@@ -131,7 +131,7 @@ fn coords(effect: Option<EffectKind>) -> Vec<Coord> {
         base(2, "v_s", "m/s", true, 1e-6f64.ln(), 0.1f64.ln(), 0.05),
         base(3, "h_d", "N s/m", false, 0.0, 200.0, 1.0),
     ];
-    if let Some(k) = effect {
+    for &k in effects {
         for (i, p) in k.info().params.iter().enumerate() {
             if !p.fitted {
                 continue;
@@ -160,13 +160,18 @@ fn coords(effect: Option<EffectKind>) -> Vec<Coord> {
     c
 }
 
-/// A set of recordings with their measured features, ready for fitting.
+/// A set of recordings with their measured features, ready for fitting. Each recording gives
+/// one unit per stage ([`stages`]: one, or two where the vibration is switched on within it),
+/// and every unit its own features.
 pub struct Target<'a> {
     /// The recordings.
     pub recs: Vec<&'a Recording>,
-    /// Their measured features (with `r` where a reference recording is in the set).
+    /// The units: recording index and stage.
+    pub units: Vec<(usize, Stage)>,
+    /// Measured features of every unit (with `r` where a reference is in the set).
     pub measured: Vec<FeatureSet>,
-    /// For each recording, the index of its reference (no vibration, same drive) in the set.
+    /// For each vibrated unit, the unit it is compared with for `r`: the resting stage of the
+    /// same recording, else a recording without vibration of the same drive in the set.
     pub reference: Vec<Option<usize>>,
 }
 
@@ -174,7 +179,7 @@ fn same_drive(a: &Params, b: &Params) -> bool {
     a.v_d == b.v_d && a.k_d == b.k_d && a.f_n == b.f_n && a.m == b.m
 }
 
-/// Fills `r` of every vibrated recording that has a reference.
+/// Fills `r` of every vibrated unit that has a reference.
 fn fill_r(fs: &mut [FeatureSet], reference: &[Option<usize>]) {
     for i in 0..fs.len() {
         if let Some(j) = reference[i] {
@@ -195,48 +200,94 @@ fn fill_r(fs: &mut [FeatureSet], reference: &[Option<usize>]) {
     }
 }
 
-/// Features of a recording's measured signals.
-pub fn measured_features(rec: &Recording) -> FeatureSet {
-    let f = if rec.vibrates() { rec.params.f } else { 0.0 };
-    extract(&rec.f_d, &rec.x_d, rec.dt(), f)
+/// Features of every stage of a trace sampled at the recording's times; `x_s` and `x_d` count
+/// only where given (where the recording has them), so measured and simulated traces pass
+/// through one pipeline.
+pub fn trace_features(
+    rec: &Recording,
+    f_d: &[f64],
+    x_s: Option<&[f64]>,
+    x_d: Option<&[f64]>,
+) -> Vec<FeatureSet> {
+    stages(&rec.t, &rec.params)
+        .into_iter()
+        .map(|st| stage_features(&rec.t, f_d, x_s, x_d, rec.dt(), st, rec.params.t_on))
+        .collect()
+}
+
+/// Features of a recording's measured signals, one set per stage.
+pub fn measured_features(rec: &Recording) -> Vec<FeatureSet> {
+    trace_features(rec, &rec.f_d, rec.x_s.as_deref(), rec.x_d.as_deref())
 }
 
 impl<'a> Target<'a> {
     /// Prepares recordings for fitting.
     pub fn new(recs: Vec<&'a Recording>) -> Target<'a> {
-        let reference: Vec<Option<usize>> = recs
+        let per: Vec<Vec<FeatureSet>> = recs.par_iter().map(|r| measured_features(r)).collect();
+        let mut units = vec![];
+        let mut measured = vec![];
+        for (i, (r, fs)) in recs.iter().zip(per).enumerate() {
+            for (st, f) in stages(&r.t, &r.params).into_iter().zip(fs) {
+                units.push((i, st));
+                measured.push(f);
+            }
+        }
+        let reference: Vec<Option<usize>> = units
             .iter()
-            .map(|r| {
-                if !r.vibrates() {
+            .map(|&(i, st)| {
+                if st.freq == 0.0 {
                     return None;
                 }
-                recs.iter()
-                    .position(|q| !q.vibrates() && same_drive(&q.params, &r.params))
+                // The resting stage of the same recording first, then a recording without
+                // vibration of the same drive, then any resting stage of that drive.
+                let resting = |u: &(usize, Stage)| u.1.freq == 0.0;
+                units
+                    .iter()
+                    .position(|u| u.0 == i && resting(u))
+                    .or_else(|| {
+                        units.iter().position(|u| {
+                            resting(u)
+                                && !recs[u.0].vibrates()
+                                && same_drive(&recs[u.0].params, &recs[i].params)
+                        })
+                    })
+                    .or_else(|| {
+                        units.iter().position(|u| {
+                            resting(u) && same_drive(&recs[u.0].params, &recs[i].params)
+                        })
+                    })
             })
             .collect();
-        let mut measured: Vec<FeatureSet> = recs.par_iter().map(|r| measured_features(r)).collect();
         fill_r(&mut measured, &reference);
         Target {
             recs,
+            units,
             measured,
             reference,
         }
     }
 
-    /// Simulated features of every recording under `model` (NaN features when a run fails).
+    /// The units of recording `i`.
+    pub fn units_of(&self, i: usize) -> impl Iterator<Item = usize> + '_ {
+        (0..self.units.len()).filter(move |&u| self.units[u].0 == i)
+    }
+
+    /// Simulated features of every unit under `model` (NaN features when a run fails).
     pub fn predict(&self, model: &Model) -> Vec<FeatureSet> {
-        let mut out: Vec<FeatureSet> = self
+        let per: Vec<Vec<FeatureSet>> = self
             .recs
             .par_iter()
             .map_init(Solvers::default, |s, r| predict_one(model, r, s))
             .collect();
+        let mut out: Vec<FeatureSet> = per.into_iter().flatten().collect();
+        debug_assert_eq!(out.len(), self.units.len());
         fill_r(&mut out, &self.reference);
         out
     }
 
-    /// The standardised differences, one per (recording, feature) that the measurement
-    /// defines, in a fixed layout; a feature the model does not produce (no cycles) counts 0,
-    /// since dF carries that difference.
+    /// The standardised differences, one per (unit, feature) that the measurement defines, in
+    /// a fixed layout; a feature the model does not produce (no cycles) counts 0, since dF
+    /// carries that difference.
     pub fn residuals(&self, pred: &[FeatureSet]) -> Vec<f64> {
         self.measured
             .iter()
@@ -259,6 +310,11 @@ pub fn zscore(m: &FeatureSet, p: &FeatureSet, f: Feature) -> Option<f64> {
         return None;
     }
     let pv = p.value[i];
+    // The model may leave a harmonic's phase undefined (its amplitude in the noise): the
+    // amplitude carries that difference, as dF does for a model without cycles.
+    if !pv.is_finite() && f.is_phase() {
+        return Some(0.0);
+    }
     if !pv.is_finite() {
         return Some(if p.value[Feature::DF as usize].is_finite() {
             0.0
@@ -269,16 +325,20 @@ pub fn zscore(m: &FeatureSet, p: &FeatureSet, f: Feature) -> Option<f64> {
     let se = |s: f64| if s.is_finite() { s * s } else { 0.0 };
     let fl = f.floor(mv);
     let sigma = (se(m.stderr[i]) + se(p.stderr[i]) + fl * fl).sqrt();
-    Some((pv - mv) / sigma)
+    let d = if f.is_phase() {
+        // Angles: the difference wrapped to (−π, π].
+        let tau = std::f64::consts::TAU;
+        let w = (pv - mv).rem_euclid(tau);
+        if w > 0.5 * tau { w - tau } else { w }
+    } else {
+        pv - mv
+    };
+    Some(d / sigma)
 }
 
-fn predict_one(model: &Model, rec: &Recording, solvers: &mut Solvers) -> FeatureSet {
+fn predict_one(model: &Model, rec: &Recording, solvers: &mut Solvers) -> Vec<FeatureSet> {
     let p = model.params_for(rec);
-    let nan = FeatureSet {
-        value: [f64::NAN; 11],
-        stderr: [f64::NAN; 11],
-        cycles: 0,
-    };
+    let n_stages = stages(&rec.t, &rec.params).len();
     match simulate_grid(
         &p,
         &model.effects,
@@ -288,11 +348,13 @@ fn predict_one(model: &Model, rec: &Recording, solvers: &mut Solvers) -> Feature
         super::FIT_TOLERANCE,
         solvers,
     ) {
-        Ok(tr) if tr.status == crate::ode::Status::Success => {
-            let f = if rec.vibrates() { p.f } else { 0.0 };
-            extract(&tr.f_d, &tr.x_d, rec.dt(), f)
-        }
-        _ => nan,
+        Ok(tr) if tr.status == crate::ode::Status::Success => trace_features(
+            rec,
+            &tr.f_d,
+            rec.x_s.as_ref().map(|_| &tr.x_s[..]),
+            rec.x_d.as_ref().map(|_| &tr.x_d[..]),
+        ),
+        _ => vec![FeatureSet::nan(); n_stages],
     }
 }
 
@@ -352,8 +414,23 @@ pub struct FitResult {
     pub residuals: usize,
     /// Model evaluations (each a simulation of every recording).
     pub evaluations: usize,
-    /// Number of fitted coordinates belonging to the effect.
+    /// Number of fitted coordinates belonging to the effects.
     pub effect_params: usize,
+    /// Levenberg–Marquardt iterations made.
+    pub iterations: usize,
+    /// Whether the fit converged: its last step on a fresh Jacobian lowered the cost by less
+    /// than [`FitOptions::rel_tol`] (or no step lowered it), rather than running out of
+    /// iterations.
+    pub converged: bool,
+    /// The fitted coordinates at the optimum (logarithms where fitted on a log scale).
+    pub theta: Vec<f64>,
+    /// The residuals at the optimum.
+    pub z: Vec<f64>,
+    /// Their Jacobian in the fitted coordinates (fresh by finite differences when
+    /// [`FitOptions::final_jacobian`], else Broyden-updated).
+    pub jacobian: Mat<f64>,
+    /// The fitted effects.
+    pub effects: Vec<EffectKind>,
 }
 
 fn cost_of(target: &Target, model: &Model) -> (f64, Vec<f64>) {
@@ -364,17 +441,12 @@ fn cost_of(target: &Target, model: &Model) -> (f64, Vec<f64>) {
     (z.iter().map(|v| v * v).sum(), z)
 }
 
-/// Fits the base parameters, and `effect`'s fitted parameters when given, starting from
-/// `start` (whose effects give the starting values; missing ones start at their defaults).
-pub fn fit(
-    target: &Target,
-    start: &Model,
-    effect: Option<EffectKind>,
-    opts: FitOptions,
-) -> FitResult {
-    let cs = coords(effect);
+/// Fits the base parameters, and the fitted parameters of `effects`, starting from `start`
+/// (whose effects give the starting values; missing ones start at their defaults).
+pub fn fit(target: &Target, start: &Model, effects: &[EffectKind], opts: FitOptions) -> FitResult {
+    let cs = coords(effects);
     let mut model = start.clone();
-    if let Some(k) = effect {
+    for &k in effects {
         model.effects.enable(k);
     }
     let p = cs.len();
@@ -416,6 +488,7 @@ pub fn fit(
     // Whether `jac` is a fresh finite-difference Jacobian (else a Broyden update of one).
     let mut fresh = false;
     let mut iter = 0;
+    let mut converged = false;
     while iter < opts.max_iter && cost.is_finite() && !z.is_empty() {
         iter += 1;
         if iter == 1 {
@@ -474,6 +547,7 @@ pub fn fit(
                 z = z1;
                 if rel <= opts.rel_tol {
                     if was_fresh {
+                        converged = true;
                         break;
                     }
                     // Small progress on an updated Jacobian: check with a fresh one first.
@@ -489,7 +563,11 @@ pub fn fit(
                 fresh = true;
                 lambda = 1e-2;
             }
-            None => break,
+            None => {
+                // No step lowers the cost on a fresh Jacobian: a (local) minimum.
+                converged = true;
+                break;
+            }
         }
     }
     if opts.final_jacobian && !fresh && !z.is_empty() && cost.is_finite() {
@@ -535,8 +613,67 @@ pub fn fit(
         residuals: m,
         evaluations,
         effect_params: cs.iter().filter(|c| c.target.is_ok()).count(),
+        iterations: iter,
+        converged,
+        theta,
+        z,
+        jacobian: jac,
+        effects: effects.to_vec(),
     }
 }
+
+/// The fit of `fr` refitted to a subset of its residuals (`keep`, one flag per row): one
+/// Levenberg–Marquardt step from its optimum on those rows of its Jacobian,
+/// `[J_k; √λ D] δ = [−z_k; 0]` with `λ = `[`REFIT_DAMPING`] and Marquardt's scaling, then
+/// `step` times `δ` (the caller halves it where the subset's cost rises). At the full optimum
+/// the gradient of the whole cost vanishes, so the subset's optimum lies where the left-out
+/// rows pulled it from, which one Gauss–Newton step finds to first order; the damping keeps
+/// directions that only the left-out rows determine where they are.
+pub fn refit_rows(fr: &FitResult, start: &Model, keep: &[bool], step: f64) -> Model {
+    let cs = coords(&fr.effects);
+    let p = cs.len();
+    let rows: Vec<usize> = (0..keep.len()).filter(|&i| keep[i]).collect();
+    let mut model = start.clone();
+    for &k in &fr.effects {
+        model.effects.enable(k);
+    }
+    let mut theta = fr.theta.clone();
+    if !rows.is_empty() && fr.jacobian.nrows() == keep.len() && fr.jacobian.ncols() == p {
+        let m = rows.len();
+        let diag: Vec<f64> = (0..p)
+            .map(|j| {
+                (0..fr.jacobian.nrows())
+                    .map(|i| fr.jacobian[(i, j)].powi(2))
+                    .sum::<f64>()
+                    .max(1e-12)
+            })
+            .collect();
+        let a = Mat::from_fn(m + p, p, |i, j| {
+            if i < m {
+                fr.jacobian[(rows[i], j)]
+            } else if i - m == j {
+                (REFIT_DAMPING * diag[j]).sqrt()
+            } else {
+                0.0
+            }
+        });
+        let b = Mat::from_fn(m + p, 1, |i, _| if i < m { -fr.z[rows[i]] } else { 0.0 });
+        let delta = a.col_piv_qr().solve_lstsq(&b);
+        for j in 0..p {
+            let d = delta[(j, 0)];
+            if d.is_finite() {
+                theta[j] = (theta[j] + step * d).clamp(cs[j].lo, cs[j].hi);
+            }
+        }
+    }
+    for (c, &t) in cs.iter().zip(&theta) {
+        c.set(&mut model, t);
+    }
+    model
+}
+
+/// Damping of [`refit_rows`], relative to the diagonal of the full `JᵀJ`.
+pub const REFIT_DAMPING: f64 = 1e-2;
 
 /// Evaluates a model on a set: its gap.
 pub fn evaluate(target: &Target, model: &Model) -> f64 {
@@ -544,79 +681,157 @@ pub fn evaluate(target: &Target, model: &Model) -> f64 {
     if z.is_empty() { f64::INFINITY } else { gap(&z) }
 }
 
-/// Starting values for an effect's fitted parameters: the best of a small scan over their
-/// realistic ranges ([`super::synth::REALISTIC`]; low, middle and high of each), each on the
-/// calibrated base parameters and on the defaults (a calibration without the effect may have
-/// absorbed it: ageing into `F_s`, viscous friction into `h_d`); for the drive ripple, the
-/// wavelength and amplitude read off the recorded drive position.
+/// The value of an effect parameter at which the effect vanishes, or nearly so, within its
+/// bounds and without adding a stiff mode (an explicit method simulates the vibrated runs): no
+/// ageing, an actuator resonance at 100 kHz, no load coupling, a sensor at 20 kHz with
+/// `ζ = 0.7` (flat within 0.1 % up to 4 kHz), no screw error, no viscous friction, the base
+/// model's Gaussian Stribeck curve (`δ = 2`), one breakaway level, 30 µs of lag. Every
+/// candidate's scan holds this start, so a candidate is not worse on the calibration data than
+/// the base model (where a fit still ends worse, `diagnose` reports the base model for it).
+pub fn neutral(kind: EffectKind, param: &str) -> Option<f64> {
+    use EffectKind as K;
+    Some(match (kind, param) {
+        (K::Aging, "b") => 0.0,
+        (K::ActuatorResponse, "f_r") => 1e5,
+        (K::ActuatorResponse, "zeta") => 0.7,
+        (K::NormalCoupling, "k_n") => 1e3,
+        (K::SensorDynamics, "f_n") => 2e4,
+        (K::SensorDynamics, "zeta") => 0.7,
+        (K::DriveRipple, "a") => 0.0,
+        (K::Viscous, "h_v") => 0.0,
+        (K::StribeckShape, "delta") => 2.0,
+        (K::Presliding, "spread") => 0.0,
+        (K::FrictionalLag, "tau") => 3e-5,
+        _ => return None,
+    })
+}
+
+/// The values the global scan of [`starts`] tries for one fitted effect parameter, over its
+/// plausible range: resonances (actuator and sensor) at ten frequencies from 200 Hz to 20 kHz
+/// (the sensor's from 20 Hz: a load cell carrying the frame rings at tens of hertz), each at a
+/// light and a moderate damping; the others at four or five points of their range.
+fn scan_values(kind: EffectKind, param: &str) -> Vec<f64> {
+    use EffectKind as K;
+    let logspace = |lo: f64, hi: f64, n: usize| -> Vec<f64> {
+        (0..n)
+            .map(|i| (lo.ln() + (hi.ln() - lo.ln()) * i as f64 / (n - 1) as f64).exp())
+            .collect()
+    };
+    match (kind, param) {
+        (K::Aging, "b") => vec![0.02, 0.05, 0.1, 0.2],
+        (K::ActuatorResponse, "f_r") => logspace(200.0, 2e4, 10),
+        (K::SensorDynamics, "f_n") => logspace(20.0, 2e4, 10),
+        (K::ActuatorResponse, "zeta") | (K::SensorDynamics, "zeta") => vec![0.05, 0.3],
+        (K::NormalCoupling, "k_n") => logspace(1e6, 1e8, 5),
+        (K::Viscous, "h_v") => vec![20.0, 50.0, 100.0, 200.0],
+        (K::StribeckShape, "delta") => vec![0.5, 1.0, 1.5, 3.0],
+        (K::Presliding, "spread") => vec![0.3, 0.6, 0.9],
+        (K::FrictionalLag, "tau") => logspace(1e-4, 1e-2, 4),
+        _ => vec![],
+    }
+}
+
+/// Starting values for an effect's fitted parameters, from a global scan over their plausible
+/// ranges ([`scan_values`], every combination) on the calibrated base parameters `base`, with
+/// the neutral start ([`neutral`]) among them; for the drive ripple, the wavelength and
+/// amplitude read off the recorded drive position, where recorded. The scan's best start is
+/// refined locally by [`fit`]; as the scan holds the neutral start, the fit from it is never
+/// worse on `target` than the base model.
 pub fn starts(target: &Target, base: &Model, kind: EffectKind) -> Model {
-    let mut candidates: Vec<Model> = vec![];
     let mut m0 = base.clone();
     m0.effects.enable(kind);
-    let d0 = Model {
-        effects: m0.effects.clone(),
-        ..Model::default()
-    };
+    for p in kind.info().params {
+        if let Some(v) = neutral(kind, p.name) {
+            let _ = m0.effects.set(kind, p.name, v);
+        }
+    }
+    let mut candidates: Vec<Model> = vec![m0.clone()];
     if kind == EffectKind::DriveRipple
         && let Some((a, lambda)) = ripple_from_drive(&target.recs)
     {
         let mut m = m0.clone();
         let _ = m.effects.set(kind, "a", a.clamp(0.0, 1e-3));
         let _ = m.effects.set(kind, "wavelength", lambda.clamp(1e-6, 0.1));
-        return m;
+        candidates.push(m);
     }
-    let ranges: Vec<(&str, f64, f64, bool)> = super::synth::REALISTIC
-        .iter()
-        .filter(|r| r.0 == kind)
-        .filter_map(|r| {
-            let p = kind.info().params.iter().find(|p| p.name == r.1)?;
-            p.fitted.then_some((r.1, r.2, r.3, p.log))
-        })
-        .collect();
     let mut grid: Vec<Vec<(&str, f64)>> = vec![vec![]];
-    for (name, lo, hi, log) in ranges {
-        let vals: Vec<f64> = if log {
-            [lo, (lo * hi).sqrt(), hi].to_vec()
-        } else {
-            [lo, 0.5 * (lo + hi), hi].to_vec()
-        };
+    for p in kind.info().params.iter().filter(|p| p.fitted) {
+        let vals = scan_values(kind, p.name);
+        if vals.is_empty() {
+            continue;
+        }
         grid = grid
             .into_iter()
             .flat_map(|g| {
                 vals.iter().map(move |&v| {
                     let mut g = g.clone();
-                    g.push((name, v));
+                    g.push((p.name, v));
                     g
                 })
             })
             .collect();
     }
-    for g in grid {
-        for start in [&m0, &d0] {
-            let mut m = start.clone();
+    if grid.iter().any(|g| !g.is_empty()) {
+        for g in grid {
+            let mut m = m0.clone();
             for &(n, v) in &g {
                 let _ = m.effects.set(kind, n, v);
             }
             candidates.push(m);
         }
     }
-    if candidates.len() <= 1 {
-        return candidates.pop().unwrap_or(m0);
+    if candidates.len() == 1 {
+        return m0;
     }
-    let costs: Vec<f64> = candidates.par_iter().map(|m| evaluate(target, m)).collect();
+    // The scan only chooses a start: score the starts on a subset of the recordings.
+    let sub = scan_subset(target);
+    let costs: Vec<f64> = candidates.par_iter().map(|m| evaluate(&sub, m)).collect();
     let best = (0..costs.len())
         .min_by(|&a, &b| costs[a].total_cmp(&costs[b]))
         .unwrap();
     candidates.swap_remove(best)
 }
 
+/// Most recordings [`starts`] scores its starts on.
+pub const SCAN_RECORDINGS: usize = 8;
+
+/// The recordings a start scan is scored on: all of them up to [`SCAN_RECORDINGS`], else that
+/// many taken evenly over the set in its order (the campaign's sorted names), each vibrated one
+/// with its reference where the set has one.
+fn scan_subset<'a>(target: &Target<'a>) -> Target<'a> {
+    let n = target.recs.len();
+    if n <= SCAN_RECORDINGS {
+        return Target::new(target.recs.clone());
+    }
+    let mut pick: Vec<usize> = (0..SCAN_RECORDINGS)
+        .map(|k| k * n / SCAN_RECORDINGS)
+        .collect();
+    for k in 0..SCAN_RECORDINGS {
+        let i = pick[k];
+        for u in target.units_of(i) {
+            if let Some(r) = target.reference[u] {
+                let j = target.units[r].0;
+                if !pick.contains(&j) {
+                    pick.push(j);
+                }
+            }
+        }
+    }
+    pick.sort_unstable();
+    Target::new(pick.into_iter().map(|i| target.recs[i]).collect())
+}
+
 /// Amplitude and wavelength of a sinusoidal drive error, from the recorded drive position:
 /// a periodogram over 400 wavelengths from 20 µm to 5 mm, pooled over the recordings
 /// (None when the recordings hold less than two wavelengths of travel).
 fn ripple_from_drive(recs: &[&Recording]) -> Option<(f64, f64)> {
+    let recs: Vec<(&Recording, &Vec<f64>)> = recs
+        .iter()
+        .filter_map(|r| r.x_d.as_ref().map(|x| (*r, x)))
+        .collect();
     let travel = recs
         .iter()
-        .map(|r| r.params.v_d * (r.t[r.t.len() - 1] - r.t[0]))
+        .map(|(r, _)| r.params.v_d * (r.t[r.t.len() - 1] - r.t[0]))
         .fold(0.0, f64::max);
     let n_l = 400;
     let (lmin, lmax) = (20e-6f64, (travel / 2.0).min(5e-3));
@@ -629,7 +844,7 @@ fn ripple_from_drive(recs: &[&Recording]) -> Option<(f64, f64)> {
     // Residuals of x_d about v_d t, decimated to at most 4000 points a recording.
     let series: Vec<(Vec<f64>, Vec<f64>)> = recs
         .iter()
-        .map(|r| {
+        .map(|(r, x_d)| {
             let stride = (r.t.len() / 4000).max(1);
             let xs: Vec<f64> = (0..r.t.len())
                 .step_by(stride)
@@ -637,7 +852,7 @@ fn ripple_from_drive(recs: &[&Recording]) -> Option<(f64, f64)> {
                 .collect();
             let res: Vec<f64> = (0..r.t.len())
                 .step_by(stride)
-                .map(|i| r.x_d[i] - r.params.v_d * r.t[i])
+                .map(|i| x_d[i] - r.params.v_d * r.t[i])
                 .collect();
             let mean = res.iter().sum::<f64>() / res.len() as f64;
             (xs, res.into_iter().map(|v| v - mean).collect())

@@ -3,13 +3,17 @@
 //!
 //! # Format
 //! A campaign is a directory. Each recording is two files with the same stem:
-//! - `NAME.csv`: a header row, then one row per sample with at least the columns `t` \[s\],
-//!   `F_d` \[N\] (measured drive force), `x_s` \[m\] (body displacement) and `x_d` \[m\] (drive
-//!   displacement), in any order; other columns are ignored. Uniform sampling at any rate
-//!   (the spacing may vary by at most 1 %), at least 200 rows, time increasing.
+//! - `NAME.csv`: a header row, then one row per sample with the columns `t` \[s\] and `F_d`
+//!   \[N\] (measured drive force), and where recorded `x_s` \[m\] (body displacement) and `x_d`
+//!   \[m\] (drive displacement), in any order; other columns are ignored (a UTF-8 byte-order
+//!   mark is skipped, a repeated column name is an error). Uniform sampling at any rate (the
+//!   spacing may vary by at most 1 %), at least 200 rows, time increasing. Features that need
+//!   a missing column are skipped, and the reports say so.
 //! - `NAME.toml`: the conditions in SI units: `v_d`, `k_d`, `f` and `u0` (or `v_a`, or
 //!   `va_ratio` = v_a/v_d), and optionally any other model parameter (`F_N`, `h_d`, ...).
-//!   `f = 0` with `u0 = 0` is a run without vibration.
+//!   `f = 0` with `u0 = 0` is a run without vibration. `t_on` \[s\] (MODEL.md) is the time
+//!   the vibration is switched on within the recording (the paper's two-stage tests): the
+//!   substrate rests before it; absent or 0, it vibrates from the start.
 //!
 //! An optional `campaign.toml` gives defaults for every recording (same keys). Other files are
 //! ignored. A `.csv` without its `.toml` (or the reverse) is an error, as is any malformed line:
@@ -39,10 +43,10 @@ pub struct Recording {
     pub t: Vec<f64>,
     /// Measured drive force \[N\].
     pub f_d: Vec<f64>,
-    /// Body displacement \[m\].
-    pub x_s: Vec<f64>,
-    /// Drive displacement \[m\].
-    pub x_d: Vec<f64>,
+    /// Body displacement \[m\], where recorded.
+    pub x_s: Option<Vec<f64>>,
+    /// Drive displacement \[m\], where recorded.
+    pub x_d: Option<Vec<f64>>,
 }
 
 impl Recording {
@@ -229,7 +233,7 @@ fn read_conditions(path: &Path, defaults: Option<&Doc>) -> Result<Params, Campai
     Ok(p)
 }
 
-type Columns = (Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>);
+type Columns = (Vec<f64>, Vec<f64>, Option<Vec<f64>>, Option<Vec<f64>>);
 
 fn read_csv(path: &Path) -> Result<Columns, CampaignError> {
     let text = std::fs::read_to_string(path).map_err(|e| io(path, e))?;
@@ -243,15 +247,34 @@ fn read_csv(path: &Path) -> Result<Columns, CampaignError> {
     let (_, header) = lines
         .next()
         .ok_or_else(|| bad(1, "empty file; expected a header row t,F_d,x_s,x_d".into()))?;
+    // A byte-order mark written by spreadsheet programs is not part of the first name.
+    let header = header.strip_prefix('\u{feff}').unwrap_or(header);
     let names: Vec<&str> = header.split(',').map(|s| s.trim()).collect();
-    let mut idx = [0usize; 4];
-    for (j, want) in ["t", "F_d", "x_s", "x_d"].iter().enumerate() {
-        idx[j] = names.iter().position(|n| n == want).ok_or_else(|| {
-            bad(
+    for (j, n) in names.iter().enumerate() {
+        if names[..j].contains(n) {
+            return Err(bad(
                 1,
-                format!("header has no column `{want}`; found {}", names.join(",")),
-            )
-        })?;
+                format!("column `{n}` appears twice in the header; each column once"),
+            ));
+        }
+    }
+    // t and F_d are required; x_s and x_d are read where present.
+    let wanted = ["t", "F_d", "x_s", "x_d"];
+    let mut idx: Vec<(usize, usize)> = vec![];
+    for (j, want) in wanted.iter().enumerate() {
+        match names.iter().position(|n| n == want) {
+            Some(i) => idx.push((j, i)),
+            None if j < 2 => {
+                return Err(bad(
+                    1,
+                    format!(
+                        "header has no column `{want}`; found {} (t and F_d are required, x_s and x_d optional)",
+                        names.join(",")
+                    ),
+                ));
+            }
+            None => {}
+        }
     }
     let mut cols: [Vec<f64>; 4] = Default::default();
     for (i, line) in lines {
@@ -266,18 +289,18 @@ fn read_csv(path: &Path) -> Result<Columns, CampaignError> {
                 format!("{} fields, the header has {}", fields.len(), names.len()),
             ));
         }
-        for j in 0..4 {
-            let s = fields[idx[j]].trim();
+        for &(j, col) in &idx {
+            let s = fields[col].trim();
             let x: f64 = s.parse().map_err(|_| {
                 bad(
                     line_no,
-                    format!("column `{}`: `{s}` is not a number", names[idx[j]]),
+                    format!("column `{}`: `{s}` is not a number", names[col]),
                 )
             })?;
             if !x.is_finite() {
                 return Err(bad(
                     line_no,
-                    format!("column `{}`: {s} is not finite", names[idx[j]]),
+                    format!("column `{}`: {s} is not finite", names[col]),
                 ));
             }
             cols[j].push(x);
@@ -307,8 +330,9 @@ fn read_csv(path: &Path) -> Result<Columns, CampaignError> {
             ));
         }
     }
+    let has = |j: usize| idx.iter().any(|&(k, _)| k == j);
     let [t, f, xs, xd] = cols;
-    Ok((t, f, xs, xd))
+    Ok((t, f, has(2).then_some(xs), has(3).then_some(xd)))
 }
 
 /// The model's version of a recording: the signals the stand records, sampled at the
@@ -331,9 +355,12 @@ pub struct SimTrace {
 pub const FIT_TOLERANCE: f64 = 1e-5;
 
 /// Method for simulations of recordings: Dopri5 with vibration (the forcing caps the step
-/// and the explicit method is cheapest), Rodas4 without (long sticks on a stiff contact).
+/// and the explicit method is cheapest), Rodas4 without (long sticks on a stiff contact), and
+/// `auto` for two-stage recordings (sticks on the resting substrate, then the forcing).
 pub fn method_for(p: &Params) -> Method {
-    if p.vibrates() {
+    if p.two_stage() {
+        Method::Auto
+    } else if p.vibrates() {
         Method::Dopri5
     } else {
         Method::Rodas4
@@ -372,11 +399,37 @@ pub fn simulate_grid(
         atol: tol,
         ..Options::default()
     };
-    let rep = solver.solve(&rig, 0.0, t1, &mut y, &opts, grid, |t, y| {
+    let mut observe = |t: f64, y: &[f64]| {
         out.f_d.push(rig.measured_force(t, y));
         out.x_s.push(y[crate::model::X]);
         out.x_d.push(rig.drive_displacement(t));
-    });
+    };
+    let rep = if p.two_stage() && p.t_on < t1 {
+        // The substrate velocity jumps at t_on: two integrations, the grid shared by index.
+        let first = if p.t_on < t0 {
+            0
+        } else {
+            (((p.t_on - t0) / dt).floor() as u64 + 1).min(n as u64)
+        };
+        let g1 = OutputGrid {
+            count: first,
+            ..grid
+        };
+        let mut rep = solver.solve(&rig, 0.0, p.t_on, &mut y, &opts, g1, &mut observe);
+        if rep.status == Status::Success {
+            let g2 = OutputGrid {
+                start: t0 + first as f64 * dt,
+                step: dt,
+                count: n as u64 - first,
+            };
+            let second = solver.solve(&rig, p.t_on, t1, &mut y, &opts, g2, &mut observe);
+            rep.stats += second.stats;
+            rep.status = second.status;
+        }
+        rep
+    } else {
+        solver.solve(&rig, 0.0, t1, &mut y, &opts, grid, &mut observe)
+    };
     out.status = rep.status;
     // A failed run leaves the rest of the grid unsampled: fill with NaN so features say so.
     for v in [&mut out.f_d, &mut out.x_s, &mut out.x_d] {
@@ -389,6 +442,7 @@ pub fn simulate_grid(
 pub struct Solvers {
     explicit: Solver,
     implicit: Solver,
+    auto: Solver,
 }
 
 impl Default for Solvers {
@@ -396,16 +450,17 @@ impl Default for Solvers {
         Solvers {
             explicit: Solver::new(Method::Dopri5),
             implicit: Solver::new(Method::Rodas4),
+            auto: Solver::new(Method::Auto),
         }
     }
 }
 
 impl Solvers {
     fn get(&mut self, m: Method) -> &mut Solver {
-        if m == Method::Dopri5 {
-            &mut self.explicit
-        } else {
-            &mut self.implicit
+        match m {
+            Method::Dopri5 => &mut self.explicit,
+            Method::Auto => &mut self.auto,
+            _ => &mut self.implicit,
         }
     }
 }
@@ -415,7 +470,7 @@ impl Solvers {
 pub fn write_recording(dir: &Path, rec: &Recording) -> Result<(), CampaignError> {
     let p = &rec.params;
     let toml_path = dir.join(format!("{}.toml", rec.name));
-    let text = format!(
+    let mut text = format!(
         "# conditions of recording {name}\nv_d = {:e}\nk_d = {:e}\nf = {:e}\nu0 = {:e}\nF_N = {:e}\n",
         p.v_d,
         p.k_d,
@@ -424,18 +479,28 @@ pub fn write_recording(dir: &Path, rec: &Recording) -> Result<(), CampaignError>
         p.f_n,
         name = rec.name
     );
+    if p.two_stage() {
+        text += &format!("t_on = {:e}\n", p.t_on);
+    }
     std::fs::write(&toml_path, text).map_err(|e| io(&toml_path, e))?;
     let csv_path = dir.join(format!("{}.csv", rec.name));
     let f = std::fs::File::create(&csv_path).map_err(|e| io(&csv_path, e))?;
     let mut w = std::io::BufWriter::new(f);
     let mut go = || -> std::io::Result<()> {
-        writeln!(w, "t,F_d,x_s,x_d")?;
+        let mut header = String::from("t,F_d");
+        for (name, col) in [("x_s", &rec.x_s), ("x_d", &rec.x_d)] {
+            if col.is_some() {
+                header += ",";
+                header += name;
+            }
+        }
+        writeln!(w, "{header}")?;
         for i in 0..rec.t.len() {
-            writeln!(
-                w,
-                "{:.9e},{:.7e},{:.9e},{:.9e}",
-                rec.t[i], rec.f_d[i], rec.x_s[i], rec.x_d[i]
-            )?;
+            write!(w, "{:.9e},{:.7e}", rec.t[i], rec.f_d[i])?;
+            for col in [&rec.x_s, &rec.x_d].into_iter().flatten() {
+                write!(w, ",{:.9e}", col[i])?;
+            }
+            writeln!(w)?;
         }
         w.flush()
     };
@@ -486,6 +551,33 @@ mod tests {
         assert!((c.recordings[0].dt() - 1e-3).abs() < 1e-12);
     }
 
+    /// The force channel alone is a recording; a byte-order mark before the header is skipped.
+    #[test]
+    fn reads_the_force_channel_alone_and_skips_a_byte_order_mark() {
+        let d = tempfile::tempdir().unwrap();
+        write(
+            d.path(),
+            "a.toml",
+            "v_d = 1e-3\nk_d = 1e4\nf = 1500\nu0 = 1e-7\nt_on = 0.1\n",
+        );
+        let mut text = String::from("\u{feff}t,F_d\n");
+        for i in 0..300 {
+            text += &format!("{},{}\n", i as f64 * 1e-3, 2.0);
+        }
+        write(d.path(), "a.csv", &text);
+        let c = Campaign::load(d.path()).unwrap();
+        let r = &c.recordings[0];
+        assert!(r.x_s.is_none() && r.x_d.is_none());
+        assert_eq!(r.f_d.len(), 300);
+        assert_eq!(r.params.t_on, 0.1);
+        // Written back without the missing columns, and read again alike.
+        let e = tempfile::tempdir().unwrap();
+        write_recording(e.path(), r).unwrap();
+        let again = Campaign::load(e.path()).unwrap();
+        assert_eq!(again.recordings[0].x_s, None);
+        assert_eq!(again.recordings[0].params.t_on, 0.1);
+    }
+
     #[test]
     fn malformed_files_name_file_line_and_problem() {
         let d = tempfile::tempdir().unwrap();
@@ -513,9 +605,16 @@ mod tests {
         assert!(e.contains("missing `k_d`"), "{e}");
 
         write(d.path(), "b.toml", "v_d = 1e-3\nk_d = 1e4\nf = 0\nu0 = 0\n");
-        write(d.path(), "b.csv", "t,F_d,x_s\n0,1,2\n");
+        write(d.path(), "b.csv", "t,x_s\n0,1,2\n");
         let e = Campaign::load(d.path()).unwrap_err().to_string();
-        assert!(e.contains("b.csv:1") && e.contains("x_d"), "{e}");
+        assert!(e.contains("b.csv:1") && e.contains("F_d"), "{e}");
+
+        write(d.path(), "b.csv", "t,F_d,x_s,F_d\n0,1,2,3\n");
+        let e = Campaign::load(d.path()).unwrap_err().to_string();
+        assert!(
+            e.contains("b.csv:1") && e.contains("`F_d` appears twice"),
+            "{e}"
+        );
 
         write(
             d.path(),

@@ -42,14 +42,29 @@ pub fn json(c: &Campaign, d: &Diagnosis) -> serde_json::Value {
         "held_out": d.held_out,
         "verdict": d.verdict.name(),
         "best_effect": d.best_effect.map(|k| k.name()),
+        "effects": d.effects.iter().map(|k| k.name()).collect::<Vec<_>>(),
+        "partial": d.partial,
         "gap_before": num(d.gap_before),
+        "gap_before_spread": num(d.gap_before_spread),
         "gap_after": num(d.gap_after),
+        "gap_after_spread": num(d.gap_after_spread),
         "reduction": num(d.reduction),
         "breadth": num(d.breadth),
+        "remaining": d.remaining,
+        "cross_validation": {
+            "folds": d.folds,
+            "fold_of": c.recordings.iter().zip(&w.recordings)
+                .map(|(r, g)| (r.name.clone(), json!(g.fold)))
+                .collect::<serde_json::Map<_, _>>(),
+            "not_checked": d.not_checked,
+        },
+        "missing_channels": missing_channels(c),
         "thresholds": {
             "min_breadth": super::diagnose::MIN_BREADTH,
             "significant_gap": super::diagnose::SIGNIFICANT_GAP,
             "min_reduction": super::diagnose::MIN_REDUCTION,
+            "min_partial": super::diagnose::MIN_PARTIAL,
+            "min_second": super::diagnose::MIN_SECOND,
             "clear_margin": super::diagnose::CLEAR_MARGIN,
             "param_penalty": super::diagnose::PARAM_PENALTY,
         },
@@ -57,7 +72,17 @@ pub fn json(c: &Campaign, d: &Diagnosis) -> serde_json::Value {
             "params": estimates_json(&d.base.estimates),
             "gap": num(d.base.gap),
             "evaluations": d.base.evaluations,
+            "iterations": d.base.iterations,
+            "converged": d.base.converged,
         },
+        "second": d.second.iter().map(|r| json!({
+            "effect": r.effect.name(),
+            "gap_after": num(r.gap_after),
+            "gap_spread": num(r.gap_spread),
+            "reduction": num(r.reduction),
+            "score": num(r.score),
+            "params": estimates_json(&r.fit.estimates),
+        })).collect::<Vec<_>>(),
         "ranking": d.ranking.iter().enumerate().map(|(i, r)| json!({
             "effect": r.effect.name(),
             "stderr_from": if i == 0 {
@@ -66,6 +91,7 @@ pub fn json(c: &Campaign, d: &Diagnosis) -> serde_json::Value {
                 "Broyden-updated Jacobian at the optimum (approximate)"
             },
             "gap_after": num(r.gap_after),
+            "gap_spread": num(r.gap_spread),
             "reduction": num(r.reduction),
             "score": num(r.score),
             "gap_calibration": num(r.fit.gap),
@@ -93,6 +119,36 @@ pub fn json(c: &Campaign, d: &Diagnosis) -> serde_json::Value {
     })
 }
 
+/// The channels some recordings lack, and the features skipped for it.
+fn missing_channels(c: &Campaign) -> Vec<String> {
+    let mut out = vec![];
+    for (name, skipped, has) in [
+        (
+            "x_s",
+            "x_s_amp_f, x_s_phase_f",
+            (|r: &Recording| r.x_s.is_some()) as fn(&Recording) -> bool,
+        ),
+        ("x_d", "drive_ripple (and the ripple's start)", |r| {
+            r.x_d.is_some()
+        }),
+    ] {
+        let without: Vec<&str> = c
+            .recordings
+            .iter()
+            .filter(|r| !has(r))
+            .map(|r| r.name.as_str())
+            .collect();
+        if !without.is_empty() {
+            out.push(format!(
+                "{} recording(s) have no `{name}` column ({}): {skipped} skipped there",
+                without.len(),
+                without.join(", ")
+            ));
+        }
+    }
+    out
+}
+
 fn est_line(e: &Estimate) -> String {
     if e.stderr.is_finite() {
         format!("{} = {:.4e} ± {:.1e} {}", e.name, e.value, e.stderr, e.unit)
@@ -106,16 +162,28 @@ pub fn summary(c: &Campaign, d: &Diagnosis) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "campaign {}: {} recordings, {} held out ({})",
+        "campaign {}: {} recordings, cross-validated over {} folds of condition groups ({} recordings checked on held-out data)",
         c.dir.display(),
         c.recordings.len(),
+        d.folds,
         d.held_out.len(),
-        d.held_out.join(", ")
     );
+    for n in &d.not_checked {
+        let _ = writeln!(s, "  not checked: {n}");
+    }
+    for m in missing_channels(c) {
+        let _ = writeln!(s, "  {m}");
+    }
     let _ = writeln!(
         s,
-        "base model calibrated on the rest (gap {:.2}):",
-        d.base.gap
+        "base model calibrated on all recordings (gap {:.2}; {} after {} iterations):",
+        d.base.gap,
+        if d.base.converged {
+            "converged"
+        } else {
+            "NOT converged"
+        },
+        d.base.iterations
     );
     for e in &d.base.estimates {
         let _ = writeln!(s, "  {}", est_line(e));
@@ -123,8 +191,8 @@ pub fn summary(c: &Campaign, d: &Diagnosis) -> String {
     let _ = writeln!(s, "where: {}", d.location.summary);
     let _ = writeln!(
         s,
-        "candidates (held-out gap, base {:.2}; 1 = within noise):",
-        d.gap_before
+        "candidates (held-out gap, base {:.2} ± {:.2} over folds; 1 = within noise):",
+        d.gap_before, d.gap_before_spread
     );
     for r in &d.ranking {
         let ps: Vec<String> = r
@@ -143,12 +211,36 @@ pub fn summary(c: &Campaign, d: &Diagnosis) -> String {
             ps.join(", ")
         );
     }
+    for r in &d.second {
+        let _ = writeln!(
+            s,
+            "  with {:<13} + {:<18} gap {:>7.2}  further reduction {:>6.1} %",
+            d.best_effect.map_or("-", |k| k.name()),
+            r.effect.name(),
+            r.gap_after,
+            100.0 * r.reduction
+        );
+    }
+    let names: Vec<&str> = d.effects.iter().map(|k| k.name()).collect();
     let verdict = match d.best_effect {
-        Some(k) => format!(
-            "verdict: {k} explains the gap: held-out gap {:.2} -> {:.2} ({:.0} % smaller)",
+        Some(_) => format!(
+            "verdict: {} {} the gap: held-out gap {:.2} -> {:.2} ({:.0} % smaller){}",
+            names.join(" + "),
+            if d.partial {
+                "explains part of"
+            } else if names.len() > 1 {
+                "explain"
+            } else {
+                "explains"
+            },
             d.gap_before,
             d.gap_after,
-            100.0 * d.reduction
+            100.0 * d.reduction,
+            if d.remaining.is_empty() {
+                String::new()
+            } else {
+                format!("\nwhat remains: {}", d.remaining)
+            }
         ),
         None if d.verdict == super::diagnose::Verdict::NoSignificantGap => format!(
             "verdict: no significant gap (held-out gap {:.2} < {})",

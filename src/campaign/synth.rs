@@ -234,7 +234,7 @@ pub fn synth(dir: &Path, spec: &SynthSpec) -> Result<Vec<Recording>, CampaignErr
                 let off: f64 = rng.random::<f64>() * lambda;
                 fx.set(EffectKind::Track, "offset", off).expect("in range");
             }
-            let t_end = sim::simulated_time(&p.without_vibration(), spec.min_cycles);
+            let t_end = sim::planned_time(p, spec.min_cycles);
             let n = (t_end / dt).floor() as usize + 1;
             let tr = simulate_grid(p, &fx, 0.0, dt, n, 1e-6, solvers).map_err(|e| {
                 CampaignError::Io {
@@ -254,8 +254,8 @@ pub fn synth(dir: &Path, spec: &SynthSpec) -> Result<Vec<Recording>, CampaignErr
                 params: *p,
                 t: (0..n).map(|k| k as f64 * dt).collect(),
                 f_d: tr.f_d.iter().map(|v| v + noise(spec.noise_force)).collect(),
-                x_s: tr.x_s.iter().map(|v| v + noise(spec.noise_x)).collect(),
-                x_d: tr.x_d.iter().map(|v| v + noise(spec.noise_x)).collect(),
+                x_s: Some(tr.x_s.iter().map(|v| v + noise(spec.noise_x)).collect()),
+                x_d: Some(tr.x_d.iter().map(|v| v + noise(spec.noise_x)).collect()),
             };
             write_recording(dir, &rec)?;
             Ok(rec)
