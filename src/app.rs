@@ -165,7 +165,7 @@ pub fn diagnose_cmd(a: &DiagnoseArgs) -> Result<(), AppError> {
         .out
         .clone()
         .unwrap_or_else(|| std::path::PathBuf::from("results").join(format!("diagnose-{name}")));
-    let d = campaign::diagnose::diagnose(&c, &opts);
+    let d = campaign::diagnose::diagnose(&c, &opts)?;
     std::fs::create_dir_all(&out).map_err(|e| CampaignError::Io {
         path: out.display().to_string(),
         msg: e.to_string(),

@@ -554,9 +554,11 @@ fn integrate(rig: &Rig, t_end: f64, opts: &RunOptions, solver: &mut Solver) -> R
     }
 }
 
-/// Integrates `[0, t_on]` and `[t_on, t_end]` one after the other, with the output times of
-/// `grid` (from 0) shared out by index, and adds up the work.
-fn integrate_stages(
+/// Integrates from 0 to `t_on` and from `t_on` to `t_end` one after the other, restarting the
+/// step control at the switch-on, where the substrate velocity jumps from 0 to `u0 ω`
+/// (MODEL.md); the output times of `grid` (at or after 0) are shared out by index: those up to
+/// `t_on` to the first stage. The work is added up.
+pub fn integrate_stages(
     solver: &mut Solver,
     rig: &Rig,
     t_on: f64,
@@ -566,8 +568,11 @@ fn integrate_stages(
     grid: OutputGrid,
     mut observe: impl FnMut(f64, &[f64]) -> bool,
 ) -> crate::ode::RunReport {
-    // Output times i dt <= t_on belong to the first stage.
-    let first = ((t_on / grid.step).floor() as u64 + 1).min(grid.count);
+    let first = if t_on < grid.start {
+        0
+    } else {
+        (((t_on - grid.start) / grid.step).floor() as u64 + 1).min(grid.count)
+    };
     let g1 = OutputGrid {
         count: first,
         ..grid

@@ -136,10 +136,11 @@ fn coords(effects: &[EffectKind]) -> Vec<Coord> {
             if !p.fitted {
                 continue;
             }
+            let (min, max) = fit_range(k, p.name).unwrap_or((p.min, p.max));
             let (lo, hi) = if p.log {
-                (p.min.ln(), p.max.ln())
+                (min.ln(), max.ln())
             } else {
-                (p.min, p.max)
+                (min, max)
             };
             let step = if p.log {
                 0.05
@@ -704,6 +705,19 @@ pub fn neutral(kind: EffectKind, param: &str) -> Option<f64> {
         (K::FrictionalLag, "tau") => 3e-5,
         _ => return None,
     })
+}
+
+/// Where a fit narrows an effect parameter's allowed range: ends that add a stiff mode to the
+/// simulations (a lag under 30 µs, a sensor above 20 kHz) would make every evaluation of a fit
+/// that drifts there several times slower, as an effect-free campaign drives these candidates
+/// towards their most neutral end. These ends lie far outside rigs' values (lags of 0.5 to
+/// 2 ms, load cells of tens to hundreds of hertz).
+fn fit_range(kind: EffectKind, param: &str) -> Option<(f64, f64)> {
+    match (kind, param) {
+        (EffectKind::FrictionalLag, "tau") => Some((3e-5, 1.0)),
+        (EffectKind::SensorDynamics, "f_n") => Some((10.0, 2e4)),
+        _ => None,
+    }
 }
 
 /// The values the global scan of [`starts`] tries for one fitted effect parameter, over its

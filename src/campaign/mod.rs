@@ -406,27 +406,11 @@ pub fn simulate_grid(
     };
     let rep = if p.two_stage() && p.t_on < t1 {
         // The substrate velocity jumps at t_on: two integrations, the grid shared by index.
-        let first = if p.t_on < t0 {
-            0
-        } else {
-            (((p.t_on - t0) / dt).floor() as u64 + 1).min(n as u64)
+        let observe = |t: f64, y: &[f64]| {
+            observe(t, y);
+            true
         };
-        let g1 = OutputGrid {
-            count: first,
-            ..grid
-        };
-        let mut rep = solver.solve(&rig, 0.0, p.t_on, &mut y, &opts, g1, &mut observe);
-        if rep.status == Status::Success {
-            let g2 = OutputGrid {
-                start: t0 + first as f64 * dt,
-                step: dt,
-                count: n as u64 - first,
-            };
-            let second = solver.solve(&rig, p.t_on, t1, &mut y, &opts, g2, &mut observe);
-            rep.stats += second.stats;
-            rep.status = second.status;
-        }
-        rep
+        crate::sim::integrate_stages(solver, &rig, p.t_on, t1, &mut y, &opts, grid, observe)
     } else {
         solver.solve(&rig, 0.0, t1, &mut y, &opts, grid, &mut observe)
     };

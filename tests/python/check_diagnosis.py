@@ -34,4 +34,14 @@ with h5py.File(path, "r") as f:
     top = r[keys[0]]
     assert abs(top["gap_after"][0] - v["ranking"][0]["gap_after"]) < 1e-12
     assert f["calibration"]["F_s"].attrs["units"] == "N"
+    # The forcing-frequency features are tabled with the others.
+    for feat in ("F_amp_f", "F_phase_f", "F_amp_2f", "x_s_amp_f"):
+        assert g["z_base"][feat].shape == (n,), feat
+# The verdict's fields: effects in order (best_effect first), partial, the folds.
+assert isinstance(v["partial"], bool)
+assert v["effects"][:1] == ([v["best_effect"]] if v["best_effect"] else []), v["effects"]
+cv = v["cross_validation"]
+assert sorted(cv["fold_of"]) == sorted(names), cv["fold_of"]
+assert all(0 <= k < cv["folds"] for k in cv["fold_of"].values())
+assert v["calibration"]["converged"] in (True, False)
 print("ok")
