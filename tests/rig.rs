@@ -11,7 +11,7 @@
 //! explanations count: the forms differ from the library's by design).
 //!
 //! `.ci/run` runs four campaigns (effect-free on a small unbalanced design, an out-of-library load
-//! modulation, a fourth-order sensor, and two effects at once); the whole panel of twelve is
+//! modulation, screw error with its harmonic, and two effects at once); the whole panel of twelve is
 //! `cargo test --release --test rig -- --ignored --nocapture` (README, "Measured data").
 
 use stickslip::campaign::Campaign;
@@ -123,7 +123,7 @@ fn right_on(name: &str) {
 }
 
 // `.ci/run`'s four: effect-free (the small unbalanced design), an effect outside the library's
-// forms, and two with an effect (a fourth-order sensor; a sensor with slip-law ageing).
+// forms, and two with an effect (screw error with its harmonic; a sensor with slip-law ageing).
 
 #[test]
 fn rig_effect_free_small_unbalanced_campaign() {
@@ -136,8 +136,8 @@ fn rig_load_modulation_of_fixed_depth() {
 }
 
 #[test]
-fn rig_fourth_order_sensor() {
-    right_on("sensor-factorial");
+fn rig_screw_error_with_its_harmonic() {
+    right_on("screw-harmonics");
 }
 
 #[test]
@@ -147,7 +147,7 @@ fn rig_sensor_and_slip_law_ageing() {
 
 /// The whole panel: at least 10 of 12 right.
 #[test]
-#[ignore = "the whole panel takes about an hour on 2 cores; .ci/run runs independent_rig_subset"]
+#[ignore = "the whole panel takes about an hour on 2 cores; .ci/run runs the four rig_* tests"]
 fn independent_rig_panel() {
     let (ok, rows) = run(&PANEL);
     eprintln!(

@@ -28,8 +28,9 @@
 //! candidate (ranked by `E1 (1 + 0.05 k)` with `k` the effect's fitted parameters):
 //! - `no_significant_gap` when `E0 <` [`SIGNIFICANT_GAP`];
 //! - `effect` when the best candidate cuts the gap by at least [`MIN_REDUCTION`], lowers the gap
-//!   of at least [`MIN_BREADTH`] of the held-out recordings, and its score is at most
-//!   [`CLEAR_MARGIN`] times the runner-up's;
+//!   of at least [`MIN_BREADTH`] of the held-out recordings that carry one (held-out gap at
+//!   least [`GAPPED`]; two of them at least), and its score is at most [`CLEAR_MARGIN`] times
+//!   the runner-up's;
 //! - `effect` with `partial` when it cuts the gap by at least [`MIN_PARTIAL`] only (the effect's
 //!   true form differs from the library's, or a second effect acts), under the same breadth rule
 //!   and explaining [`PARTIAL_MARGIN`] times the runner-up's share: the report gives what
@@ -506,15 +507,27 @@ fn try_candidate(
     }
 }
 
-/// Share of the checked recordings whose held-out gap `after` lowers against `before`.
+/// Held-out gap of a recording from which it counts as carrying a gap for the breadth rule.
+pub const GAPPED: f64 = 1.5;
+
+/// Share of the checked recordings that carry a gap (held-out gap `before` at least
+/// [`GAPPED`]) whose gap `after` lowers; 0 when fewer than two of them are lowered. Recordings
+/// already within noise do not vote: whether a candidate moves them up or down is a coin flip,
+/// and where a second effect or the vibrated runs leave them within noise they would outvote
+/// the ones the effect explains. Two lowered at least: one recording (on the edge of
+/// elimination, say) is not an effect.
 fn breadth_of(before: &[f64], after: &[f64]) -> f64 {
     let pairs: Vec<(f64, f64)> = before
         .iter()
         .zip(after)
-        .filter(|(a, b)| a.is_finite() && b.is_finite())
+        .filter(|(a, b)| a.is_finite() && b.is_finite() && **a >= GAPPED)
         .map(|(a, b)| (*a, *b))
         .collect();
-    pairs.iter().filter(|(a, b)| b < a).count() as f64 / pairs.len().max(1) as f64
+    let lowered = pairs.iter().filter(|(a, b)| b < a).count();
+    if lowered < 2 {
+        return 0.0;
+    }
+    lowered as f64 / pairs.len() as f64
 }
 
 /// Whether the best of `ranked` (sorted) is clearly ahead of the runner-up.

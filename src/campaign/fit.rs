@@ -746,11 +746,14 @@ fn scan_values(kind: EffectKind, param: &str) -> Vec<f64> {
 }
 
 /// Starting values for an effect's fitted parameters, from a global scan over their plausible
-/// ranges ([`scan_values`], every combination) on the calibrated base parameters `base`, with
+/// ranges (every combination: resonances at ten frequencies from 200 Hz to 20 kHz, a sensor's
+/// from 20 Hz, each at two dampings; the others at three to five values) on the calibrated base
+/// parameters `base`, scored on up to [`SCAN_RECORDINGS`] recordings, with
 /// the neutral start ([`neutral`]) among them; for the drive ripple, the wavelength and
 /// amplitude read off the recorded drive position, where recorded. The scan's best start is
-/// refined locally by [`fit`]; as the scan holds the neutral start, the fit from it is never
-/// worse on `target` than the base model.
+/// refined locally by [`fit`]. As the scan holds the neutral start, its best is not worse than
+/// the base model on the scored recordings; `diagnose` reports the base model for a candidate
+/// whose fit still ends worse on all of them.
 pub fn starts(target: &Target, base: &Model, kind: EffectKind) -> Model {
     let mut m0 = base.clone();
     m0.effects.enable(kind);

@@ -61,6 +61,8 @@ pub fn json(c: &Campaign, d: &Diagnosis) -> serde_json::Value {
         "missing_channels": missing_channels(c),
         "thresholds": {
             "min_breadth": super::diagnose::MIN_BREADTH,
+            "gapped": super::diagnose::GAPPED,
+            "partial_margin": super::diagnose::PARTIAL_MARGIN,
             "significant_gap": super::diagnose::SIGNIFICANT_GAP,
             "min_reduction": super::diagnose::MIN_REDUCTION,
             "min_partial": super::diagnose::MIN_PARTIAL,
