@@ -338,16 +338,7 @@ fn cross_validate(
     k_folds: usize,
     checked: &[bool],
 ) -> CrossValidated {
-    // Which residual rows belong to which recording (the layout of Target::residuals).
-    let mut row_rec = vec![];
-    for (u, m) in all.measured.iter().enumerate() {
-        let rec = all.units[u].0;
-        let rows = FEATURES
-            .iter()
-            .filter(|f| m.value[**f as usize].is_finite())
-            .count();
-        row_rec.extend(std::iter::repeat_n(rec, rows));
-    }
+    let row_rec = all.row_recordings();
     let n = all.recs.len();
     let mut per_recording = vec![f64::NAN; n];
     let mut pooled = vec![];
@@ -366,27 +357,27 @@ fn cross_validate(
                 .sum()
         };
         let base_cost = cal_cost(&fr.z);
-        // One damped Gauss–Newton step on the fold's rows; halved while it raises their cost.
-        let mut step = 1.0;
-        let mut z = vec![];
-        for _ in 0..3 {
+        // One damped Gauss–Newton step on the fold's rows, tried at full, half and quarter
+        // length; where each raises their cost, no step: the full fit itself.
+        let mut z = None;
+        for step in [1.0, 0.5, 0.25] {
             let m = if same_layout {
                 fit::refit_rows(fr, start, &keep, step)
             } else {
                 fr.model.clone()
             };
-            z = all.residuals(&all.predict(&m));
-            if z.len() != row_rec.len() || cal_cost(&z) <= base_cost * (1.0 + 1e-9) {
+            let zs = all.residuals(&all.predict(&m));
+            if zs.len() != row_rec.len() {
+                // A failed run: its recordings count as far off.
+                z = Some(vec![1e3; row_rec.len()]);
                 break;
             }
-            step *= 0.5;
-            if step < 0.2 {
-                z = fr.z.clone();
+            if cal_cost(&zs) <= base_cost * (1.0 + 1e-9) {
+                z = Some(zs);
+                break;
             }
         }
-        if z.len() != row_rec.len() {
-            z = vec![1e3; row_rec.len()];
-        }
+        let z = z.unwrap_or_else(|| fr.z.clone());
         let mut fz = vec![];
         for i in (0..n).filter(|&i| fold[i] == k && checked[i]) {
             let zi: Vec<f64> = z
@@ -481,8 +472,6 @@ fn try_candidate(
     // Never worse than the model it extends; and a fit that moves the gap by less than
     // UNCHANGED is that model to within the held-out check's resolution: its results.
     if !(f.gap <= (1.0 - UNCHANGED) * from.gap) {
-        let mut same = from.clone();
-        same.effects = effects;
         return Ranked {
             effect: k,
             score: from_cv.gap * (1.0 + PARAM_PENALTY * extra as f64),
@@ -490,7 +479,7 @@ fn try_candidate(
             gap_after: from_cv.gap,
             gap_spread: from_cv.spread,
             per_recording: from_cv.per_recording.clone(),
-            fit: same,
+            fit: from.clone(),
             wall_time: clock.elapsed().as_secs_f64(),
         };
     }

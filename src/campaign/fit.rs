@@ -286,6 +286,20 @@ impl<'a> Target<'a> {
         out
     }
 
+    /// The recording each row of [`Target::residuals`] belongs to: one row per feature the
+    /// measurement of each unit defines, unit by unit.
+    pub fn row_recordings(&self) -> Vec<usize> {
+        let mut rows = vec![];
+        for (u, m) in self.measured.iter().enumerate() {
+            let n = FEATURES
+                .iter()
+                .filter(|f| m.value[**f as usize].is_finite())
+                .count();
+            rows.extend(std::iter::repeat_n(self.units[u].0, n));
+        }
+        rows
+    }
+
     /// The standardised differences, one per (unit, feature) that the measurement defines, in
     /// a fixed layout; a feature the model does not produce (no cycles) counts 0, since dF
     /// carries that difference.
