@@ -420,6 +420,7 @@ fn run_json(r: &sim::RunResult) -> serde_json::Value {
         "wall_time": r.wall_time,
         "continued_from": r.continued_from,
         "predicted": r.predicted,
+        "level_error": r.level_error,
         "stats": r.stats,
     })
 }
@@ -504,20 +505,17 @@ pub fn case_summary(c: &CaseResult, o: &RunOptions) -> String {
             rm.d_f, rm.d_f_stderr, rm.mean_force, rm.period
         );
     }
-    // A predicted run reports its planned window, integrated only up to where it stopped.
-    let (end, how) = if c.run.predicted {
-        (
-            2.0 * c.run.window_start,
-            format!(
-                "planned; predicted from the force settling along one exponential up to {:.3} s",
-                c.run.t_end
-            ),
-        )
+    // An extrapolated run reports the level its window's approach leads to.
+    let how = if let Some(e) = c.run.level_error {
+        format!("the settled level extrapolated from it, mean force ± {e:.2e} N")
+    } else if c.run.status == crate::ode::Status::Unsettled {
+        "still settling at the longest simulated time: unsettled".to_string()
     } else if p.two_stage() {
-        (c.run.t_end, "second half of the second stage".to_string())
+        "second half of the second stage".to_string()
     } else {
-        (c.run.t_end, "second half of the run".to_string())
+        "second half of the run".to_string()
     };
+    let end = c.run.t_end;
     let _ = writeln!(
         s,
         "window    {:.3} s to {:.3} s ({how})",

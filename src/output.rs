@@ -149,9 +149,15 @@ fn set_measures(file: &H5File, prefix: &str, r: &RunResult, path: &Path) -> Resu
     }
     file.set_attr_numeric(&format!("{prefix}cycles"), &(m.cycles as i64))
         .map_err(&e)?;
-    // 1 where the measures are those of the planned window, predicted from a settling force.
+    // 1 where the measures are the settled level, extrapolated from a settling force, with the
+    // level's error bound (NaN where not extrapolated).
     file.set_attr_numeric(&format!("{prefix}predicted"), &i64::from(r.predicted))
         .map_err(&e)?;
+    file.set_attr_numeric(
+        &format!("{prefix}level_error"),
+        &r.level_error.unwrap_or(f64::NAN),
+    )
+    .map_err(&e)?;
     file.set_attr_string(&format!("{prefix}status"), r.status.name())
         .map_err(&e)?;
     let s = &r.stats;

@@ -2,7 +2,7 @@
 //! and the reduction coefficient `r` against the automatic run without vibration.
 
 use crate::cycle::LimitCycle;
-use crate::measures::{Analyzer, DROP_THRESHOLD, Measures, STICK_VELOCITY};
+use crate::measures::{Analyzer, DROP_THRESHOLD, Measures, STICK_VELOCITY, Trend};
 use crate::model::{Effects, Params, Rig, RigError, V, X};
 use crate::ode::{
     Envelope, Method, OdeSystem, OptionError, Options, OutputGrid, Solver, Stats, Status,
@@ -322,6 +322,27 @@ impl Trace {
     pub fn is_empty(&self) -> bool {
         self.t.is_empty()
     }
+
+    /// Keeps every second sample (the first, third, ...) of every channel.
+    fn halve(&mut self) {
+        for c in [
+            &mut self.t,
+            &mut self.f_d,
+            &mut self.f_d_smooth,
+            &mut self.x_s,
+            &mut self.x_d,
+            &mut self.s,
+            &mut self.v_r,
+            &mut self.v,
+            &mut self.u,
+        ] {
+            let mut i = 0;
+            c.retain(|_| {
+                i += 1;
+                i % 2 == 1
+            });
+        }
+    }
 }
 
 /// The outcome of one integration of the rig.
@@ -343,11 +364,15 @@ pub struct RunResult {
     /// ([`RunOptions::periodic`]) \[s\]; `None` where every sample was integrated.
     #[serde(default)]
     pub continued_from: Option<f64>,
-    /// Whether the measures are those of the planned window `[window_start, 2 window_start]`,
-    /// predicted from the force settling along one exponential up to `t_end`
+    /// Whether the measures are those of the settled level, extrapolated from the force
+    /// settling along one exponential in the window `[window_start, t_end]`
     /// ([`Analyzer::settling`](crate::measures::Analyzer::settling)) instead of integrated.
     #[serde(default)]
     pub predicted: bool,
+    /// Error bound of an extrapolated level's mean force \[N\]: the difference of the levels
+    /// two exponential fits give; `None` where the level was not extrapolated.
+    #[serde(default)]
+    pub level_error: Option<f64>,
     /// Time traces, when asked for.
     #[serde(skip)]
     pub trace: Option<Trace>,
@@ -386,16 +411,152 @@ fn end_time(p: &Params, opts: &RunOptions) -> Result<f64, SimError> {
     Ok(t_end)
 }
 
+/// The per-sample work of a run: the measures, the trace, the limit-cycle watch and the
+/// early-stop checks, fed one output sample at a time by the integrator.
+struct Recorder<'a> {
+    rig: &'a Rig,
+    an: Analyzer,
+    trace: Option<Trace>,
+    /// Every `stride`-th sample goes to the trace (0: no trace).
+    stride: u64,
+    /// Most samples the trace keeps; beyond them it is halved and `stride` doubled.
+    trace_points: usize,
+    /// Index of the next sample (sample `i` lies at `i dt`).
+    idx: u64,
+    /// Samples per vibration period.
+    k: usize,
+    cycle: Option<LimitCycle>,
+    early: Option<EarlyChecks>,
+    /// Where an early check ended the run: its time, measures and the error bound of an
+    /// extrapolated level (`Some` only when extrapolated).
+    stopped: Option<(f64, Measures, Option<f64>)>,
+}
+
+/// The early-stop checks of a run ([`RunOptions::early_stop`]).
+struct EarlyChecks {
+    next_check: f64,
+    check_every: f64,
+    /// Largest max − min of the smoothed force of steady sliding \[N\].
+    range: f64,
+    /// Nominal stick-slip amplitude `2 (F_s − F_c)` \[N\].
+    nominal: f64,
+    /// Slope bound of a settling force \[N/s\].
+    slope: f64,
+    /// Time from which the window can hold the stick-slip cycles of the planned time \[s\].
+    cycles_from: f64,
+    min_cycles: usize,
+}
+
+impl Recorder<'_> {
+    /// Takes sample `(t, y)`; false ends the integration (limit cycle found, answer known).
+    fn observe(&mut self, t: f64, y: &[f64]) -> bool {
+        let rig = self.rig;
+        // The force the sensor records (the drive force itself without sensor dynamics).
+        let f = rig.measured_force(t, y);
+        let i = self.idx;
+        self.record(i, t, f, y);
+        self.idx += 1;
+        if let Some(c) = self.cycle.as_mut()
+            && c.push(t, f, y)
+        {
+            return false;
+        }
+        let Some(e) = self.early.as_mut() else {
+            return true;
+        };
+        if t < e.next_check {
+            return true;
+        }
+        e.next_check += e.check_every.min(EARLY_STOP_GROWTH * e.next_check);
+        let an = &self.an;
+        let known = an
+            .steady_sliding(t, e.range, EARLY_STOP_DRIFT)
+            .map(|m| (m, None))
+            .or_else(|| {
+                an.settling(
+                    0.5 * t,
+                    e.slope,
+                    SETTLING_TOL * e.nominal,
+                    EARLY_STOP_DRIFT,
+                )
+                .map(|(m, err)| (m, Some(err)))
+            })
+            .or_else(|| {
+                if t < e.cycles_from {
+                    return None;
+                }
+                an.steady_cycles(
+                    t,
+                    e.min_cycles,
+                    EARLY_STOP_STDERR * e.nominal,
+                    EARLY_STOP_DRIFT,
+                )
+                .map(|m| (m, None))
+            });
+        match known {
+            Some((m, err)) => {
+                self.stopped = Some((t, m, err));
+                false
+            }
+            None => true,
+        }
+    }
+
+    /// Feeds sample `i` (time `t`, measured force `f`, state `y`) to the analyzer and, every
+    /// `stride` samples, to the trace.
+    fn record(&mut self, i: u64, t: f64, f: f64, y: &[f64]) {
+        let rig = self.rig;
+        let v_r = rig.relative_velocity(t, y);
+        let smooth = self.an.push(t, f, v_r);
+        let Some(tr) = self.trace.as_mut() else {
+            return;
+        };
+        if !i.is_multiple_of(self.stride) {
+            return;
+        }
+        if tr.len() >= self.trace_points {
+            // A run continued past its planned time: keep every second sample.
+            tr.halve();
+            self.stride *= 2;
+            if !i.is_multiple_of(self.stride) {
+                return;
+            }
+        }
+        tr.t.push(t);
+        tr.f_d.push(f);
+        tr.f_d_smooth.push(if self.k > 1 { smooth } else { f });
+        tr.x_s.push(y[X]);
+        tr.x_d.push(rig.drive_displacement(t));
+        tr.s.push(rig.deformation(y));
+        tr.v_r.push(v_r);
+        tr.v.push(y[V]);
+        tr.u.push(rig.substrate_displacement(t));
+    }
+}
+
+/// A run whose window still holds a trend (MODEL.md: the measures describe the settled state)
+/// goes on by this share of its time so far at a time, judged after each step ...
+pub const SETTLE_GROWTH: f64 = 0.25;
+/// ... up to this many times its planned simulated time; a run that has not settled then ends
+/// with [`Status::Unsettled`]. Only an automatic simulated time is continued: a given `t_end`
+/// is the run's time (or, with [`EarlyStop::Always`], its longest).
+pub const SETTLE_CAP: f64 = 8.0;
+/// A window without stick-slip is settled when its smoothed force changes across it by at most
+/// this share of the nominal amplitude `2 (F_s − F_c)` (so `r` by about 0.0025, half of
+/// MODEL.md's allowance) ...
+pub const SETTLED_TREND: f64 = 0.0025;
+/// ... and its mean lies within this relative distance of the level its thirds approach (a
+/// fifth of MODEL.md's 0.5 %).
+pub const SETTLED_MEAN: f64 = 0.001;
+
 fn integrate(rig: &Rig, t_end: f64, opts: &RunOptions, solver: &mut Solver) -> RunResult {
     let start = Instant::now();
     let p = &rig.p;
     let (dt, k) = sampling(p, opts.samples_per_period);
     let count = (t_end / dt).floor() as u64 + 1;
-    let window_start = window_start(p, t_end);
-    // A two-stage run is integrated every period and to its end: the early-stop checks and the
-    // envelope's jumps assume the forcing ran from t = 0.
+    // A two-stage run is integrated every period: the early-stop checks and the envelope's
+    // jumps assume the forcing ran from t = 0.
     let two_stage = p.two_stage();
-    // Blocks for the early-stop test: a few thousand over the run, at least a vibration period.
     let early = p.vibrates()
         && !two_stage
         && match opts.early_stop {
@@ -403,36 +564,42 @@ fn integrate(rig: &Rig, t_end: f64, opts: &RunOptions, solver: &mut Solver) -> R
             EarlyStop::Automatic => opts.t_end.is_none(),
             EarlyStop::Always => true,
         };
-    let block = (t_end / 4000.0).max(k as f64 * dt);
-    let (block_width, capacity) = if early {
-        (block, (t_end / block) as usize + 2)
+    // The longest time: an automatic one may be continued until the force settles.
+    let t_cap = if opts.t_end.is_none() {
+        SETTLE_CAP * t_end
     } else {
-        (f64::INFINITY, 0)
+        t_end
     };
-    let mut an = Analyzer::with_blocks(
+    // Blocks for the window checks: a few thousand over the run, at least a vibration period.
+    let block = (t_end / 4000.0).max(k as f64 * dt);
+    let an = Analyzer::with_blocks(
         k,
-        window_start,
+        window_start(p, t_end),
         DROP_THRESHOLD * (p.f_s - p.f_c),
         STICK_VELOCITY * p.v_d,
-        block_width,
-        capacity,
+        block,
+        (t_end / block) as usize + 2,
     );
+    let nominal = 2.0 * (p.f_s - p.f_c);
+    let tc = p.cycle_estimate();
     // Checkpoints: every 1/256 of the planned time, from a twentieth of it on; sooner, and at
     // first a quarter of the time so far apart, where the force settles fast (`first_check`).
-    let check_every = t_end / EARLY_STOP_CHECKS;
-    let mut next_check = first_check(p, t_end, block);
-    let nominal = 2.0 * (p.f_s - p.f_c);
-    let range = EARLY_STOP_RANGE * nominal;
-    // Stick-slip is judged once the window can hold the cycles the planned time is made for.
-    let tc = p.cycle_estimate();
-    let cycles_from = 2.0 * (opts.min_cycles as f64 * tc).max(first_loading(p) + tc);
-    let mut stopped: Option<(f64, Measures, bool)> = None;
+    let checks = early.then(|| EarlyChecks {
+        next_check: first_check(p, t_end, block),
+        check_every: t_end / EARLY_STOP_CHECKS,
+        range: EARLY_STOP_RANGE * nominal,
+        nominal,
+        slope: SETTLING_SLOPE * p.k_d * p.v_d,
+        // Stick-slip is judged once the window can hold the cycles the planned time is made for.
+        cycles_from: 2.0 * (opts.min_cycles as f64 * tc).max(first_loading(p) + tc),
+        min_cycles: opts.min_cycles as usize,
+    });
     let stride = if opts.trace {
         count.div_ceil(opts.trace_points as u64).max(1)
     } else {
         0
     };
-    let mut trace = opts.trace.then(|| {
+    let trace = opts.trace.then(|| {
         let n = (count / stride.max(1) + 1) as usize;
         let v = || Vec::with_capacity(n);
         Trace {
@@ -447,13 +614,6 @@ fn integrate(rig: &Rig, t_end: f64, opts: &RunOptions, solver: &mut Solver) -> R
             u: v(),
         }
     });
-    let mut y = rig.initial_state();
-    let grid = OutputGrid {
-        start: 0.0,
-        step: dt,
-        count,
-    };
-    let mut idx = 0u64;
     let envelope = opts
         .envelope
         .filter(|_| p.vibrates() && !two_stage)
@@ -469,89 +629,144 @@ fn integrate(rig: &Rig, t_end: f64, opts: &RunOptions, solver: &mut Solver) -> R
         None => opts.ode.clone(),
     };
     // Without vibration the base model is autonomous: watch for its limit cycle.
-    let mut cycle = (opts.periodic && !p.vibrates() && !rig.has_effects())
+    let cycle = (opts.periodic && !p.vibrates() && !rig.has_effects())
         .then(|| LimitCycle::new(rig, dt, &ode));
-    let observe = |t: f64, y: &[f64]| -> bool {
-        // The force the sensor records (the drive force itself without sensor dynamics).
-        let f = rig.measured_force(t, y);
-        record(rig, &mut an, trace.as_mut(), stride, idx, k, t, f, y);
-        idx += 1;
-        if let Some(c) = cycle.as_mut()
-            && c.push(t, f, y)
-        {
-            return false;
-        }
-        if early && t >= next_check {
-            next_check += check_every.min(EARLY_STOP_GROWTH * next_check);
-            let known = an
-                .steady_sliding(t, range, EARLY_STOP_DRIFT)
-                .map(|m| (m, false))
-                .or_else(|| {
-                    an.settling(
-                        t,
-                        t_end,
-                        SETTLING_SLOPE * p.k_d * p.v_d,
-                        SETTLING_TOL * nominal,
-                        SETTLING_TOL * nominal,
-                        EARLY_STOP_DRIFT,
-                    )
-                    .map(|m| (m, true))
-                })
-                .or_else(|| {
-                    if t < cycles_from {
-                        return None;
-                    }
-                    let drops = opts.min_cycles as usize;
-                    an.steady_cycles(t, drops, EARLY_STOP_STDERR * nominal, EARLY_STOP_DRIFT)
-                        .map(|m| (m, false))
-                });
-            if let Some((m, predicted)) = known {
-                stopped = Some((t, m, predicted));
-                return false;
-            }
-        }
-        true
+    let mut rec = Recorder {
+        rig,
+        an,
+        trace,
+        stride,
+        trace_points: opts.trace_points,
+        idx: 0,
+        k,
+        cycle,
+        early: checks,
+        stopped: None,
     };
-    let rep = if two_stage {
+    let mut y = rig.initial_state();
+    let grid = OutputGrid {
+        start: 0.0,
+        step: dt,
+        count,
+    };
+    let mut rep = if two_stage {
         // The substrate velocity jumps from 0 to u0 ω at t_on (MODEL.md): integrate the stages
         // apart, so the step control restarts at the jump instead of rejecting its way down to it.
-        integrate_stages(solver, rig, p.t_on, t_end, &mut y, &ode, grid, observe)
+        integrate_stages(solver, rig, p.t_on, t_end, &mut y, &ode, grid, |t, y| {
+            rec.observe(t, y)
+        })
     } else {
-        solver.solve_envelope(rig, 0.0, t_end, &mut y, &ode, grid, env, observe)
+        solver.solve_envelope(rig, 0.0, t_end, &mut y, &ode, grid, env, |t, y| {
+            rec.observe(t, y)
+        })
     };
     // A periodic run: the remaining samples are the last cycle's.
-    let continued_from = cycle.as_ref().and_then(LimitCycle::continued_from);
-    if let Some(c) = cycle.as_ref()
+    let continued_from = rec.cycle.as_ref().and_then(LimitCycle::continued_from);
+    if let Some(c) = rec.cycle.take()
         && rep.status == Status::Success
     {
-        c.replay(&grid, idx, t_end, |i, t, f, y| {
-            record(rig, &mut an, trace.as_mut(), stride, i, k, t, f, y)
-        });
+        c.replay(&grid, rec.idx, t_end, |i, t, f, y| rec.record(i, t, f, y));
+        rec.cycle = Some(c);
     }
-    // A prediction describes the planned window; otherwise the window is the run's second half.
-    let predicted = matches!(stopped, Some((_, _, true)));
-    let (t_end, window_start) = match &stopped {
-        Some((t, _, false)) => (*t, 0.5 * t),
-        Some((t, _, true)) => (*t, window_start),
-        None => (t_end, window_start),
+    // MODEL.md: a window that still holds a trend does not count. Extrapolate the level where
+    // the force plainly settles along one exponential (not in a run asked to run in full), else
+    // go on, up to the cap.
+    let mut t_stop = t_end;
+    let mut extrapolated: Option<(Measures, f64)> = None;
+    let mut unsettled = false;
+    while rep.status == Status::Success && rec.stopped.is_none() && continued_from.is_none() {
+        let ws = window_start(p, t_stop);
+        if rec.an.trend(ws, SETTLED_TREND * nominal, SETTLED_MEAN) != Trend::Trending {
+            break;
+        }
+        if opts.early_stop != EarlyStop::Off {
+            extrapolated = rec.an.settling(
+                ws,
+                SETTLING_SLOPE * p.k_d * p.v_d,
+                SETTLING_TOL * nominal,
+                SETTLED_MEAN,
+            );
+            if extrapolated.is_some() {
+                break;
+            }
+        }
+        if t_stop >= t_cap {
+            unsettled = true;
+            break;
+        }
+        let t_next = ((1.0 + SETTLE_GROWTH) * t_stop).min(t_cap);
+        let more = extend(solver, rig, &mut y, &ode, env, dt, t_stop, t_next, &mut rec);
+        rep.stats += more.stats;
+        rep.status = more.status;
+        t_stop = more.t;
+    }
+    let extended = t_stop > t_end;
+    // An early stop's window is the second half of the run so far.
+    let (t_end, window_start) = match &rec.stopped {
+        Some((t, ..)) => (*t, 0.5 * t),
+        None => (t_stop, window_start(p, t_stop)),
     };
-    let measures = match (rep.status, stopped) {
-        (Status::Success, Some((_, m, _))) => m,
-        (Status::Success, None) => an.finish(),
-        _ => nan_measures(),
+    let (measures, level_error) = match (rep.status, &rec.stopped, extrapolated) {
+        (Status::Success, Some((_, m, err)), _) => (*m, *err),
+        (Status::Success, None, Some((m, err))) => (m, Some(err)),
+        (Status::Success, None, None) if extended => (rec.an.window_measures(window_start), None),
+        (Status::Success, None, None) => (rec.an.finish(), None),
+        _ => (nan_measures(), None),
+    };
+    let status = if unsettled && rep.status == Status::Success {
+        Status::Unsettled
+    } else {
+        rep.status
     };
     debug_assert_eq!(rig.dim(), y.len());
     RunResult {
-        status: rep.status,
+        status,
         stats: rep.stats,
         measures,
         t_end,
         window_start,
         wall_time: start.elapsed().as_secs_f64(),
         continued_from,
-        predicted,
-        trace,
+        predicted: level_error.is_some(),
+        level_error,
+        trace: rec.trace,
     }
+}
+
+/// Continues a run from `t` (state `y`, samples up to `rec.idx` recorded) to the last sample
+/// at or before `t_next`: first to the next sample's time without output, then along the
+/// samples, so that sample `i` stays at `i dt` and envelope jumps start on a sample.
+#[allow(clippy::too_many_arguments)]
+fn extend(
+    solver: &mut Solver,
+    rig: &Rig,
+    y: &mut [f64],
+    ode: &Options,
+    env: Option<&Envelope>,
+    dt: f64,
+    t: f64,
+    t_next: f64,
+    rec: &mut Recorder,
+) -> crate::ode::RunReport {
+    let first = rec.idx;
+    let last = (t_next / dt).floor() as u64;
+    let t0 = first as f64 * dt;
+    let mut rep = solver.solve_until(rig, t, t0, y, ode, OutputGrid::NONE, |_, _| true);
+    if rep.status != Status::Success || last < first {
+        return rep;
+    }
+    let grid = OutputGrid {
+        start: t0,
+        step: dt,
+        count: last - first + 1,
+    };
+    let more = solver.solve_envelope(rig, t0, last as f64 * dt, y, ode, grid, env, |t, y| {
+        rec.observe(t, y)
+    });
+    rep.stats += more.stats;
+    rep.status = more.status;
+    rep.t = more.t;
+    rep
 }
 
 /// Integrates from 0 to `t_on` and from `t_on` to `t_end` one after the other, restarting the
@@ -591,36 +806,6 @@ pub fn integrate_stages(
     rep.status = second.status;
     rep.t = second.t;
     rep
-}
-
-/// Feeds sample `i` (time `t`, measured force `f`, state `y`) to the analyzer and, every
-/// `stride` samples, to the trace.
-fn record(
-    rig: &Rig,
-    an: &mut Analyzer,
-    trace: Option<&mut Trace>,
-    stride: u64,
-    i: u64,
-    k: usize,
-    t: f64,
-    f: f64,
-    y: &[f64],
-) {
-    let v_r = rig.relative_velocity(t, y);
-    let smooth = an.push(t, f, v_r);
-    if let Some(tr) = trace
-        && i.is_multiple_of(stride)
-    {
-        tr.t.push(t);
-        tr.f_d.push(f);
-        tr.f_d_smooth.push(if k > 1 { smooth } else { f });
-        tr.x_s.push(y[X]);
-        tr.x_d.push(rig.drive_displacement(t));
-        tr.s.push(rig.deformation(y));
-        tr.v_r.push(v_r);
-        tr.v.push(y[V]);
-        tr.u.push(rig.substrate_displacement(t));
-    }
 }
 
 /// Envelope following in [`simulate`] where a stick-slip cycle spans many vibration periods:

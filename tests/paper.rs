@@ -247,13 +247,14 @@ fn early_stop_agrees_with_the_full_run() {
     });
 }
 
-/// Eliminated stick-slip whose force still settles over the planned window (v_a a little above
-/// v_d): r is the drift of the smoothed force over [T/2, T], which no shorter window gives. The
-/// early stop predicts it from the exponential approach; the prediction must agree with the
-/// full run to r within 0.003 (the rule asks two fits to agree to 0.002 of the nominal
-/// amplitude) and the mean force to 0.1 %, at less work.
+/// Eliminated stick-slip whose force still creeps towards its sliding level at the end of the
+/// planned time (v_a a little above v_d). MODEL.md: the measures describe the settled state. The
+/// early stop extrapolates the level once the approach is plainly exponential and near its
+/// end; a run without early stop goes on until its window has settled. The two must agree to
+/// r within 0.003 and the mean force within 0.1 % plus the stated error bound, the
+/// extrapolation at less work.
 #[test]
-fn settling_prediction_agrees_with_the_full_run() {
+fn settled_level_extrapolated_agrees_with_the_run_continued_until_it_settles() {
     [(4000.0, 1.196), (3015.0, 1.76), (1500.0, 2.0)]
         .par_iter()
         .for_each(|&(f, ratio)| {
@@ -265,10 +266,9 @@ fn settling_prediction_agrees_with_the_full_run() {
             let early = case(0.5e-3, f, ratio, &opts(EarlyStop::Automatic));
             let full = case(0.5e-3, f, ratio, &opts(EarlyStop::Off));
             assert!(early.run.predicted, "f {f}: {:?}", early.run);
-            assert!(!full.run.predicted);
+            let err = early.run.level_error.expect("an extrapolated level states its error");
+            assert!(!full.run.predicted && full.run.level_error.is_none());
             assert!(full.r < 0.05, "f {f}: not eliminated, r {}", full.r);
-            assert!(early.run.t_end < 0.75 * full.run.t_end, "{:?}", early.run);
-            assert_eq!(early.run.window_start, full.run.window_start);
             assert!(early.run.stats.rhs_evals < full.run.stats.rhs_evals);
             assert!(
                 (early.r - full.r).abs() < 3e-3,
@@ -277,12 +277,59 @@ fn settling_prediction_agrees_with_the_full_run() {
                 full.r
             );
             let (a, b) = (early.run.measures.mean_force, full.run.measures.mean_force);
-            assert!(((a - b) / b).abs() < 1e-3, "f {f}: mean force {a} vs {b}");
+            assert!((a - b).abs() < 1e-3 * b + err, "f {f}: mean force {a} ± {err} vs {b}");
         });
 }
 
+/// The creep of MODEL.md. At v_d = 0.5 mm/s, k_d = 11 700 N/m, f = 1500 Hz, v_a/v_d = 1.7
+/// (Fig. 10a) and at f = 1487 Hz, v_a/v_d = 1.69 (a creep island of the 32 × 32 Fig. 11 map) the
+/// smoothed force creeps for some 20 s towards its sliding level; the planned time is 9.8 s.
+/// Settled references: runs of 60 s (window 30 to 60 s) with Radau5 at rtol = atol = 1e-8,
+/// `stickslip run --va-ratio 1.7 --t-end 60 --rtol 1e-8 --atol 1e-8 --solver radau5` (and
+/// `--va-ratio 1.69 --f 1487`): mean force 4.838004 N and 5.002330 N, r 2.4e-6 and 3.8e-7
+/// (the same at rtol 1e-6 with `--solver auto`: 4.837872 N and 5.002388 N). Every method and
+/// early-stop setting must give r below 0.005 (elimination, not the 0.10 and 0.13 of the creep)
+/// and the mean force within 0.1 % (0.5 % is MODEL.md's accuracy).
+#[test]
+fn creep_towards_the_sliding_level_is_not_stick_slip() {
+    let settings: Vec<(f64, f64, f64, RunOptions)> = [(1500.0, 1.7, 4.838004), (1487.0, 1.69, 5.002330)]
+        .into_iter()
+        .flat_map(|(f, ratio, level)| {
+            [
+                RunOptions::default(),
+                RunOptions {
+                    method: Method::Auto,
+                    envelope: Some(1e-4),
+                    ..RunOptions::default()
+                },
+                RunOptions {
+                    method: Method::Dopri5,
+                    early_stop: EarlyStop::Off,
+                    ..RunOptions::default()
+                },
+            ]
+            .into_iter()
+            .map(move |o| (f, ratio, level, o))
+        })
+        .collect();
+    settings.par_iter().for_each(|(f, ratio, level, o)| {
+        let c = case(0.5e-3, *f, *ratio, o);
+        let m = &c.run.measures;
+        let tag = format!("f {f}, v_a/v_d {ratio}, {:?} {:?}", o.method, o.early_stop);
+        assert!(c.r < 0.005, "{tag}: r {} ({:?})", c.r, c.run);
+        assert!(
+            ((m.mean_force - level) / level).abs() < 1e-3,
+            "{tag}: mean force {} vs {level}",
+            m.mean_force
+        );
+        // The window that caught the creep, the planned one, is not the one reported.
+        let planned = stickslip::sim::planned_time(&c.params, o.min_cycles);
+        assert!(c.run.t_end > planned, "{tag}: {} s", c.run.t_end);
+    });
+}
+
 /// A given simulated time is run in full unless early stop is asked for always; then it is the
-/// longest time, and the window and checks are planned on it.
+/// longest time. A given time is not continued: where its window still creeps the run says so.
 #[test]
 fn a_given_t_end_ends_early_only_when_asked_always() {
     let opts = |early_stop| RunOptions {
@@ -295,9 +342,7 @@ fn a_given_t_end_ends_early_only_when_asked_always() {
     let always = case(0.5e-3, 1500.0, 2.0, &opts(EarlyStop::Always));
     assert_eq!(given.run.t_end, 6.0);
     assert!(!given.run.predicted);
-    assert!(always.run.t_end < 3.0, "{:?}", always.run);
-    assert!(always.run.predicted);
-    assert_eq!(always.run.window_start, 3.0);
+    assert!(always.run.t_end < 6.0, "{:?}", always.run);
     assert!(
         (always.r - given.r).abs() < 3e-3,
         "r {} vs {}",
@@ -308,6 +353,19 @@ fn a_given_t_end_ends_early_only_when_asked_always() {
         always.run.measures.mean_force,
         given.run.measures.mean_force,
     );
-    // Half of MODEL.md's 0.5 % (the fits agree to 0.1 %; the prediction lands 0.1 % off here).
     assert!(((a - b) / b).abs() < 2.5e-3, "mean force {a} vs {b}");
+    let mut p = Params {
+        k_d: 11_700.0,
+        v_d: 0.5e-3,
+        f: 1500.0,
+        ..Params::default()
+    };
+    p.set_v_a(1.7 * p.v_d);
+    let short = RunOptions {
+        t_end: Some(8.0),
+        ..opts(EarlyStop::Automatic)
+    };
+    let c = run_case(&p, &short, &mut Solver::new(short.method)).unwrap();
+    assert_eq!(c.run.status, Status::Unsettled, "{:?}", c.run);
+    assert_eq!(c.run.t_end, 8.0);
 }

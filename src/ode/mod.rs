@@ -395,6 +395,10 @@ pub enum Status {
     NewtonFailure,
     /// The state or the right-hand side became NaN or infinite.
     NonFinite,
+    /// A run of the rig (never the integrator itself) reached its longest simulated time with
+    /// the smoothed force still on its way to its level (MODEL.md: the measures describe the
+    /// settled state); the measures are those of its last window.
+    Unsettled,
 }
 
 impl Status {
@@ -406,13 +410,20 @@ impl Status {
             Status::MaxSteps => "max_steps",
             Status::NewtonFailure => "newton_failure",
             Status::NonFinite => "non_finite",
+            Status::Unsettled => "unsettled",
         }
     }
 
     /// A small integer code for files: 0 success, 1 step too small, 2 max steps,
-    /// 3 Newton failure, 4 non-finite.
+    /// 3 Newton failure, 4 non-finite, 5 unsettled.
     pub fn code(self) -> i32 {
         self as i32
+    }
+
+    /// Whether a run with this status has measures: it succeeded, or it is
+    /// [`Unsettled`](Status::Unsettled) (measured, flagged).
+    pub fn has_measures(self) -> bool {
+        matches!(self, Status::Success | Status::Unsettled)
     }
 
     /// The status with the given [`code`](Self::code).
@@ -423,6 +434,7 @@ impl Status {
             Status::MaxSteps,
             Status::NewtonFailure,
             Status::NonFinite,
+            Status::Unsettled,
         ]
         .into_iter()
         .find(|s| s.code() == c)

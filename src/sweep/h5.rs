@@ -11,7 +11,7 @@
 //! | `stick_fraction` | 1 | share of the steady window spent sticking |
 //! | `period` | s | stick-slip period |
 //! | `cycles` | 1 | cycles counted |
-//! | `status` | 1 | 0 success, 1 step too small, 2 max steps, 3 Newton failure, 4 non-finite, −1 not run yet |
+//! | `status` | 1 | 0 success, 1 step too small, 2 max steps, 3 Newton failure, 4 non-finite, 5 unsettled (measured, force still creeping at the longest time), −1 not run yet |
 //! | `steps`, `rejected`, `rhs_evals`, `jac_evals`, `lu_decomps` | 1 | solver statistics of the point's own run |
 //! | `wall_time` | s | wall time of the point's own run |
 //! | `t_end` | s | simulated time of the point's own run (shorter than planned where it stopped early) |
@@ -38,7 +38,7 @@ struct Grid {
 }
 
 fn ok(r: Option<&sim::RunResult>) -> Option<&sim::RunResult> {
-    r.filter(|r| r.status == crate::ode::Status::Success)
+    r.filter(|r| r.status.has_measures())
 }
 
 fn status_code(r: Option<&sim::RunResult>) -> f64 {
@@ -246,7 +246,7 @@ pub fn write(
                 ds_attr_str(
                     &ds,
                     "flag_meanings",
-                    "not_run(-1) success(0) step_too_small(1) max_steps(2) newton_failure(3) non_finite(4)",
+                    "not_run(-1) success(0) step_too_small(1) max_steps(2) newton_failure(3) non_finite(4) unsettled(5)",
                     path,
                 )?;
             }

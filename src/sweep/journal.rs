@@ -8,11 +8,12 @@
 //! ```text
 //! <kind> <index> <status> <t_end> <window_start> <wall_time> <steps> <rejected> <rhs> <jac> <lu>
 //!        <newton> <dF> <dF_stderr> <mean_force> <stick_fraction> <period> <peak> <trough> <cycles> <skipped_periods>
-//!        <continued_from> <predicted>
+//!        <continued_from> <predicted> <level_error>
 //! ```
 //!
 //! with `kind` `ref` or `pt`, `continued_from` NaN where the run was integrated to its end and
-//! `predicted` 1 where the measures were predicted for the planned window, else 0.
+//! `predicted` 1 where the measures are the settled level extrapolated from the window, else 0,
+//! and `level_error` that level's error bound \[N\] (NaN where not extrapolated).
 //! Floats use Rust's shortest round-trip form, so resumed results are bit-identical. Only lines
 //! ended by a newline are read.
 
@@ -62,7 +63,7 @@ pub fn format_record(task: Task, r: &RunResult) -> String {
     let s = &r.stats;
     let m = &r.measures;
     format!(
-        "{kind} {i} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {}",
+        "{kind} {i} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {}",
         r.status.code(),
         r.t_end,
         r.window_start,
@@ -83,16 +84,18 @@ pub fn format_record(task: Task, r: &RunResult) -> String {
         m.cycles,
         s.skipped_periods,
         r.continued_from.unwrap_or(f64::NAN),
-        u8::from(r.predicted)
+        u8::from(r.predicted),
+        r.level_error.unwrap_or(f64::NAN)
     )
 }
 
 /// Parses one record; `None` for a torn or foreign line.
 pub fn parse_record(line: &str) -> Option<(Task, RunResult)> {
     let f: Vec<&str> = line.split(' ').collect();
-    // 23 fields; 22 in journals written before predicted windows, 21 before the limit-cycle
-    // continuation, 20 before envelope following (no skipped periods).
-    if !(20..=23).contains(&f.len()) {
+    // 24 fields; 23 in journals written before extrapolated levels had an error bound, 22
+    // before predicted windows, 21 before the limit-cycle continuation, 20 before envelope
+    // following (no skipped periods).
+    if !(20..=24).contains(&f.len()) {
         return None;
     }
     let i: usize = f[1].parse().ok()?;
@@ -138,6 +141,10 @@ pub fn parse_record(line: &str) -> Option<(Task, RunResult)> {
                 None | Some("0") => false,
                 Some("1") => true,
                 Some(_) => return None,
+            },
+            level_error: match f.get(23) {
+                Some(_) => Some(x(23)?).filter(|e| e.is_finite()),
+                None => None,
             },
             trace: None,
         },
@@ -253,6 +260,7 @@ mod tests {
             wall_time: 0.123456789,
             continued_from: Some(1.0 / 7.0),
             predicted: true,
+            level_error: Some(0.1 + 0.7),
             trace: None,
         };
         let line = format_record(Task::Point(42), &r);
@@ -268,14 +276,17 @@ mod tests {
         assert_eq!(back.status, r.status);
         assert_eq!(back.continued_from, r.continued_from);
         assert!(back.predicted);
+        assert_eq!(back.level_error.map(f64::to_bits), r.level_error.map(f64::to_bits));
         let integrated = RunResult {
             continued_from: None,
             predicted: false,
+            level_error: None,
             ..r.clone()
         };
         let (_, back) = parse_record(&format_record(Task::Ref(1), &integrated)).unwrap();
         assert_eq!(back.continued_from, None);
         assert!(!back.predicted);
+        assert_eq!(back.level_error, None);
         // A line cut short of its fields is rejected (a torn number is caught by `read`).
         assert!(parse_record("pt 1 0 1.0").is_none());
     }
@@ -297,6 +308,7 @@ mod tests {
         let mut f = OpenOptions::new().append(true).open(&p).unwrap();
         let continued = RunResult {
             continued_from: Some(0.123456),
+            level_error: Some(0.123456),
             ..r.clone()
         };
         let full = format_record(Task::Point(4), &continued);
