@@ -199,32 +199,35 @@ pub fn bench_cmd(a: &BenchArgs) -> Result<(), AppError> {
     for f in crate::bench::plot(&a.out.with_extension(""), &cases, &rows)? {
         println!("wrote {}", f.display());
     }
-    // The fastest setting of each method that meets the accuracy target, per case.
+    // The fastest tolerance of each setting that meets the accuracy target, per case.
     for c in &cases {
         for m in &o.methods {
-            let best = rows
-                .iter()
-                .filter(|r| {
-                    r.case == c.name
-                        && r.method == *m
-                        && r.err_r <= 0.01
-                        && r.err_mean <= 0.005
-                        && r.status == crate::ode::Status::Success
-                })
-                .min_by(|x, y| x.time.total_cmp(&y.time));
-            match best {
-                Some(r) => println!(
-                    "{:13} {:7} fastest within |dr| <= 0.01, |dmean| <= 0.5 %: tol {:.0e}, {:.2} ms",
-                    c.name,
-                    m.name(),
-                    r.tol,
-                    r.time * 1e3
-                ),
-                None => println!(
-                    "{:13} {:7} no tolerance of the ladder meets the accuracy target",
-                    c.name,
-                    m.name()
-                ),
+            for env in &o.envelopes {
+                let name = crate::bench::setting_name(*m, *env);
+                let best = rows
+                    .iter()
+                    .filter(|r| {
+                        r.case == c.name
+                            && r.method == *m
+                            && r.envelope == *env
+                            && r.err_r <= 0.01
+                            && r.err_mean <= 0.005
+                            && r.status == crate::ode::Status::Success
+                    })
+                    .min_by(|x, y| x.time.total_cmp(&y.time));
+                match best {
+                    Some(r) => println!(
+                        "{:13} {:22} fastest within |dr| <= 0.01, |dmean| <= 0.5 %: tol {:.0e}, {:.2} ms",
+                        c.name,
+                        name,
+                        r.tol,
+                        r.time * 1e3
+                    ),
+                    None => println!(
+                        "{:13} {:22} no tolerance of the ladder meets the accuracy target",
+                        c.name, name
+                    ),
+                }
             }
         }
     }
@@ -235,21 +238,34 @@ pub fn bench_cmd(a: &BenchArgs) -> Result<(), AppError> {
 pub fn sweep_cmd(a: &SweepArgs) -> Result<(), AppError> {
     let (spec, opts) = a.resolve()?;
     let plan = sweep::Plan::new(&spec);
-    let tasks = plan.tasks().len();
-    eprintln!(
-        "sweep {}: {} points over {} ({} runs: {} without vibration as references), {} threads -> {}",
-        spec.name,
-        plan.points.len(),
-        spec.dims
-            .iter()
-            .map(|d| format!("{} x{}", d.name, d.len))
-            .collect::<Vec<_>>()
-            .join(", "),
-        tasks,
-        plan.refs.len(),
-        opts.threads.unwrap_or_else(rayon::current_num_threads),
-        opts.out.display()
-    );
+    let dims = spec
+        .dims
+        .iter()
+        .map(|d| format!("{} x{}", d.name, d.len))
+        .collect::<Vec<_>>()
+        .join(", ");
+    let threads = opts.threads.unwrap_or_else(rayon::current_num_threads);
+    match &spec.refine {
+        None => eprintln!(
+            "sweep {}: {} points over {dims} ({} runs: {} without vibration as references), {threads} threads -> {}",
+            spec.name,
+            plan.points.len(),
+            plan.tasks().len(),
+            plan.refs.len(),
+            opts.out.display()
+        ),
+        Some(rf) => eprintln!(
+            "sweep {}: refining {} = {} along {} on a dense grid of {} points over {dims}: {} coarse points, steps halved {} times where needed, {threads} threads -> {}",
+            spec.name,
+            rf.measure,
+            rf.level,
+            spec.axes[rf.along].name,
+            plan.points.len(),
+            sweep::refine::coarse_points(&spec).len(),
+            rf.levels,
+            opts.out.display()
+        ),
+    }
     let outcome = sweep::run(&spec, &opts)?;
     println!(
         "wrote {}: {} points, {} runs made, {} resumed, {} failed, {:.1} s",

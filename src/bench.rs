@@ -94,6 +94,9 @@ pub struct BenchOptions {
     pub tolerances: Vec<f64>,
     /// Tolerance of the reference runs (Radau5 without vibration, Dopri5 with).
     pub reference_tolerance: f64,
+    /// Envelope-following tolerances to try with each method (`None`: every period
+    /// integrated). Default `[None]`.
+    pub envelopes: Vec<Option<f64>>,
     /// Timed repetitions per point (median reported).
     pub repeats: usize,
 }
@@ -105,6 +108,7 @@ impl Default for BenchOptions {
             methods: Method::ALL.to_vec(),
             tolerances: vec![1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8],
             reference_tolerance: 1e-11,
+            envelopes: vec![None],
             repeats: 3,
         }
     }
@@ -117,6 +121,8 @@ pub struct BenchRow {
     pub case: String,
     /// Method.
     pub method: Method,
+    /// Envelope-following tolerance (`None`: every period integrated).
+    pub envelope: Option<f64>,
     /// Tolerance.
     pub tol: f64,
     /// Median wall time of the run \[s\].
@@ -141,6 +147,21 @@ pub struct BenchRow {
     pub stats: Stats,
 }
 
+impl BenchRow {
+    /// The method with its envelope tolerance, as `dopri5` or `auto+envelope1e-4`.
+    pub fn setting(&self) -> String {
+        setting_name(self.method, self.envelope)
+    }
+}
+
+/// A method with its envelope tolerance, as `dopri5` or `auto+envelope1e-4`.
+pub fn setting_name(method: Method, envelope: Option<f64>) -> String {
+    match envelope {
+        None => method.name().to_string(),
+        Some(e) => format!("{}+envelope{e:.0e}", method.name()),
+    }
+}
+
 /// Reference values of a case.
 #[derive(Clone, Debug)]
 pub struct Reference {
@@ -154,6 +175,7 @@ fn tight(method: Method, tol: f64) -> RunOptions {
     // No step cap: the slow corner at a tight tolerance takes about 10^8 steps.
     RunOptions {
         method,
+        envelope: None,
         ode: Options {
             rtol: tol,
             atol: tol,
@@ -207,10 +229,17 @@ pub fn run(
             d_f_ss: ss.measures.d_f,
             run,
         };
-        for &m in &o.methods {
+        for (m, envelope) in o
+            .methods
+            .iter()
+            .flat_map(|&m| o.envelopes.iter().map(move |&e| (m, e)))
+        {
             let mut solver = Solver::new(m);
             for &tol in &o.tolerances {
-                let opts = tight(m, tol);
+                let opts = RunOptions {
+                    envelope,
+                    ..tight(m, tol)
+                };
                 let mut times = vec![];
                 let mut last = None;
                 for _ in 0..o.repeats.max(1) {
@@ -228,6 +257,7 @@ pub fn run(
                 let row = BenchRow {
                     case: c.name.to_string(),
                     method: m,
+                    envelope,
                     tol,
                     time: times[times.len() / 2],
                     time_min: times[0],
@@ -241,9 +271,9 @@ pub fn run(
                     stats: r.stats,
                 };
                 progress(&format!(
-                    "{:13} {:7} tol {:7.0e}: {:9.2} ms  |dr| {:.1e}  |dmean| {:.1e}  {} steps",
+                    "{:13} {:16} tol {:7.0e}: {:9.2} ms  |dr| {:.1e}  |dmean| {:.1e}  {} steps",
                     row.case,
-                    m.name(),
+                    row.setting(),
                     tol,
                     row.time * 1e3,
                     row.err_r,
@@ -276,9 +306,18 @@ pub fn write_h5(
         let method: Vec<&str> = rows.iter().map(|r| r.method.name()).collect();
         f.write_vlen_strings("case", &case).map_err(&e)?;
         f.write_vlen_strings("method", &method).map_err(&e)?;
+        let setting: Vec<String> = rows.iter().map(BenchRow::setting).collect();
+        let setting: Vec<&str> = setting.iter().map(String::as_str).collect();
+        f.write_vlen_strings("setting", &setting).map_err(&e)?;
         let col = |g: fn(&BenchRow) -> f64| rows.iter().map(g).collect::<Vec<f64>>();
         for (name, unit, doc, v) in [
             ("tolerance", "1", "rtol = atol of the run", col(|r| r.tol)),
+            (
+                "envelope",
+                "1",
+                "envelope-following tolerance (NaN: every period integrated)",
+                col(|r| r.envelope.unwrap_or(f64::NAN)),
+            ),
             (
                 "time",
                 "s",
@@ -443,21 +482,33 @@ impl Figure for WorkPrecision<'_> {
                 .label_style(("sans-serif", 14))
                 .draw()
                 .map_err(e)?;
-            for (k, m) in Method::ALL.iter().enumerate() {
-                let colours = [BLUE, RED, RGBColor(30, 140, 30), RGBColor(200, 120, 0)];
+            let mut settings: Vec<String> = vec![];
+            for r in &self.rows {
+                if !settings.contains(&r.setting()) {
+                    settings.push(r.setting());
+                }
+            }
+            for (k, name) in settings.iter().enumerate() {
+                let colours = [
+                    BLUE,
+                    RED,
+                    RGBColor(30, 140, 30),
+                    RGBColor(200, 120, 0),
+                    RGBColor(120, 40, 160),
+                    RGBColor(0, 150, 160),
+                    RGBColor(120, 120, 120),
+                    BLACK,
+                ];
                 let col = colours[k % colours.len()];
                 let line: Vec<(f64, f64)> = self
                     .rows
                     .iter()
-                    .filter(|r| r.method == *m)
+                    .filter(|r| r.setting() == *name)
                     .map(|r| (r.time.max(1e-6), err(r).max(floor)))
                     .collect();
-                if line.is_empty() {
-                    continue;
-                }
                 c.draw_series(LineSeries::new(line.clone(), col.stroke_width(2)))
                     .map_err(e)?
-                    .label(m.name())
+                    .label(name.as_str())
                     .legend(move |(x, y)| {
                         PathElement::new([(x, y), (x + 20, y)], col.stroke_width(2))
                     });

@@ -247,6 +247,10 @@ pub struct BenchArgs {
     /// Tolerance of the reference runs (1e-13 to 1e-6). Default 1e-11.
     #[arg(long, default_value_t = 1e-11)]
     pub reference_tolerance: f64,
+    /// Envelope-following tolerances to try with each method (comma-separated, `none` for every
+    /// period integrated; 1e-8 to 0.1). Default: none.
+    #[arg(long, value_delimiter = ',')]
+    pub envelopes: Vec<String>,
     /// Timed repeats per point (median reported), 1 to 100.
     #[arg(long, default_value_t = 3)]
     pub repeats: usize,
@@ -293,6 +297,23 @@ impl BenchArgs {
             });
         }
         o.reference_tolerance = self.reference_tolerance;
+        if !self.envelopes.is_empty() {
+            o.envelopes = self
+                .envelopes
+                .iter()
+                .map(|e| match e.trim() {
+                    "none" => Ok(None),
+                    t => match t.parse::<f64>() {
+                        Ok(x) if (1e-8..=0.1).contains(&x) => Ok(Some(x)),
+                        _ => Err(CliError::Flag {
+                            flag: "envelopes".into(),
+                            value: e.clone(),
+                            msg: "each must be `none` or a tolerance from 1e-8 to 0.1".into(),
+                        }),
+                    },
+                })
+                .collect::<Result<_, _>>()?;
+        }
         if !(1..=100).contains(&self.repeats) {
             return Err(CliError::Flag {
                 flag: "repeats".into(),

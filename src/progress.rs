@@ -42,6 +42,14 @@ impl Progress {
     }
 
     /// Ends the bar.
+    /// Adds `n` runs to the total (a refinement's next level).
+    pub fn grow(&mut self, n: u64) {
+        if let Some(len) = self.bar.length() {
+            self.bar.set_length(len + n);
+        }
+    }
+
+    /// Clears the bar.
     pub fn finish(&self) {
         self.bar.finish_and_clear();
     }

@@ -1,6 +1,8 @@
 //! The elimination boundary of Fig. 11: for each frequency (and each value of the other
 //! dimensions), the smallest vibration amplitude `u0` at which `r < 0.05`, interpolated between
-//! grid points (linear in `r` against `log u0`).
+//! computed points (linear in `r` against `log u0`), and the amplitude above which every one
+//! eliminates (the two edges of a band where elimination comes and goes, near `v_a = v_d`).
+//! Points without a value (not run by a refinement) are skipped.
 
 use super::read::SweepData;
 use crate::output::{self, OutputError, h5err, ioerr};
@@ -26,6 +28,68 @@ pub struct BoundaryPoint {
     pub u0_rule: f64,
     /// Whether even the smallest amplitude of the grid eliminates (the boundary lies below it).
     pub below_range: bool,
+    /// The amplitude above which every computed amplitude eliminates \[m\]: the upper edge of
+    /// a band where elimination comes and goes (equal to `u0` where r crosses 0.05 once; NaN
+    /// where the largest amplitude does not eliminate).
+    pub u0_upper: f64,
+    /// How often r crosses 0.05 along the line (more than one: intermittent elimination).
+    pub crossings: usize,
+    /// Relative spacing of the two computed amplitudes around `u0` (the resolution reached).
+    pub resolution: f64,
+}
+
+/// The edges of elimination along one line of computed points.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Edges {
+    /// Smallest amplitude with `r < 0.05`, interpolated (NaN: none).
+    pub lower: f64,
+    /// Amplitude above which every computed one has `r < 0.05` (NaN: the largest does not).
+    pub upper: f64,
+    /// Whether the smallest amplitude already eliminates.
+    pub below: bool,
+    /// Crossings of `r = 0.05`.
+    pub crossings: usize,
+    /// Relative spacing of the computed amplitudes around `lower`.
+    pub resolution: f64,
+}
+
+/// The edges along a line of computed amplitudes `u` (ascending, > 0) with values `r`
+/// (finite): crossings are interpolated linearly in `r` against `log u`.
+pub fn edges(u: &[f64], r: &[f64]) -> Edges {
+    let cross = |n: usize| {
+        let (r0, r1) = (r[n - 1], r[n]);
+        let (l0, l1) = (u[n - 1].ln(), u[n].ln());
+        let w = if r0 != r1 {
+            ((r0 - ELIMINATED) / (r0 - r1)).clamp(0.0, 1.0)
+        } else {
+            1.0
+        };
+        (l0 + w * (l1 - l0)).exp()
+    };
+    let len = u.len();
+    let eliminated = |n: usize| r[n] < ELIMINATED;
+    let first = (0..len).find(|&n| eliminated(n));
+    let last_not = (0..len).rev().find(|&n| !eliminated(n));
+    let (lower, below, resolution) = match first {
+        None => (f64::NAN, false, f64::NAN),
+        Some(0) => (u[0], true, f64::NAN),
+        Some(n) => (cross(n), false, u[n] / u[n - 1] - 1.0),
+    };
+    let upper = match (first, last_not) {
+        (None, _) => f64::NAN,
+        (Some(_), None) => lower,
+        (Some(_), Some(m)) if m + 1 == len => f64::NAN,
+        (Some(_), Some(m)) => cross(m + 1),
+    };
+    Edges {
+        lower,
+        upper,
+        below,
+        crossings: (1..len)
+            .filter(|&n| eliminated(n) != eliminated(n - 1))
+            .count(),
+        resolution,
+    }
 }
 
 /// Computes the boundary along the amplitude dimension (`u0`, `v_a` or `va_ratio`).
@@ -56,30 +120,19 @@ pub fn compute(d: &SweepData) -> Result<Vec<BoundaryPoint>, String> {
             ix[amp] = j;
             ix
         };
-        // Amplitudes ascending along the axis (the sweep's order may be descending).
-        let mut order: Vec<usize> = (0..shape[amp]).collect();
+        // Amplitudes ascending along the axis (the sweep's order may be descending); points
+        // without a value (not run by a refinement, or failed) are left out.
+        let mut order: Vec<usize> = (0..shape[amp])
+            .filter(|&j| d.r[at(j).as_slice()].is_finite())
+            .collect();
         order.sort_by(|&a, &b| d.u0[at(a).as_slice()].total_cmp(&d.u0[at(b).as_slice()]));
-        let mut u0_b = f64::NAN;
-        let mut below = false;
-        for (n, &j) in order.iter().enumerate() {
-            let r = d.r[at(j).as_slice()];
-            if r < ELIMINATED {
-                if n == 0 {
-                    below = true;
-                    u0_b = d.u0[at(j).as_slice()];
-                } else {
-                    let jp = order[n - 1];
-                    let (r0, r1) = (d.r[at(jp).as_slice()], r);
-                    let (l0, l1) = (d.u0[at(jp).as_slice()].ln(), d.u0[at(j).as_slice()].ln());
-                    let w = if r0.is_finite() && r0 > r1 {
-                        (r0 - ELIMINATED) / (r0 - r1)
-                    } else {
-                        1.0
-                    };
-                    u0_b = (l0 + w * (l1 - l0)).exp();
-                }
-                break;
-            }
+        let us: Vec<f64> = order.iter().map(|&j| d.u0[at(j).as_slice()]).collect();
+        let rs: Vec<f64> = order.iter().map(|&j| d.r[at(j).as_slice()]).collect();
+        let e = edges(&us, &rs);
+        let (u0_b, below, resolution, u0_upper, crossings) =
+            (e.lower, e.below, e.resolution, e.upper, e.crossings);
+        if order.is_empty() {
+            order.push(0);
         }
         let ix0 = at(order[0]);
         let u0_0 = d.u0[ix0.as_slice()];
@@ -102,6 +155,9 @@ pub fn compute(d: &SweepData) -> Result<Vec<BoundaryPoint>, String> {
             va_ratio: omega * u0_b / v_d,
             u0_rule: v_d / omega,
             below_range: below,
+            u0_upper,
+            crossings,
+            resolution,
         });
     }
     Ok(out)
@@ -129,6 +185,9 @@ pub fn write(d: &SweepData, pts: &[BoundaryPoint]) -> Result<PathBuf, OutputErro
                 "va_ratio_boundary",
                 "u0_rule_of_thumb [m]",
                 "below_grid",
+                "u0_upper [m]",
+                "crossings",
+                "resolution",
             ]
             .map(String::from),
         );
@@ -141,6 +200,9 @@ pub fn write(d: &SweepData, pts: &[BoundaryPoint]) -> Result<PathBuf, OutputErro
                 format!("{}", p.va_ratio),
                 format!("{:e}", p.u0_rule),
                 (p.below_range as u8).to_string(),
+                format!("{:e}", p.u0_upper),
+                p.crossings.to_string(),
+                format!("{:e}", p.resolution),
             ]);
             writeln!(w, "{}", row.join(",")).map_err(&e)?;
         }
@@ -206,6 +268,30 @@ pub fn write(d: &SweepData, pts: &[BoundaryPoint]) -> Result<PathBuf, OutputErro
             &col(|p| p.below_range as u8 as f64),
             "1",
             "1 where the smallest amplitude of the grid already eliminates",
+            path,
+        )?;
+        output::write_vec(
+            &g,
+            "u0_upper",
+            &col(|p| p.u0_upper),
+            "m",
+            "u0 above which every computed u0 has r < 0.05 (upper edge of an intermittent band)",
+            path,
+        )?;
+        output::write_vec(
+            &g,
+            "crossings",
+            &col(|p| p.crossings as f64),
+            "1",
+            "number of crossings of r = 0.05 along the amplitude axis",
+            path,
+        )?;
+        output::write_vec(
+            &g,
+            "resolution",
+            &col(|p| p.resolution),
+            "1",
+            "relative spacing of the computed amplitudes around the boundary",
             path,
         )?;
         g.set_attr_numeric("threshold", &ELIMINATED).map_err(&e)?;

@@ -145,6 +145,69 @@ pub struct Map {
     pub v_d: f64,
 }
 
+impl Map {
+    /// Whether only some points of the grid were run (a `[refine]` sweep): then the cells show
+    /// the nearest computed value along u0, and the boundary is drawn from each frequency's
+    /// edges instead of a contour through the grid.
+    fn refined(&self) -> bool {
+        self.r.iter().any(|col| {
+            let first = col.iter().position(|v| v.is_finite());
+            let last = col.iter().rposition(|v| v.is_finite());
+            matches!((first, last), (Some(a), Some(b)) if col[a..b].iter().any(|v| v.is_nan()))
+        })
+    }
+
+    /// Column `i` with every gap filled by the nearest computed value along u0 (in index).
+    fn filled(&self, i: usize) -> Vec<f64> {
+        let col = &self.r[i];
+        let known: Vec<usize> = (0..col.len()).filter(|&j| col[j].is_finite()).collect();
+        (0..col.len())
+            .map(|j| {
+                let k = known.partition_point(|&x| x < j);
+                let near = [k.checked_sub(1), (k < known.len()).then_some(k)]
+                    .into_iter()
+                    .flatten()
+                    .map(|n| known[n])
+                    .min_by_key(|&x| x.abs_diff(j));
+                near.map(|x| col[x]).unwrap_or(f64::NAN)
+            })
+            .collect()
+    }
+
+    /// The lower and upper edges of elimination per frequency, as two polylines (broken where
+    /// a frequency has none).
+    fn edge_lines(&self) -> Vec<Vec<(f64, f64)>> {
+        let mut lower: Vec<Vec<(f64, f64)>> = vec![vec![]];
+        let mut upper: Vec<Vec<(f64, f64)>> = vec![vec![]];
+        let mut order: Vec<usize> = (0..self.f.len()).collect();
+        order.sort_by(|&a, &b| self.f[a].total_cmp(&self.f[b]));
+        for i in order {
+            let mut pts: Vec<(f64, f64)> = self
+                .u0
+                .iter()
+                .zip(&self.r[i])
+                .filter(|(u, r)| r.is_finite() && **u > 0.0)
+                .map(|(u, r)| (*u, *r))
+                .collect();
+            pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+            let (u, r): (Vec<f64>, Vec<f64>) = pts.into_iter().unzip();
+            let e = super::boundary::edges(&u, &r);
+            for (line, v) in [(&mut lower, e.lower), (&mut upper, e.upper)] {
+                if v.is_finite() {
+                    line.last_mut().expect("never empty").push((self.f[i], v));
+                } else if !line.last().expect("never empty").is_empty() {
+                    line.push(vec![]);
+                }
+            }
+        }
+        lower
+            .into_iter()
+            .chain(upper)
+            .filter(|l| l.len() > 1)
+            .collect()
+    }
+}
+
 /// Colour for r in [0, 1.2]: dark blue (eliminated) through yellow to red (no reduction).
 fn colour(r: f64) -> RGBColor {
     if !r.is_finite() {
@@ -254,21 +317,34 @@ impl Figure for Map {
             .label_style(("sans-serif", 16))
             .draw()
             .map_err(e)?;
+        let refined = self.refined();
         let mut cells = vec![];
         for i in 0..self.f.len() {
+            let col = if refined {
+                self.filled(i)
+            } else {
+                self.r[i].clone()
+            };
             for j in 0..self.u0.len() {
                 let (a, b) = (fe[i].min(fe[i + 1]), fe[i].max(fe[i + 1]));
                 let (p, q) = (ue[j].min(ue[j + 1]), ue[j].max(ue[j + 1]));
                 cells.push(Rectangle::new(
                     [(a, p), (b, q)],
-                    colour(self.r[i][j]).filled(),
+                    colour(col[j]).filled(),
                 ));
             }
         }
         c.draw_series(cells).map_err(e)?;
-        let segs = contour(&self.f, &self.u0, &self.r, ELIMINATED);
+        let segs: Vec<Vec<(f64, f64)>> = if refined {
+            self.edge_lines()
+        } else {
+            contour(&self.f, &self.u0, &self.r, ELIMINATED)
+                .iter()
+                .map(|s| s.to_vec())
+                .collect()
+        };
         let white = WHITE.stroke_width(3);
-        c.draw_series(segs.iter().map(|s| PathElement::new(s.to_vec(), white)))
+        c.draw_series(segs.into_iter().map(|s| PathElement::new(s, white)))
             .map_err(e)?
             .label("r = 0.05 (elimination boundary)")
             .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], WHITE.stroke_width(3)));

@@ -131,6 +131,12 @@ fn grids(spec: &SweepSpec, plan: &Plan, res: &Results) -> Vec<Grid> {
             "vibration velocity amplitude v_a = 2 pi f u0 of the point",
             vec![],
         ),
+        (
+            "computed",
+            "1",
+            "1 where the point was run (a [refine] sweep runs only the points near the level; the others hold NaN)",
+            vec![],
+        ),
     ];
     for c in cols.iter_mut() {
         c.3.reserve(n);
@@ -177,6 +183,7 @@ fn grids(spec: &SweepSpec, plan: &Plan, res: &Results) -> Vec<Grid> {
             own.map(|r| r.t_end).unwrap_or(f64::NAN),
             p.u0,
             p.v_a(),
+            f64::from(u8::from(own.is_some())),
         ];
         for (c, v) in cols.iter_mut().zip(vals) {
             c.3.push(v);
@@ -298,6 +305,21 @@ pub fn write(
             .map_err(&e)?;
         file.set_attr_numeric("reference_runs", &(plan.refs.len() as i64))
             .map_err(&e)?;
+        if let Some(rf) = &spec.refine {
+            file.set_attr_string("refine_measure", &rf.measure)
+                .map_err(&e)?;
+            file.set_attr_string("refine_along", &spec.axes[rf.along].name)
+                .map_err(&e)?;
+            file.set_attr_numeric("refine_level", &rf.level).map_err(&e)?;
+            file.set_attr_numeric("refine_resolution", &rf.resolution)
+                .map_err(&e)?;
+            file.set_attr_numeric("refine_tolerance", &rf.tolerance)
+                .map_err(&e)?;
+            file.set_attr_numeric("refine_levels", &(rf.levels as i64))
+                .map_err(&e)?;
+            file.set_attr_numeric("refine_coarse", &(rf.coarse as i64))
+                .map_err(&e)?;
+        }
         for p in PARAMS {
             file.set_attr_numeric(&format!("fixed_{}", p.name), &p.get(&spec.fixed))
                 .map_err(&e)?;

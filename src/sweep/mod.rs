@@ -13,6 +13,7 @@ pub mod figures;
 pub mod h5;
 pub mod journal;
 pub mod read;
+pub mod refine;
 pub mod spec;
 
 use crate::model::{Params, params::PARAMS};
@@ -127,6 +128,37 @@ impl Results {
         }
     }
 
+    /// The value of measure `name` (one of [`spec::MEASURES`]) at grid point `i`: NaN where
+    /// the point, or for `r` its reference, has no measures.
+    pub fn measure(&self, plan: &Plan, i: usize, name: &str) -> f64 {
+        let (own, rf) = self.point(plan, i);
+        fn ok(r: Option<&RunResult>) -> Option<&RunResult> {
+            r.filter(|r| r.status.has_measures())
+        }
+        let Some(own) = ok(own) else {
+            return f64::NAN;
+        };
+        let m = &own.measures;
+        let r = || match ok(rf) {
+            Some(b) if plan.points[i].vibrates() => sim::reduction(m, &b.measures),
+            Some(_) => (1.0, 0.0),
+            None => (f64::NAN, f64::NAN),
+        };
+        match name {
+            "r" => r().0,
+            "r_stderr" => r().1,
+            "dF" => m.d_f,
+            "dF_stderr" => m.d_f_stderr,
+            "mean_force" => m.mean_force,
+            "stick_fraction" => m.stick_fraction,
+            "period" => m.period,
+            "peak_force" => m.peak_force,
+            "trough_force" => m.trough_force,
+            "cycles" => m.cycles as f64,
+            _ => f64::NAN,
+        }
+    }
+
     /// The run that stands for grid point `i` (its own, or its reference when it has no
     /// vibration) and its reference.
     pub fn point(&self, plan: &Plan, i: usize) -> (Option<&RunResult>, Option<&RunResult>) {
@@ -194,6 +226,92 @@ fn run_task(plan: &Plan, t: Task, opts: &RunOptions, solver: &mut Solver) -> Run
         .expect("parameters and options were validated")
 }
 
+/// The tasks of grid points `points` (flat indices): their references first, then the points
+/// with vibration, without repeats.
+fn tasks_of(plan: &Plan, points: &[usize]) -> Vec<Task> {
+    let mut refs: Vec<usize> = points.iter().map(|&i| plan.point_ref[i]).collect();
+    refs.sort_unstable();
+    refs.dedup();
+    let mut t: Vec<Task> = refs.into_iter().map(Task::Ref).collect();
+    t.extend(
+        points
+            .iter()
+            .copied()
+            .filter(|&i| plan.points[i].vibrates())
+            .map(Task::Point),
+    );
+    t
+}
+
+/// Runs rounds of tasks in parallel: each finished run goes to the journal at once, and the
+/// HDF5 file is checkpointed every `checkpoint_every` seconds.
+struct Executor<'a> {
+    spec: &'a SweepSpec,
+    plan: &'a Plan,
+    opts: &'a SweepOptions,
+    run_opts: &'a RunOptions,
+    pool: &'a rayon::ThreadPool,
+    journal: &'a mut Journal,
+    started: &'a str,
+    last_checkpoint: Instant,
+    /// Runs made so far.
+    made: usize,
+}
+
+impl Executor<'_> {
+    /// Runs `todo` (references before the points that need them: the runs are independent, so
+    /// any order gives the same numbers).
+    fn round(
+        &mut self,
+        todo: &[Task],
+        results: &mut Results,
+        progress: &mut Progress,
+    ) -> Result<(), SweepError> {
+        let method = self.run_opts.method;
+        let mut io_error: Option<String> = None;
+        let (plan, run_opts, pool) = (self.plan, self.run_opts, self.pool);
+        std::thread::scope(|sc| {
+            let (tx, rx) = std::sync::mpsc::channel::<(Task, RunResult)>();
+            sc.spawn(move || {
+                pool.install(|| {
+                    todo.par_iter().for_each_init(
+                        || (tx.clone(), Solver::new(method)),
+                        |(tx, solver), &t| {
+                            let r = run_task(plan, t, run_opts, solver);
+                            // The receiver lives until every sender is gone.
+                            let _ = tx.send((t, r));
+                        },
+                    )
+                });
+                drop(tx);
+            });
+            for (t, r) in rx {
+                if let Err(e) = self.journal.record(t, &r) {
+                    io_error.get_or_insert(format!("{}: {e}", self.journal.path().display()));
+                }
+                progress.inc(r.status != Status::Success);
+                results.store(t, r);
+                self.made += 1;
+                if self.last_checkpoint.elapsed()
+                    > Duration::from_secs_f64(self.opts.checkpoint_every)
+                {
+                    let _ = self.journal.sync();
+                    if let Err(e) =
+                        h5::write(&self.opts.out, self.spec, plan, results, &[], self.started, None)
+                    {
+                        io_error.get_or_insert(e.to_string());
+                    }
+                    self.last_checkpoint = Instant::now();
+                }
+            }
+        });
+        match io_error {
+            Some(e) => Err(SweepError::State(e)),
+            None => Ok(()),
+        }
+    }
+}
+
 /// Runs a whole sweep to `opts.out` (see the module docs).
 pub fn run(spec: &SweepSpec, opts: &SweepOptions) -> Result<SweepOutcome, SweepError> {
     let start = Instant::now();
@@ -235,64 +353,54 @@ pub fn run(spec: &SweepSpec, opts: &SweepOptions) -> Result<SweepOutcome, SweepE
             .map_err(|e| SweepError::State(format!("{}: {e}", jpath.display())))?
     };
 
-    let all = plan.tasks();
-    let todo: Vec<Task> = all.iter().copied().filter(|t| !results.has(*t)).collect();
-    let mut progress = Progress::new(
-        all.len() as u64,
-        (all.len() - todo.len()) as u64,
-        opts.progress,
-    );
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(opts.threads.unwrap_or(0))
-        .build()
-        .map_err(|e| SweepError::State(e.to_string()))?;
     let run_opts = RunOptions {
         trace: false,
         ..spec.run.clone()
     };
-    let method = spec.run.method;
-    let mut last_checkpoint = Instant::now();
-    let mut io_error: Option<String> = None;
-    std::thread::scope(|sc| {
-        let (tx, rx) = std::sync::mpsc::channel::<(Task, RunResult)>();
-        let plan_ref = &plan;
-        let todo_ref = &todo;
-        let run_opts = &run_opts;
-        sc.spawn(move || {
-            pool.install(|| {
-                todo_ref.par_iter().for_each_init(
-                    || (tx.clone(), Solver::new(method)),
-                    |(tx, solver), &t| {
-                        let r = run_task(plan_ref, t, run_opts, solver);
-                        // The receiver lives until every sender is gone.
-                        let _ = tx.send((t, r));
-                    },
-                )
-            });
-            drop(tx);
-        });
-        for (t, r) in rx {
-            if let Err(e) = journal.record(t, &r) {
-                io_error.get_or_insert(format!("{}: {e}", journal.path().display()));
-            }
-            progress.inc(r.status != Status::Success);
-            results.store(t, r);
-            if last_checkpoint.elapsed() > Duration::from_secs_f64(opts.checkpoint_every) {
-                let _ = journal.sync();
-                if let Err(e) = h5::write(&opts.out, spec, &plan, &results, &[], &started, None) {
-                    io_error.get_or_insert(e.to_string());
-                }
-                last_checkpoint = Instant::now();
-            }
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(opts.threads.unwrap_or(0))
+        .build()
+        .map_err(|e| SweepError::State(e.to_string()))?;
+    let mut exec = Executor {
+        spec,
+        plan: &plan,
+        opts,
+        run_opts: &run_opts,
+        pool: &pool,
+        journal: &mut journal,
+        started: &started,
+        last_checkpoint: Instant::now(),
+        made: 0,
+    };
+    // The tasks of the first round: the whole grid, or the coarse grid of a refinement.
+    let first: Vec<Task> = match &spec.refine {
+        None => plan.tasks(),
+        Some(_) => tasks_of(&plan, &refine::coarse_points(spec)),
+    };
+    let todo: Vec<Task> = first.iter().copied().filter(|t| !results.has(*t)).collect();
+    let mut progress = Progress::new(
+        first.len() as u64,
+        (first.len() - todo.len()) as u64,
+        opts.progress,
+    );
+    exec.round(&todo, &mut results, &mut progress)?;
+    if let Some(rf) = &spec.refine {
+        for s in refine::widths(rf) {
+            let asked = refine::midpoints(spec, &plan, &results, s);
+            let round: Vec<Task> = tasks_of(&plan, &asked)
+                .into_iter()
+                .filter(|t| !results.has(*t))
+                .collect();
+            progress.grow(round.len() as u64);
+            exec.round(&round, &mut results, &mut progress)?;
         }
-    });
-    progress.finish();
-    if let Some(e) = io_error {
-        return Err(SweepError::State(e));
     }
+    progress.finish();
+    let runs_made = exec.made;
     let _ = journal.sync();
 
     // Points that keep traces are run once more with tracing on (deterministic: same numbers).
+    let method = spec.run.method;
     let traced: Vec<(usize, Trace)> = spec
         .trace_points()
         .into_par_iter()
@@ -324,14 +432,20 @@ pub fn run(spec: &SweepSpec, opts: &SweepOptions) -> Result<SweepOutcome, SweepE
     let _ = std::fs::remove_file(&jpath);
     let failed = (0..plan.points.len())
         .filter(|&i| {
+            // A refinement leaves the points far from the level out on purpose.
             let (own, rf) = results.point(&plan, i);
-            own.map(|r| r.status != Status::Success).unwrap_or(true)
-                || rf.map(|r| r.status != Status::Success).unwrap_or(true)
+            match own {
+                None => spec.refine.is_none(),
+                Some(a) => {
+                    a.status != Status::Success
+                        || rf.map(|r| r.status != Status::Success).unwrap_or(true)
+                }
+            }
         })
         .count();
     Ok(SweepOutcome {
         points: plan.points.len(),
-        runs_made: todo.len(),
+        runs_made,
         runs_resumed: resumed,
         failed,
         wall_time: start.elapsed().as_secs_f64(),

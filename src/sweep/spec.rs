@@ -66,7 +66,61 @@ pub struct Axis {
     pub values: Vec<f64>,
     /// Another axis it is zipped with (varies together along one dimension).
     pub zip: Option<String>,
+    /// `[start, stop, count]` and whether logarithmic, for a `linspace` or `logspace` axis.
+    pub range: Option<(f64, f64, usize, bool)>,
 }
+
+/// Adaptive refinement of a level set of one measure (`[refine]`), such as the elimination
+/// boundary `r = 0.05` of Fig. 11.
+///
+/// ```toml
+/// [refine]
+/// measure = "r"          # default "r"; any kept measure
+/// level = 0.05           # default 0.05 (elimination, MODEL.md)
+/// along = "u0"           # the axis refined: a linspace or logspace axis, not zipped
+/// across = "f"           # the dimension whose values stay as given (the plane's other side)
+/// resolution = 0.01      # finest step along `along`: relative on a logspace axis (0.01: 1 %),
+///                        # in the axis unit on a linspace axis
+/// tolerance = 0.03       # default 0: also refine cells with a value this close to the level
+/// ```
+///
+/// The `along` axis of the file is the coarse grid. Its steps are halved `levels` times, the
+/// fewest that reach `resolution`, giving a dense axis of `(n − 1) 2^levels + 1` values (each
+/// computed by index); only the points the refinement asks for are run. See
+/// [`crate::sweep::refine`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct Refine {
+    /// Measure whose level set is refined (a name of [`MEASURES`]).
+    pub measure: String,
+    /// The level.
+    pub level: f64,
+    /// Index into [`SweepSpec::axes`] of the refined axis.
+    pub along: usize,
+    /// Index into [`SweepSpec::dims`] of the dimension across the plane (`None`: the sweep has
+    /// no other dimension, and the refinement is along one line).
+    pub across: Option<usize>,
+    /// Requested finest step (relative on a logarithmic axis).
+    pub resolution: f64,
+    /// Cells with a corner within this distance of the level are refined too (default 0: only
+    /// cells that straddle it).
+    pub tolerance: f64,
+    /// Times the coarse steps are halved.
+    pub levels: u32,
+    /// Values of the coarse axis.
+    pub coarse: usize,
+}
+
+impl Refine {
+    /// Dense indices between two coarse values: `2^levels`.
+    pub fn stride(&self) -> usize {
+        1 << self.levels
+    }
+}
+
+/// Most halvings of the coarse steps a refinement may ask for.
+pub const MAX_REFINE_LEVELS: u32 = 16;
+/// Most points of the dense grid of a refinement (the plan holds the parameters of each).
+pub const MAX_DENSE_POINTS: usize = 4_000_000;
 
 /// A dimension of the result arrays: one axis, or several zipped axes of equal length.
 #[derive(Clone, Debug, PartialEq)]
@@ -110,6 +164,8 @@ pub struct SweepSpec {
     pub max_runs: usize,
     /// Model extensions for every run (`[effects.NAME]` tables).
     pub effects: crate::model::Effects,
+    /// Adaptive refinement (`[refine]`); the `along` axis then holds the dense values.
+    pub refine: Option<Refine>,
 }
 
 /// The SI unit of an axis name (a parameter, `v_a` or `va_ratio`).
@@ -187,7 +243,9 @@ impl SweepSpec {
             traces: vec![],
             max_runs: DEFAULT_MAX_RUNS,
             effects: crate::model::Effects::none(),
+            refine: None,
         };
+        let mut refine: Option<&toml::Table> = None;
         let mut axis_tables: Vec<&toml::Table> = vec![];
         let mut output: Option<&toml::Table> = None;
         for (k, v) in &doc.table {
@@ -255,11 +313,12 @@ impl SweepSpec {
                 }
                 ("run", toml::Value::Table(t)) => config::apply_run(doc, t, &mut spec.run)?,
                 ("output", toml::Value::Table(t)) => output = Some(t),
+                ("refine", toml::Value::Table(t)) => refine = Some(t),
                 _ => {
                     return Err(doc.err(
                         "",
                         k,
-                        "unknown key; allowed: name, description, max_runs, [fixed], [[axis]], [solver], [run], [output], [effects.NAME]",
+                        "unknown key; allowed: name, description, max_runs, [fixed], [[axis]], [solver], [run], [output], [refine], [effects.NAME]",
                     ));
                 }
             }
@@ -279,6 +338,10 @@ impl SweepSpec {
         if total > spec.max_runs {
             return Err(doc.err("", "max_runs", format!("the grid has {total} points, over the cap max_runs = {}; raise max_runs or shrink the axes", spec.max_runs)));
         }
+        if let Some(t) = refine {
+            spec.parse_refine(doc, t)?;
+        }
+        let total: usize = spec.dims.iter().map(|d| d.len).product();
         // Every point must be a valid case: check them all before anything runs.
         for i in 0..total {
             if let Err(msg) = spec.point_params(i) {
@@ -291,6 +354,176 @@ impl SweepSpec {
             }
         }
         Ok(spec)
+    }
+
+    /// Reads `[refine]` and makes its axis dense (see [`Refine`]).
+    fn parse_refine(&mut self, doc: &Doc, t: &toml::Table) -> Result<(), ConfigError> {
+        let sec = "refine";
+        let mut measure = "r".to_string();
+        let mut level = 0.05;
+        let mut along: Option<String> = None;
+        let mut across: Option<String> = None;
+        let mut resolution: Option<f64> = None;
+        let mut tolerance = 0.0;
+        for (k, v) in t {
+            match k.as_str() {
+                "measure" => {
+                    let m = v
+                        .as_str()
+                        .ok_or_else(|| doc.err(sec, k, "expected the name of a measure"))?;
+                    if !MEASURES.contains(&m) || m == "cycles" {
+                        return Err(doc.err(
+                            sec,
+                            k,
+                            format!(
+                                "unknown measure `{m}`; allowed: {}",
+                                MEASURES[..MEASURES.len() - 1].join(", ")
+                            ),
+                        ));
+                    }
+                    measure = m.to_string();
+                }
+                "level" => {
+                    level = doc.number(sec, k, v)?;
+                    if !level.is_finite() {
+                        return Err(doc.err(sec, k, format!("level = {level}: must be finite")));
+                    }
+                }
+                "along" | "across" => {
+                    let name = v
+                        .as_str()
+                        .ok_or_else(|| doc.err(sec, k, "expected the name of an axis"))?;
+                    if k == "along" {
+                        along = Some(name.to_string());
+                    } else {
+                        across = Some(name.to_string());
+                    }
+                }
+                "resolution" => {
+                    let r = doc.number(sec, k, v)?;
+                    if !(r.is_finite() && r > 0.0) {
+                        return Err(doc.err(
+                            sec,
+                            k,
+                            format!("resolution = {r} is not allowed: must be finite and > 0"),
+                        ));
+                    }
+                    resolution = Some(r);
+                }
+                "tolerance" => {
+                    tolerance = doc.number(sec, k, v)?;
+                    if !(tolerance.is_finite() && tolerance >= 0.0) {
+                        return Err(doc.err(
+                            sec,
+                            k,
+                            format!("tolerance = {tolerance} is not allowed: must be finite and >= 0"),
+                        ));
+                    }
+                }
+                _ => {
+                    return Err(doc.err(
+                        sec,
+                        k,
+                        "unknown key; allowed: measure, level, along, across, resolution, tolerance",
+                    ));
+                }
+            }
+        }
+        let along = along.ok_or_else(|| doc.err(sec, "along", "[refine] needs along = \"<axis>\", the axis to refine"))?;
+        let resolution = resolution.ok_or_else(|| {
+            doc.err(
+                sec,
+                "resolution",
+                "[refine] needs resolution = <finest step> (relative on a logspace axis)",
+            )
+        })?;
+        let names = || {
+            self.dims
+                .iter()
+                .map(|d| d.name.as_str())
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        let a = self
+            .axes
+            .iter()
+            .position(|x| x.name == along)
+            .ok_or_else(|| doc.err(sec, "along", format!("`{along}` is not an axis of this sweep; axes: {}", names())))?;
+        let d_along = self
+            .dims
+            .iter()
+            .position(|d| d.axes.contains(&a))
+            .expect("every axis has a dimension");
+        if self.dims[d_along].axes.len() > 1 {
+            return Err(doc.err(sec, "along", format!("axis `{along}` is zipped with another; a refined axis must vary alone")));
+        }
+        let Some((start, stop, n, log)) = self.axes[a].range else {
+            return Err(doc.err(sec, "along", format!("axis `{along}` is given by values; a refined axis must be a linspace or logspace")));
+        };
+        if n < 2 {
+            return Err(doc.err(sec, "along", format!("axis `{along}` has {n} value; refinement needs at least 2")));
+        }
+        let across = match across {
+            Some(name) => {
+                let d = self.dims.iter().position(|d| d.name == name).ok_or_else(|| {
+                    doc.err(sec, "across", format!("`{name}` is not a dimension of this sweep; dimensions: {}", names()))
+                })?;
+                if d == d_along {
+                    return Err(doc.err(sec, "across", format!("across = `{name}` is the refined axis; give another dimension")));
+                }
+                Some(d)
+            }
+            None if self.dims.len() == 1 => None,
+            None => {
+                return Err(doc.err(sec, "across", format!("[refine] needs across = \"<dimension>\", the plane's other side; dimensions: {}", names())));
+            }
+        };
+        // The coarse step against the resolution, in the axis's own spacing.
+        let (step, fine) = if log {
+            ((stop / start).ln().abs() / (n - 1) as f64, resolution.ln_1p())
+        } else {
+            ((stop - start).abs() / (n - 1) as f64, resolution)
+        };
+        let levels = (step / fine).log2().ceil().max(0.0);
+        if levels > MAX_REFINE_LEVELS as f64 {
+            return Err(doc.err(sec, "resolution", format!("resolution = {resolution} needs {levels} halvings of the coarse step; at most {MAX_REFINE_LEVELS} are allowed: coarsen the resolution or add values to the axis")));
+        }
+        let levels = levels as u32;
+        let dense = (n - 1) * (1 << levels) + 1;
+        let others: usize = self
+            .dims
+            .iter()
+            .enumerate()
+            .filter(|(k, _)| *k != d_along)
+            .map(|(_, d)| d.len)
+            .product();
+        let total = others.saturating_mul(dense);
+        if total > MAX_DENSE_POINTS {
+            return Err(doc.err(sec, "resolution", format!("the dense grid would have {total} points ({others} lines of {dense}), over the cap of {MAX_DENSE_POINTS}; coarsen the resolution or shrink the other axes")));
+        }
+        self.axes[a].values = if log {
+            logspace(start, stop, dense)
+        } else {
+            linspace(start, stop, dense)
+        };
+        self.dims[d_along].len = dense;
+        self.refine = Some(Refine {
+            measure,
+            level,
+            along: a,
+            across,
+            resolution,
+            tolerance,
+            levels,
+            coarse: n,
+        });
+        Ok(())
+    }
+
+    /// Index of the dimension of the refined axis.
+    pub fn along_dim(&self) -> Option<usize> {
+        let rf = self.refine.as_ref()?;
+        self.dims.iter().position(|d| d.axes.contains(&rf.along))
     }
 
     fn check_axes(&self, doc: &Doc) -> Result<(), ConfigError> {
@@ -562,6 +795,7 @@ fn parse_axis(doc: &Doc, i: usize, t: &toml::Table) -> Result<Axis, ConfigError>
         )
     })?;
     let mut values: Option<Vec<f64>> = None;
+    let mut range = None;
     let mut zip = None;
     let nums = |key: &str, v: &toml::Value| -> Result<Vec<f64>, ConfigError> {
         let arr = v
@@ -620,6 +854,7 @@ fn parse_axis(doc: &Doc, i: usize, t: &toml::Table) -> Result<Axis, ConfigError>
                     if !(a.is_finite() && b.is_finite()) {
                         return Err(here(kind, "start and stop must be finite".into()));
                     }
+                    range = Some((a, b, n, kind == "logspace"));
                     if kind == "logspace" {
                         if !(a > 0.0 && b > 0.0) {
                             return Err(here(
@@ -668,6 +903,7 @@ fn parse_axis(doc: &Doc, i: usize, t: &toml::Table) -> Result<Axis, ConfigError>
         unit,
         values,
         zip,
+        range,
     })
 }
 

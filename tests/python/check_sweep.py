@@ -35,9 +35,24 @@ with h5py.File(path, "r") as f:
         assert f[d].shape == (n,), (d, f[d].shape)
         assert np.all(np.isfinite(f[d][:]))
     status = f["status"][:]
-    assert np.all(status >= 0), "every point ran"
-    ok = status == 0
     r = f["r"][:]
+    computed = f["computed"][:]
+    assert f["computed"].shape == shape
+    if "refine_measure" in f.attrs:
+        # A refinement runs some points of its dense grid: the others are NaN and not run.
+        done = computed == 1
+        assert 0 < done.sum() < done.size, done.sum()
+        assert np.all(status[done] >= 0) and np.all(status[~done] == -1)
+        assert np.all(np.isnan(r[~done])) and np.all(np.isnan(f["dF"][:][~done]))
+        # The coarse grid, every 2^levels-th value along the refined axis, is complete.
+        along = dims.index(f.attrs["refine_along"])
+        stride = 2 ** int(f.attrs["refine_levels"])
+        coarse = np.take(done, np.arange(0, shape[along], stride), axis=along)
+        assert coarse.all() and coarse.shape[along] == int(f.attrs["refine_coarse"])
+    else:
+        assert np.all(status >= 0), "every point ran"
+        assert np.all(computed == 1)
+    ok = status == 0
     assert np.all(np.isfinite(r[ok])) and np.all(r[ok] >= 0), r
     # r is dF over the reference's dF wherever both ran.
     assert np.allclose(r[ok], (f["dF"][:] / f["dF_reference"][:])[ok], rtol=1e-12)
