@@ -456,7 +456,8 @@ pub struct RunArgs {
 
     /// Integration method: radau5 (implicit Radau IIA, order 5), rodas4 (Rosenbrock, order 4),
     /// dopri5 (explicit Dormand-Prince 5(4)) or auto (dopri5, switching to radau5 where
-    /// stability rather than accuracy limits its step). Default radau5.
+    /// stability rather than accuracy limits its step). Default auto, with envelope following
+    /// at 1e-4: the fastest setting that meets MODEL.md's accuracy in `stickslip bench`.
     #[arg(long, value_name = "METHOD")]
     pub solver: Option<Method>,
 
@@ -494,9 +495,13 @@ pub struct RunArgs {
 
     /// Envelope following with vibration: skip whole vibration periods where the state sampled
     /// once per period drifts smoothly, with this extrapolation tolerance per jump (1e-8 to 0.1,
-    /// in units of each state's characteristic size).
-    #[arg(long, value_name = "TOL", allow_negative_numbers = true)]
+    /// in units of each state's characteristic size). Default 1e-4.
+    #[arg(long, value_name = "TOL", allow_negative_numbers = true, conflicts_with = "no_envelope")]
     pub envelope: Option<f64>,
+
+    /// Integrate every vibration period (no envelope following).
+    #[arg(long)]
+    pub no_envelope: bool,
 
     /// Print the results as one JSON object on stdout (no other output there).
     #[arg(long)]
@@ -666,6 +671,9 @@ impl RunArgs {
         }
         if self.no_periodic {
             o.periodic = false;
+        }
+        if self.no_envelope {
+            o.envelope = None;
         }
         if let Some(v) = self.envelope {
             o.envelope = Some(v);

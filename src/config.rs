@@ -11,7 +11,7 @@
 //! v_a = 1.1e-3       # m/s: u0 = v_a / (2 pi f)
 //!
 //! [solver]
-//! method = "radau5"  # radau5, rodas4, dopri5 or auto
+//! method = "auto"    # default; radau5, rodas4, dopri5 or auto
 //! rtol = 1e-6
 //! atol = 1e-6        # in units of each state's characteristic size
 //!
@@ -22,7 +22,8 @@
 //! early_stop = true  # end once the answer is known (steady sliding, or dF to 0.5 %);
 //!                    # "always": also with t_end given, which is then the longest time
 //! periodic = true    # without vibration, continue along the limit cycle once it repeats
-//! envelope = 1e-4    # skip vibration periods where the envelope is smooth (omitted: off)
+//! envelope = 1e-4    # skip vibration periods where the envelope is smooth (default 1e-4;
+//!                    # false: integrate every period)
 //! ```
 
 use crate::model::effects::{self, EffectKind, Effects};
@@ -315,7 +316,13 @@ pub fn apply_run(doc: &Doc, table: &toml::Table, o: &mut RunOptions) -> Result<(
                     .as_bool()
                     .ok_or_else(|| doc.err(sec, k, "expected true or false"))?;
             }
-            "envelope" => o.envelope = Some(doc.number(sec, k, v)?),
+            "envelope" => {
+                o.envelope = match v {
+                    toml::Value::Boolean(false) => None,
+                    toml::Value::Boolean(true) => Some(crate::sim::DEFAULT_ENVELOPE),
+                    _ => Some(doc.number(sec, k, v)?),
+                }
+            }
             _ => {
                 return Err(doc.err(
                     sec,

@@ -279,6 +279,10 @@ fn envelope_against_full_run(
         envelope: Some(1e-4),
         ..base.clone()
     };
+    let base = &RunOptions {
+        envelope: None,
+        ..base.clone()
+    };
     let full = run_case(p, base, &mut Solver::new(Method::Dopri5)).unwrap();
     let fast = run_case(p, &env, &mut Solver::new(Method::Dopri5)).unwrap();
     assert_eq!(fast.status(), Status::Success);
@@ -548,9 +552,11 @@ fn auto_follows_the_stiff_phases_of_the_rig() {
         (Params::default(), "no vibration"),
         (va(126.0, 2000.0), "126 v_d"),
     ] {
+        // Every period integrated: under envelope following `auto` stays explicit.
         let run = |method| {
             let o = RunOptions {
                 method,
+                envelope: None,
                 ..RunOptions::default()
             };
             let c = run_case(&p, &o, &mut Solver::new(method)).unwrap();
