@@ -325,13 +325,20 @@ impl Figure for Map {
             } else {
                 self.r[i].clone()
             };
-            for j in 0..self.u0.len() {
+            // Runs of equal values along u0 (the filled gaps of a refinement) are one cell.
+            let mut j = 0;
+            while j < self.u0.len() {
+                let mut k = j + 1;
+                while k < self.u0.len() && col[k].to_bits() == col[j].to_bits() {
+                    k += 1;
+                }
                 let (a, b) = (fe[i].min(fe[i + 1]), fe[i].max(fe[i + 1]));
-                let (p, q) = (ue[j].min(ue[j + 1]), ue[j].max(ue[j + 1]));
+                let (p, q) = (ue[j].min(ue[k]), ue[j].max(ue[k]));
                 cells.push(Rectangle::new(
                     [(a, p), (b, q)],
                     colour(col[j]).filled(),
                 ));
+                j = k;
             }
         }
         c.draw_series(cells).map_err(e)?;
