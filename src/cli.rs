@@ -11,7 +11,7 @@ use crate::model::params::{PARAMS, ParamInfo};
 use crate::ode::Method;
 use crate::sim::{EarlyStop, RunOptions};
 use clap::{Arg, ArgAction, ArgMatches, Args, FromArgMatches, Parser, Subcommand};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// Maps where tangential substrate vibration suppresses stick-slip friction.
 #[derive(Parser, Debug)]
@@ -203,10 +203,27 @@ impl SynthArgs {
     }
 }
 
+/// The files of a campaign directory (its recordings and metadata): inputs that no output may
+/// replace.
+fn campaign_files(dir: &Path) -> Vec<PathBuf> {
+    std::fs::read_dir(dir)
+        .map(|rd| {
+            rd.filter_map(|e| e.ok().map(|e| e.path()))
+                .filter(|p| p.is_file())
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
 impl CalibrateArgs {
     /// The effect to fit with the base parameters, checked.
     pub fn resolve(&self) -> Result<Option<crate::model::EffectKind>, CliError> {
         iter_flag(self.max_iter)?;
+        if let Some(json) = &self.json {
+            let inputs = campaign_files(&self.campaign);
+            let inputs: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
+            check_output("json", json, &inputs)?;
+        }
         self.effect
             .as_deref()
             .map(|n| effect_flag("effect", n))
@@ -218,6 +235,11 @@ impl DiagnoseArgs {
     /// Candidates and fit options, checked.
     pub fn resolve(&self) -> Result<crate::campaign::diagnose::DiagnoseOptions, CliError> {
         iter_flag(self.max_iter)?;
+        if let Some(json) = &self.json {
+            let inputs = campaign_files(&self.campaign);
+            let inputs: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
+            check_output("json", json, &inputs)?;
+        }
         let mut o = crate::campaign::diagnose::DiagnoseOptions::default();
         if !self.candidates.is_empty() {
             o.candidates = self
@@ -549,6 +571,52 @@ pub enum CliError {
     },
 }
 
+/// Checks an output location before anything is computed: `path` (given by `--flag`) must not
+/// be a directory, its nearest existing ancestor must be a directory, and it must not be one of
+/// the command's `inputs` (the same file by another spelling included). Refused with a message
+/// that names the flag, the path and the problem.
+pub fn check_output(flag: &str, path: &Path, inputs: &[&Path]) -> Result<(), CliError> {
+    let bad = |msg: String| {
+        Err(CliError::Flag {
+            flag: flag.into(),
+            value: path.display().to_string(),
+            msg,
+        })
+    };
+    if path.as_os_str().is_empty() {
+        return bad("an empty path; give a file name".into());
+    }
+    if path.is_dir() {
+        return bad("is a directory; give a file name".into());
+    }
+    let mut up = path.parent();
+    while let Some(d) = up.filter(|d| !d.as_os_str().is_empty()) {
+        if d.exists() {
+            if !d.is_dir() {
+                return bad(format!(
+                    "its parent {} is a file, not a directory",
+                    d.display()
+                ));
+            }
+            break;
+        }
+        up = d.parent();
+    }
+    let same = |a: &Path, b: &Path| match (a.canonicalize(), b.canonicalize()) {
+        (Ok(x), Ok(y)) => x == y,
+        _ => a == b,
+    };
+    for input in inputs {
+        if same(path, input) {
+            return bad(format!(
+                "is an input of this command ({}); it would be overwritten: give another output",
+                input.display()
+            ));
+        }
+    }
+    Ok(())
+}
+
 impl SweepArgs {
     /// Loads and validates the sweep file and resolves the options.
     pub fn resolve(
@@ -575,6 +643,7 @@ impl SweepArgs {
             .out
             .clone()
             .unwrap_or_else(|| PathBuf::from("results").join(format!("{}.h5", spec.name)));
+        check_output("out", &out, &[&self.file])?;
         Ok((
             spec,
             crate::sweep::SweepOptions {
@@ -679,6 +748,14 @@ impl RunArgs {
             o.envelope = Some(v);
         }
         o.trace = !self.no_trace;
+        // Outputs: never an input, never each other, and writable places.
+        let case_file: Vec<&Path> = self.case.iter().map(PathBuf::as_path).collect();
+        check_output("out", &self.out, &case_file)?;
+        if let Some(csv) = &self.csv {
+            let mut inputs = case_file.clone();
+            inputs.push(&self.out);
+            check_output("csv", csv, &inputs)?;
+        }
         if !(1..=1000).contains(&self.repeats) {
             return Err(CliError::Flag {
                 flag: "repeats".into(),

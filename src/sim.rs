@@ -26,7 +26,7 @@ pub struct RunOptions {
     /// Default 3. Range 1 to 1000.
     pub min_cycles: u32,
     /// Simulated time \[s\]; `None` (default) chooses it from the run (see [`planned_time`]).
-    /// Range: > 0, and past `t_on` in a two-stage run.
+    /// Range: > 0 and at most [`T_END_MAX`], and past `t_on` in a two-stage run.
     pub t_end: Option<f64>,
     /// Samples per vibration period for the smoothing (more when the stick-slip needs a finer
     /// grid). Default 16. Range 4 to 4096.
@@ -69,6 +69,11 @@ pub enum EarlyStop {
     /// checks and the stick-slip rule are planned on it as on an automatic time.
     Always,
 }
+
+/// Longest simulated time a run may be given \[s\]: 1e5 s, over a day of the rig and some
+/// 170 times the longest automatic time of the paper's ranges (576 s at v_d = 0.1 mm/s,
+/// k_d = 1000 N/m), continued runs included (8 times that).
+pub const T_END_MAX: f64 = 1e5;
 
 /// Early stop: the smoothed drive force over the second half of the run so far must stay within
 /// this share of the nominal stick-slip amplitude `2 (F_s − F_c)` (so `r` below it, a tenth of
@@ -168,9 +173,9 @@ impl RunOptions {
             );
         }
         if let Some(t) = self.t_end
-            && !(t > 0.0 && t.is_finite())
+            && !(t > 0.0 && t <= T_END_MAX)
         {
-            return bad("t_end", t, "finite and > 0 s");
+            return bad("t_end", t, "0 < t_end <= 1e5 s");
         }
         if !(4..=4096).contains(&self.samples_per_period) {
             return bad(

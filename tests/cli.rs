@@ -375,3 +375,118 @@ fn run_with_an_effect_from_a_case_file() {
         get(&base)
     );
 }
+
+/// Bad inputs that once cost data, aborted or ran on: each is refused before anything runs, with
+/// exit code 2 and a message that names the flag or key, the value and the rule, and no file in
+/// the working directory changes.
+#[test]
+fn outputs_never_replace_inputs_and_sizes_are_checked_before_anything_runs() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let p = |name: &str| d.join(name).to_str().unwrap().to_string();
+    let sweep = "[fixed]\nk_d = 20000.0\nv_d = 1.5e-3\n[[axis]]\nname = \"u0\"\nlogspace = [1e-8, 1e-6, 2]\n";
+    std::fs::write(d.join("s.toml"), sweep).unwrap();
+    std::fs::write(d.join("c.toml"), "k_d = 1e4\nv_d = 1e-3\n").unwrap();
+    std::fs::create_dir(d.join("camp")).unwrap();
+    std::fs::write(d.join("camp/rec.csv"), "t,F_d,x_s,x_d\n0,0,0,0\n").unwrap();
+    std::fs::write(d.join("camp/rec.toml"), "v_d = 1e-3\nk_d = 1e4\n").unwrap();
+    std::fs::create_dir(d.join("outdir")).unwrap();
+    std::fs::write(d.join("afile"), "not a directory").unwrap();
+    let with = |text: &str| {
+        let name = format!("bad{}.toml", text.len());
+        std::fs::write(d.join(&name), text).unwrap();
+        p(&name)
+    };
+    let huge = with(
+        "[[axis]]\nname = \"u0\"\nlinspace = [1e-8, 1e-6, 1000000000000000000]\n",
+    );
+    let big_cap = with(
+        "max_runs = 1000000000000\n[[axis]]\nname = \"u0\"\nvalues = [1e-8]\n",
+    );
+    let up = with("name = \"../x\"\n[[axis]]\nname = \"u0\"\nvalues = [1e-8]\n");
+    let empty = with("name = \"\"\n[[axis]]\nname = \"u0\"\nvalues = [1e-8]\n");
+    let far = with("[run]\nt_end = 1e300\n[[axis]]\nname = \"u0\"\nvalues = [1e-8]\n");
+    // (arguments, what the message must contain)
+    let cases: Vec<(Vec<String>, Vec<&str>)> = vec![
+        (
+            vec!["sweep".into(), p("s.toml"), "-o".into(), p("s.toml")],
+            vec!["--out", "s.toml", "input"],
+        ),
+        (
+            vec!["sweep".into(), p("s.toml"), "-o".into(), p("outdir")],
+            vec!["--out", "is a directory"],
+        ),
+        (
+            vec!["sweep".into(), p("s.toml"), "-o".into(), p("afile/x.h5")],
+            vec!["--out", "afile", "is a file"],
+        ),
+        (
+            vec!["run".into(), "--case".into(), p("c.toml"), "-o".into(), p("c.toml")],
+            vec!["--out", "c.toml", "input"],
+        ),
+        (
+            vec![
+                "run".into(),
+                "-o".into(),
+                p("x.h5"),
+                "--csv".into(),
+                p("x.h5"),
+            ],
+            vec!["--csv", "x.h5", "input"],
+        ),
+        (
+            vec!["run".into(), "-o".into(), p("afile/run.h5")],
+            vec!["--out", "is a file"],
+        ),
+        (
+            vec!["calibrate".into(), p("camp"), "--json".into(), p("camp/rec.csv")],
+            vec!["--json", "rec.csv", "input"],
+        ),
+        (
+            vec!["diagnose".into(), p("camp"), "--json".into(), p("camp/rec.toml")],
+            vec!["--json", "rec.toml", "input"],
+        ),
+        (vec!["sweep".into(), huge], vec!["linspace", "1000000000000000000", "max_runs"]),
+        (vec!["sweep".into(), big_cap], vec!["max_runs", "10000000"]),
+        (vec!["sweep".into(), up], vec!["name", "../x", "file stem"]),
+        (vec!["sweep".into(), empty], vec!["name", "file stem"]),
+        (vec!["sweep".into(), far], vec!["t_end", "1e5"]),
+        (
+            vec!["run".into(), "--t-end".into(), "1e12".into(), "-o".into(), p("r.h5")],
+            vec!["t-end", "1e5"],
+        ),
+    ];
+    let snapshot = || {
+        let mut files: Vec<(String, Vec<u8>)> = walk(d)
+            .into_iter()
+            .map(|f| (f.display().to_string(), std::fs::read(&f).unwrap()))
+            .collect();
+        files.sort();
+        files
+    };
+    for (args, needles) in &cases {
+        let before = snapshot();
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        let out = stickslip(&args);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        for n in needles {
+            assert!(err.contains(n), "{args:?}: `{n}` missing from: {err}");
+        }
+        assert_eq!(snapshot(), before, "{args:?} changed a file");
+    }
+}
+
+/// Every file below `dir`.
+fn walk(dir: &Path) -> Vec<std::path::PathBuf> {
+    let mut out = vec![];
+    for e in std::fs::read_dir(dir).unwrap() {
+        let p = e.unwrap().path();
+        if p.is_dir() {
+            out.extend(walk(&p));
+        } else {
+            out.push(p);
+        }
+    }
+    out
+}

@@ -54,6 +54,9 @@ pub const MEASURES: [&str; 10] = [
 
 /// Default cap on the number of grid points.
 pub const DEFAULT_MAX_RUNS: usize = 100_000;
+/// Largest `max_runs` a sweep file may set: ten million points (the plan holds the parameters
+/// of each, about 1.4 GB).
+pub const MAX_RUNS_LIMIT: usize = 10_000_000;
 
 /// One axis of the grid.
 #[derive(Clone, Debug, PartialEq)]
@@ -250,10 +253,33 @@ impl SweepSpec {
         let mut output: Option<&toml::Table> = None;
         for (k, v) in &doc.table {
             match (k.as_str(), v) {
-                ("name", toml::Value::String(s)) => spec.name = s.clone(),
+                ("name", toml::Value::String(s)) => {
+                    // The name becomes the output's file stem under results/.
+                    let stem_like = !s.is_empty()
+                        && s != "."
+                        && s != ".."
+                        && !s.contains(['/', '\\'])
+                        && !s.chars().any(char::is_control);
+                    if !stem_like {
+                        return Err(doc.err(
+                            "",
+                            k,
+                            format!("name = {s:?} is not allowed: it names the output file results/<name>.h5, so it must be a non-empty file stem without / or \\"),
+                        ));
+                    }
+                    spec.name = s.clone();
+                }
                 ("description", toml::Value::String(s)) => spec.description = s.clone(),
-                ("max_runs", toml::Value::Integer(n)) if *n > 0 => spec.max_runs = *n as usize,
-                ("max_runs", _) => return Err(doc.err("", k, "expected a whole number >= 1")),
+                ("max_runs", toml::Value::Integer(n)) if *n > 0 && (*n as u64) <= MAX_RUNS_LIMIT as u64 => {
+                    spec.max_runs = *n as usize
+                }
+                ("max_runs", _) => {
+                    return Err(doc.err(
+                        "",
+                        k,
+                        format!("expected a whole number from 1 to {MAX_RUNS_LIMIT}"),
+                    ));
+                }
                 ("name" | "description", _) => return Err(doc.err("", k, "expected a string")),
                 ("fixed", toml::Value::Table(t)) => {
                     // Parameters now; v_a / va_ratio are resolved per point, after the axes.
@@ -324,7 +350,7 @@ impl SweepSpec {
             }
         }
         for (i, t) in axis_tables.iter().enumerate() {
-            spec.axes.push(parse_axis(doc, i, t)?);
+            spec.axes.push(parse_axis(doc, i, t, spec.max_runs)?);
         }
         if spec.axes.is_empty() {
             return Err(doc.err("", "axis", "a sweep needs at least one [[axis]]"));
@@ -745,7 +771,7 @@ impl SweepSpec {
     }
 }
 
-fn parse_axis(doc: &Doc, i: usize, t: &toml::Table) -> Result<Axis, ConfigError> {
+fn parse_axis(doc: &Doc, i: usize, t: &toml::Table, max_runs: usize) -> Result<Axis, ConfigError> {
     let sec = format!("axis[{i}]");
     let here = |key: &str, msg: String| {
         // Lines: find the i-th "[[axis]]" header, then the key below it.
@@ -853,6 +879,15 @@ fn parse_axis(doc: &Doc, i: usize, t: &toml::Table) -> Result<Axis, ConfigError>
                     };
                     if !(a.is_finite() && b.is_finite()) {
                         return Err(here(kind, "start and stop must be finite".into()));
+                    }
+                    // Before any allocation: one axis alone over the cap is refused.
+                    if n > max_runs {
+                        return Err(here(
+                            kind,
+                            format!(
+                                "count {n} is over the cap max_runs = {max_runs} (the grid cannot be smaller than one axis); raise max_runs or lower the count"
+                            ),
+                        ));
                     }
                     range = Some((a, b, n, kind == "logspace"));
                     if kind == "logspace" {
@@ -978,11 +1013,21 @@ mod tests {
         assert!(e.msg.contains("> 0"), "{e}");
         let e = SweepSpec::parse(
             "s.toml",
+            "max_runs = 10\n[[axis]]\nname = \"v_d\"\nlinspace = [1e-4, 2e-3, 4]\n[[axis]]\nname = \"k_d\"\nlinspace = [1e3, 2e4, 4]\n",
+        )
+        .unwrap_err();
+        assert!(
+            e.msg.contains("16 points") && e.key == "max_runs" && e.line == 1,
+            "{e}"
+        );
+        // One axis over the cap is refused before its values are made.
+        let e = SweepSpec::parse(
+            "s.toml",
             "max_runs = 10\n[[axis]]\nname = \"v_d\"\nlinspace = [1e-4, 2e-3, 11]\n",
         )
         .unwrap_err();
         assert!(
-            e.msg.contains("11 points") && e.key == "max_runs" && e.line == 1,
+            e.msg.contains("count 11") && e.key == "axis[0].linspace" && e.line == 4,
             "{e}"
         );
         let e = SweepSpec::parse(
