@@ -34,7 +34,7 @@ pub enum AppError {
     #[error(transparent)]
     Campaign(#[from] CampaignError),
     /// The simulation ran but did not succeed.
-    #[error("the integration stopped early: {0}")]
+    #[error("the run did not succeed: {0}")]
     Failed(String),
 }
 
@@ -267,6 +267,12 @@ pub fn sweep_cmd(a: &SweepArgs) -> Result<(), AppError> {
         ),
     }
     let outcome = sweep::run(&spec, &opts)?;
+    if outcome.journal_dropped > 0 {
+        eprintln!(
+            "{} damaged line(s) of the journal were dropped on resuming; their runs were made again",
+            outcome.journal_dropped
+        );
+    }
     println!(
         "wrote {}: {} points, {} runs made, {} resumed, {} failed, {:.1} s",
         outcome.out.display(),
@@ -355,6 +361,14 @@ pub fn run(a: &RunArgs) -> Result<(), AppError> {
     }
     times.sort_by(f64::total_cmp);
     let timing = (a.repeats > 1).then(|| (times[times.len() / 2], times[0]));
+    // A failed run has no measures: it never replaces an earlier result.
+    if !res.status().has_measures() {
+        return Err(AppError::Failed(format!(
+            "{} ({} not written; an earlier file there is kept)",
+            res.status().name(),
+            a.out.display()
+        )));
+    }
     output::write_case_h5(&a.out, &res, &case.run)?;
     let mut written = vec![a.out.clone()];
     if let (Some(path), Some(tr)) = (&a.csv, &res.run.trace) {

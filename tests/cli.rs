@@ -490,3 +490,77 @@ fn walk(dir: &Path) -> Vec<std::path::PathBuf> {
     }
     out
 }
+
+/// `--resume` onto a file that is no checkpoint of the sweep (no journal beside it) is refused
+/// and the file kept; damaged journal lines are counted and their runs made again; a run that
+/// fails (here: a step budget of 50) exits 1 and keeps the earlier result in place.
+#[test]
+fn resume_and_failed_runs_never_replace_what_is_there() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let sweep = d.join("s.toml");
+    std::fs::write(
+        &sweep,
+        "[fixed]\nk_d = 20000.0\nv_d = 1.5e-3\n[[axis]]\nname = \"u0\"\nlogspace = [1e-8, 1e-6, 3]\n[run]\nt_end = 0.5\n",
+    )
+    .unwrap();
+    let out = d.join("s.h5");
+    std::fs::write(&out, "a text file, not a sweep").unwrap();
+    let r = stickslip(&[
+        "sweep",
+        sweep.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--resume",
+        "--no-plot",
+    ]);
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert_eq!(r.status.code(), Some(1), "{err}");
+    assert!(err.contains("not an interrupted sweep") && err.contains("journal"), "{err}");
+    assert_eq!(std::fs::read(&out).unwrap(), b"a text file, not a sweep");
+
+    // A journal with one damaged line and a torn last one: both are counted on resuming.
+    std::fs::remove_file(&out).unwrap();
+    let ok = stickslip(&["sweep", sweep.to_str().unwrap(), "-o", out.to_str().unwrap(), "--no-plot"]);
+    assert!(ok.status.success(), "{}", String::from_utf8_lossy(&ok.stderr));
+    // The header a journal of this sweep starts with (the file's text and the program version).
+    let fp_line = stickslip::sweep::journal::header(&stickslip::sweep::journal::fingerprint(
+        &std::fs::read_to_string(&sweep).unwrap(),
+    ));
+    std::fs::write(
+        d.join("s.h5.journal"),
+        format!("{fp_line}\npt 1 0 garbage\npt 2 0 0.5 0.2"),
+    )
+    .unwrap();
+    let r = stickslip(&[
+        "sweep",
+        sweep.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--resume",
+        "--no-plot",
+    ]);
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert!(r.status.success(), "{err}");
+    assert!(err.contains("2 damaged line(s)"), "{err}");
+
+    // A failed run keeps the earlier result.
+    let h5 = d.join("run.h5");
+    let good = stickslip(&["run", "--no-trace", "-o", h5.to_str().unwrap()]);
+    assert!(good.status.success());
+    let before = std::fs::read(&h5).unwrap();
+    let case = d.join("tight.toml");
+    std::fs::write(&case, "[solver]\nmax_steps = 50\n").unwrap();
+    let bad = stickslip(&[
+        "run",
+        "--case",
+        case.to_str().unwrap(),
+        "--no-trace",
+        "-o",
+        h5.to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&bad.stderr);
+    assert_eq!(bad.status.code(), Some(1), "{err}");
+    assert!(err.contains("max_steps") && err.contains("not written"), "{err}");
+    assert_eq!(std::fs::read(&h5).unwrap(), before);
+}

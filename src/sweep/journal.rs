@@ -50,7 +50,8 @@ pub fn fingerprint(text: &str) -> String {
     format!("{h:016x}")
 }
 
-fn header(fp: &str) -> String {
+/// The first line of a journal for fingerprint `fp`.
+pub fn header(fp: &str) -> String {
     format!("stickslip-journal 1 {fp}")
 }
 
@@ -153,7 +154,10 @@ pub fn parse_record(line: &str) -> Option<(Task, RunResult)> {
 
 /// Reads a journal written for fingerprint `fp`. Errors when the journal belongs to another
 /// sweep. Later records of the same task replace earlier ones.
-pub fn read(path: &Path, fp: &str) -> Result<Vec<(Task, RunResult)>, String> {
+///
+/// Returns the records and the number of lines dropped as damaged (a torn last line, or a line
+/// that does not parse as a record); their runs are made again.
+pub fn read(path: &Path, fp: &str) -> Result<(Vec<(Task, RunResult)>, usize), String> {
     let text = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
     // Only whole lines count: a last line without its newline was torn by a kill mid-write,
     // and a torn number may still parse (a float cut short), so it is dropped unread.
@@ -172,7 +176,16 @@ pub fn read(path: &Path, fp: &str) -> Result<Vec<(Task, RunResult)>, String> {
             header(fp)
         ));
     }
-    Ok(lines.filter_map(parse_record).collect())
+    let torn = usize::from(text.last().is_some_and(|&b| b != b'\n'));
+    let mut dropped = torn;
+    let records = lines
+        .filter_map(|l| {
+            let r = parse_record(l);
+            dropped += usize::from(r.is_none());
+            r
+        })
+        .collect();
+    Ok((records, dropped))
 }
 
 /// An open journal, appending.
@@ -314,11 +327,13 @@ mod tests {
         let full = format_record(Task::Point(4), &continued);
         f.write_all(&full.as_bytes()[..full.len() - 2]).unwrap();
         assert!(parse_record(&full[..full.len() - 2]).is_some());
-        assert_eq!(read(&p, "abc").unwrap().len(), 2);
+        let (recs, dropped) = read(&p, "abc").unwrap();
+        assert_eq!((recs.len(), dropped), (2, 1));
         assert!(read(&p, "xyz").unwrap_err().contains("another sweep"));
         let mut j = Journal::append(&p).unwrap();
         j.record(Task::Point(5), &r).unwrap();
-        let recs = read(&p, "abc").unwrap();
+        let (recs, dropped) = read(&p, "abc").unwrap();
+        assert_eq!(dropped, 0, "appending cut the torn line off");
         assert_eq!(
             recs.iter().map(|x| x.0).collect::<Vec<_>>(),
             vec![Task::Ref(0), Task::Point(3), Task::Point(5)]

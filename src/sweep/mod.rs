@@ -212,6 +212,8 @@ pub struct SweepOutcome {
     pub runs_made: usize,
     /// Runs taken from the journal.
     pub runs_resumed: usize,
+    /// Journal lines dropped as damaged on resuming (their runs were made again).
+    pub journal_dropped: usize,
     /// Points whose run (or reference) did not succeed.
     pub failed: usize,
     /// Wall time of this invocation \[s\].
@@ -323,6 +325,7 @@ pub fn run(spec: &SweepSpec, opts: &SweepOptions) -> Result<SweepOutcome, SweepE
     let jpath = journal::path_for(&opts.out);
     let fp = journal::fingerprint(&spec.text);
     let mut resumed = 0;
+    let mut journal_dropped = 0;
     let mut journal = if jpath.exists() && !opts.overwrite {
         if !opts.resume {
             return Err(SweepError::State(format!(
@@ -330,7 +333,9 @@ pub fn run(spec: &SweepSpec, opts: &SweepOptions) -> Result<SweepOutcome, SweepE
                 jpath.display()
             )));
         }
-        for (t, r) in journal::read(&jpath, &fp).map_err(SweepError::State)? {
+        let (records, dropped) = journal::read(&jpath, &fp).map_err(SweepError::State)?;
+        journal_dropped = dropped;
+        for (t, r) in records {
             let valid = match t {
                 Task::Ref(i) => i < plan.refs.len(),
                 Task::Point(i) => i < plan.points.len(),
@@ -347,6 +352,16 @@ pub fn run(spec: &SweepSpec, opts: &SweepOptions) -> Result<SweepOutcome, SweepE
             return Err(SweepError::State(format!(
                 "{} is already complete; nothing to resume",
                 opts.out.display()
+            )));
+        }
+        // A file without its journal is no checkpoint of this sweep: --resume must not replace
+        // it (with nothing there, there is nothing to lose, and the sweep starts).
+        if opts.resume && !opts.overwrite && opts.out.exists() {
+            return Err(SweepError::State(format!(
+                "{} is not an interrupted sweep's checkpoint (no journal {} beside it); nothing to resume. \
+                 Run without --resume to start afresh, which replaces it",
+                opts.out.display(),
+                jpath.display()
             )));
         }
         Journal::create(&jpath, &fp)
@@ -447,6 +462,7 @@ pub fn run(spec: &SweepSpec, opts: &SweepOptions) -> Result<SweepOutcome, SweepE
         points: plan.points.len(),
         runs_made,
         runs_resumed: resumed,
+        journal_dropped,
         failed,
         wall_time: start.elapsed().as_secs_f64(),
         out: opts.out.clone(),
