@@ -247,6 +247,16 @@ impl DiagnoseArgs {
                 .iter()
                 .map(|n| effect_flag("candidates", n))
                 .collect::<Result<_, _>>()?;
+            // Each candidate is fitted once: a repeat would be fitted twice, and disagree.
+            for (i, k) in o.candidates.iter().enumerate() {
+                if o.candidates[..i].contains(k) {
+                    return Err(CliError::Flag {
+                        flag: "candidates".into(),
+                        value: self.candidates.join(","),
+                        msg: format!("`{}` is listed twice; list each candidate once", k.name()),
+                    });
+                }
+            }
         }
         o.fit.max_iter = self.max_iter;
         Ok(o)

@@ -446,6 +446,15 @@ fn outputs_never_replace_inputs_and_sizes_are_checked_before_anything_runs() {
             vec!["diagnose".into(), p("camp"), "--json".into(), p("camp/rec.toml")],
             vec!["--json", "rec.toml", "input"],
         ),
+        (
+            vec![
+                "diagnose".into(),
+                p("camp"),
+                "--candidates".into(),
+                "viscous,aging,viscous".into(),
+            ],
+            vec!["--candidates", "viscous", "listed twice"],
+        ),
         (vec!["sweep".into(), huge], vec!["linspace", "1000000000000000000", "max_runs"]),
         (vec!["sweep".into(), big_cap], vec!["max_runs", "10000000"]),
         (vec!["sweep".into(), up], vec!["name", "../x", "file stem"]),

@@ -169,6 +169,8 @@ pub struct SweepSpec {
     pub effects: crate::model::Effects,
     /// Adaptive refinement (`[refine]`); the `along` axis then holds the dense values.
     pub refine: Option<Refine>,
+    /// The names set in `[fixed]`, in file order.
+    pub fixed_keys: Vec<String>,
 }
 
 /// The SI unit of an axis name (a parameter, `v_a` or `va_ratio`).
@@ -247,6 +249,7 @@ impl SweepSpec {
             max_runs: DEFAULT_MAX_RUNS,
             effects: crate::model::Effects::none(),
             refine: None,
+            fixed_keys: vec![],
         };
         let mut refine: Option<&toml::Table> = None;
         let mut axis_tables: Vec<&toml::Table> = vec![];
@@ -284,6 +287,7 @@ impl SweepSpec {
                 ("fixed", toml::Value::Table(t)) => {
                     // Parameters now; v_a / va_ratio are resolved per point, after the axes.
                     let mut plain = toml::Table::new();
+                    spec.fixed_keys = t.keys().cloned().collect();
                     for (fk, fv) in t {
                         if fk == "v_a" || fk == "va_ratio" {
                             let x = doc.number("fixed", fk, fv)?;
@@ -578,6 +582,25 @@ impl SweepSpec {
                 ),
             ));
         }
+        // Nothing is set twice: a fixed value next to an axis would be silently overruled.
+        let amplitude = |n: &str| matches!(n, "u0" | "v_a" | "va_ratio");
+        for a in &self.axes {
+            if let Some(k) = self
+                .fixed_keys
+                .iter()
+                .find(|k| **k == a.name || (amplitude(k) && amplitude(&a.name)))
+            {
+                return Err(doc.err(
+                    "fixed",
+                    k,
+                    format!(
+                        "`{k}` in [fixed] and the axis `{}` both set {}; remove one",
+                        a.name,
+                        if amplitude(k) { "the amplitude u0" } else { "it" }
+                    ),
+                ));
+            }
+        }
         for (i, a) in self.axes.iter().enumerate() {
             if self.axes[..i].iter().any(|b| b.name == a.name) {
                 return Err(doc.err("", "axis", format!("axis `{}` appears twice", a.name)));
@@ -668,7 +691,29 @@ impl SweepSpec {
                                     format!("`{ak}` is not an axis of this sweep"),
                                 ));
                             }
-                            sel.push((ak.clone(), doc.number("output", k, av)?));
+                            let x = doc.number("output", k, av)?;
+                            // A trace point is a grid point: off the axis's range it is refused,
+                            // not moved to the nearest end.
+                            let vals = &self
+                                .axes
+                                .iter()
+                                .find(|a| &a.name == ak)
+                                .expect("checked above")
+                                .values;
+                            let (lo, hi) = vals
+                                .iter()
+                                .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), v| {
+                                    (l.min(*v), h.max(*v))
+                                });
+                            let slack = 1e-9 * lo.abs().max(hi.abs());
+                            if !(x >= lo - slack && x <= hi + slack) {
+                                return Err(doc.err(
+                                    "output",
+                                    k,
+                                    format!("trace point {ak} = {x} lies outside the axis ({lo} to {hi}); give a point of the grid"),
+                                ));
+                            }
+                            sel.push((ak.clone(), x));
                         }
                         self.traces.push(TraceSel(sel));
                     }
@@ -962,6 +1007,37 @@ mod tests {
         assert_eq!((e.line, e.key.as_str()), (2, "effects.aging.b"), "{e}");
         let e = SweepSpec::parse("fx.toml", "[effects.wear]\n").unwrap_err();
         assert!(e.msg.contains("unknown effect"), "{e}");
+    }
+
+    /// Nothing contradictory is silently resolved: a fixed value next to an axis that sets it,
+    /// and a trace point off the grid, are refused with the key and its line.
+    #[test]
+    fn contradictions_are_refused() {
+        let e = SweepSpec::parse(
+            "s.toml",
+            "[fixed]\nk_d = 5000.0\n[[axis]]\nname = \"k_d\"\nvalues = [1e4, 2e4]\n",
+        )
+        .unwrap_err();
+        assert!(e.key == "fixed.k_d" && e.line == 2 && e.msg.contains("remove one"), "{e}");
+        let e = SweepSpec::parse(
+            "s.toml",
+            "[fixed]\nu0 = 1e-7\n[[axis]]\nname = \"v_a\"\nvalues = [1e-4, 2e-4]\n",
+        )
+        .unwrap_err();
+        assert!(e.key == "fixed.u0" && e.msg.contains("amplitude"), "{e}");
+        let e = SweepSpec::parse(
+            "s.toml",
+            "[[axis]]\nname = \"u0\"\nlogspace = [1e-8, 1e-6, 3]\n[output]\ntraces = [{ u0 = 5.0 }]\n",
+        )
+        .unwrap_err();
+        assert!(e.key == "output.traces" && e.msg.contains("outside the axis"), "{e}");
+        // On the grid (to round-off) it is taken.
+        let s = SweepSpec::parse(
+            "s.toml",
+            "[[axis]]\nname = \"u0\"\nlogspace = [1e-8, 1e-6, 3]\n[output]\ntraces = [{ u0 = 1e-6 }]\n",
+        )
+        .unwrap();
+        assert_eq!(s.trace_points(), vec![2]);
     }
 
     #[test]
