@@ -528,7 +528,12 @@ pub struct RunArgs {
     /// Envelope following with vibration: skip whole vibration periods where the state sampled
     /// once per period drifts smoothly, with this extrapolation tolerance per jump (1e-8 to 0.1,
     /// in units of each state's characteristic size). Default 1e-4.
-    #[arg(long, value_name = "TOL", allow_negative_numbers = true, conflicts_with = "no_envelope")]
+    #[arg(
+        long,
+        value_name = "TOL",
+        allow_negative_numbers = true,
+        conflicts_with = "no_envelope"
+    )]
     pub envelope: Option<f64>,
 
     /// Integrate every vibration period (no envelope following).

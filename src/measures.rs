@@ -760,7 +760,10 @@ mod tests {
                 }
             }
             let (t, (m, err)) = found.expect("a plain exponential approach is extrapolated");
-            assert!(t >= earliest, "extrapolated at {t}, before {earliest}: {m:?}");
+            assert!(
+                t >= earliest,
+                "extrapolated at {t}, before {earliest}: {m:?}"
+            );
             assert!(t < earliest + 6.0, "extrapolated only at {t}");
             // At most the fits' tolerance or a quarter of the reach, 0.25 × 0.5 % of 3 N.
             assert!(err <= 3.75e-3, "error bound {err}");

@@ -491,13 +491,8 @@ impl Recorder<'_> {
             .steady_sliding(t, e.range, EARLY_STOP_DRIFT)
             .map(|m| (m, None))
             .or_else(|| {
-                an.settling(
-                    0.5 * t,
-                    e.slope,
-                    SETTLING_TOL * e.nominal,
-                    EARLY_STOP_DRIFT,
-                )
-                .map(|(m, err)| (m, Some(err)))
+                an.settling(0.5 * t, e.slope, SETTLING_TOL * e.nominal, EARLY_STOP_DRIFT)
+                    .map(|(m, err)| (m, Some(err)))
             })
             .or_else(|| {
                 if t < e.cycles_from {

@@ -397,12 +397,8 @@ fn outputs_never_replace_inputs_and_sizes_are_checked_before_anything_runs() {
         std::fs::write(d.join(&name), text).unwrap();
         p(&name)
     };
-    let huge = with(
-        "[[axis]]\nname = \"u0\"\nlinspace = [1e-8, 1e-6, 1000000000000000000]\n",
-    );
-    let big_cap = with(
-        "max_runs = 1000000000000\n[[axis]]\nname = \"u0\"\nvalues = [1e-8]\n",
-    );
+    let huge = with("[[axis]]\nname = \"u0\"\nlinspace = [1e-8, 1e-6, 1000000000000000000]\n");
+    let big_cap = with("max_runs = 1000000000000\n[[axis]]\nname = \"u0\"\nvalues = [1e-8]\n");
     let up = with("name = \"../x\"\n[[axis]]\nname = \"u0\"\nvalues = [1e-8]\n");
     let empty = with("name = \"\"\n[[axis]]\nname = \"u0\"\nvalues = [1e-8]\n");
     let far = with("[run]\nt_end = 1e300\n[[axis]]\nname = \"u0\"\nvalues = [1e-8]\n");
@@ -421,7 +417,13 @@ fn outputs_never_replace_inputs_and_sizes_are_checked_before_anything_runs() {
             vec!["--out", "afile", "is a file"],
         ),
         (
-            vec!["run".into(), "--case".into(), p("c.toml"), "-o".into(), p("c.toml")],
+            vec![
+                "run".into(),
+                "--case".into(),
+                p("c.toml"),
+                "-o".into(),
+                p("c.toml"),
+            ],
             vec!["--out", "c.toml", "input"],
         ),
         (
@@ -439,11 +441,21 @@ fn outputs_never_replace_inputs_and_sizes_are_checked_before_anything_runs() {
             vec!["--out", "is a file"],
         ),
         (
-            vec!["calibrate".into(), p("camp"), "--json".into(), p("camp/rec.csv")],
+            vec![
+                "calibrate".into(),
+                p("camp"),
+                "--json".into(),
+                p("camp/rec.csv"),
+            ],
             vec!["--json", "rec.csv", "input"],
         ),
         (
-            vec!["diagnose".into(), p("camp"), "--json".into(), p("camp/rec.toml")],
+            vec![
+                "diagnose".into(),
+                p("camp"),
+                "--json".into(),
+                p("camp/rec.toml"),
+            ],
             vec!["--json", "rec.toml", "input"],
         ),
         (
@@ -455,13 +467,22 @@ fn outputs_never_replace_inputs_and_sizes_are_checked_before_anything_runs() {
             ],
             vec!["--candidates", "viscous", "listed twice"],
         ),
-        (vec!["sweep".into(), huge], vec!["linspace", "1000000000000000000", "max_runs"]),
+        (
+            vec!["sweep".into(), huge],
+            vec!["linspace", "1000000000000000000", "max_runs"],
+        ),
         (vec!["sweep".into(), big_cap], vec!["max_runs", "10000000"]),
         (vec!["sweep".into(), up], vec!["name", "../x", "file stem"]),
         (vec!["sweep".into(), empty], vec!["name", "file stem"]),
         (vec!["sweep".into(), far], vec!["t_end", "1e5"]),
         (
-            vec!["run".into(), "--t-end".into(), "1e12".into(), "-o".into(), p("r.h5")],
+            vec![
+                "run".into(),
+                "--t-end".into(),
+                "1e12".into(),
+                "-o".into(),
+                p("r.h5"),
+            ],
             vec!["t-end", "1e5"],
         ),
     ];
@@ -525,13 +546,26 @@ fn resume_and_failed_runs_never_replace_what_is_there() {
     ]);
     let err = String::from_utf8_lossy(&r.stderr);
     assert_eq!(r.status.code(), Some(1), "{err}");
-    assert!(err.contains("not an interrupted sweep") && err.contains("journal"), "{err}");
+    assert!(
+        err.contains("not an interrupted sweep") && err.contains("journal"),
+        "{err}"
+    );
     assert_eq!(std::fs::read(&out).unwrap(), b"a text file, not a sweep");
 
     // A journal with one damaged line and a torn last one: both are counted on resuming.
     std::fs::remove_file(&out).unwrap();
-    let ok = stickslip(&["sweep", sweep.to_str().unwrap(), "-o", out.to_str().unwrap(), "--no-plot"]);
-    assert!(ok.status.success(), "{}", String::from_utf8_lossy(&ok.stderr));
+    let ok = stickslip(&[
+        "sweep",
+        sweep.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--no-plot",
+    ]);
+    assert!(
+        ok.status.success(),
+        "{}",
+        String::from_utf8_lossy(&ok.stderr)
+    );
     // The header a journal of this sweep starts with (the file's text and the program version).
     let fp_line = stickslip::sweep::journal::header(&stickslip::sweep::journal::fingerprint(
         &std::fs::read_to_string(&sweep).unwrap(),
@@ -570,6 +604,9 @@ fn resume_and_failed_runs_never_replace_what_is_there() {
     ]);
     let err = String::from_utf8_lossy(&bad.stderr);
     assert_eq!(bad.status.code(), Some(1), "{err}");
-    assert!(err.contains("max_steps") && err.contains("not written"), "{err}");
+    assert!(
+        err.contains("max_steps") && err.contains("not written"),
+        "{err}"
+    );
     assert_eq!(std::fs::read(&h5).unwrap(), before);
 }

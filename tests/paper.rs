@@ -266,7 +266,10 @@ fn settled_level_extrapolated_agrees_with_the_run_continued_until_it_settles() {
             let early = case(0.5e-3, f, ratio, &opts(EarlyStop::Automatic));
             let full = case(0.5e-3, f, ratio, &opts(EarlyStop::Off));
             assert!(early.run.predicted, "f {f}: {:?}", early.run);
-            let err = early.run.level_error.expect("an extrapolated level states its error");
+            let err = early
+                .run
+                .level_error
+                .expect("an extrapolated level states its error");
             assert!(!full.run.predicted && full.run.level_error.is_none());
             assert!(full.r < 0.05, "f {f}: not eliminated, r {}", full.r);
             assert!(early.run.stats.rhs_evals < full.run.stats.rhs_evals);
@@ -277,7 +280,10 @@ fn settled_level_extrapolated_agrees_with_the_run_continued_until_it_settles() {
                 full.r
             );
             let (a, b) = (early.run.measures.mean_force, full.run.measures.mean_force);
-            assert!((a - b).abs() < 1e-3 * b + err, "f {f}: mean force {a} ± {err} vs {b}");
+            assert!(
+                (a - b).abs() < 1e-3 * b + err,
+                "f {f}: mean force {a} ± {err} vs {b}"
+            );
         });
 }
 
@@ -293,26 +299,27 @@ fn settled_level_extrapolated_agrees_with_the_run_continued_until_it_settles() {
 /// and the mean force within 0.1 % (0.5 % is MODEL.md's accuracy).
 #[test]
 fn creep_towards_the_sliding_level_is_not_stick_slip() {
-    let settings: Vec<(f64, f64, f64, RunOptions)> = [(1500.0, 1.7, 4.838004), (1487.0, 1.69, 5.002330)]
-        .into_iter()
-        .flat_map(|(f, ratio, level)| {
-            [
-                RunOptions {
-                    method: Method::Radau5,
-                    envelope: None,
-                    ..RunOptions::default()
-                },
-                RunOptions::default(),
-                RunOptions {
-                    method: Method::Dopri5,
-                    early_stop: EarlyStop::Off,
-                    ..RunOptions::default()
-                },
-            ]
+    let settings: Vec<(f64, f64, f64, RunOptions)> =
+        [(1500.0, 1.7, 4.838004), (1487.0, 1.69, 5.002330)]
             .into_iter()
-            .map(move |o| (f, ratio, level, o))
-        })
-        .collect();
+            .flat_map(|(f, ratio, level)| {
+                [
+                    RunOptions {
+                        method: Method::Radau5,
+                        envelope: None,
+                        ..RunOptions::default()
+                    },
+                    RunOptions::default(),
+                    RunOptions {
+                        method: Method::Dopri5,
+                        early_stop: EarlyStop::Off,
+                        ..RunOptions::default()
+                    },
+                ]
+                .into_iter()
+                .map(move |o| (f, ratio, level, o))
+            })
+            .collect();
     settings.par_iter().for_each(|(f, ratio, level, o)| {
         let c = case(0.5e-3, *f, *ratio, o);
         let m = &c.run.measures;

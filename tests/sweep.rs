@@ -436,7 +436,12 @@ fn refinement_runs_the_points_near_the_level_and_finds_the_dense_boundary() {
     let rb = sweep::run(&spec, &opts(&b, 2)).unwrap();
     let rd = sweep::run(&dense, &opts(&d, 2)).unwrap();
     assert_eq!(read_all(&a), read_all(&b));
-    assert!(ra.runs_made < rd.runs_made, "{} vs {}", ra.runs_made, rd.runs_made);
+    assert!(
+        ra.runs_made < rd.runs_made,
+        "{} vs {}",
+        ra.runs_made,
+        rd.runs_made
+    );
     assert_eq!(ra.runs_made, rb.runs_made);
     let fa = H5File::open(&a).unwrap();
     let fd = H5File::open(&d).unwrap();
@@ -489,8 +494,14 @@ fn killed_refinement_resumes_to_the_same_points_and_numbers() {
     let journal = dir.path().join("killed.h5.journal");
     let sweep_args = |out: &Path, extra: &[&str]| {
         let mut c = bin();
-        c.args(["sweep", file.to_str().unwrap(), "-o", out.to_str().unwrap(), "--no-plot"])
-            .args(extra);
+        c.args([
+            "sweep",
+            file.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--no-plot",
+        ])
+        .args(extra);
         c
     };
     let mut child = sweep_args(&killed, &["--threads", "1"])
@@ -516,8 +527,14 @@ fn killed_refinement_resumes_to_the_same_points_and_numbers() {
     }
     child.kill().unwrap();
     child.wait().unwrap();
-    let out = sweep_args(&killed, &["--resume", "--quiet"]).output().unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let out = sweep_args(&killed, &["--resume", "--quiet"])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let out = sweep_args(&clean, &["--threads", "2", "--quiet"])
         .output()
         .unwrap();

@@ -334,10 +334,7 @@ impl Figure for Map {
                 }
                 let (a, b) = (fe[i].min(fe[i + 1]), fe[i].max(fe[i + 1]));
                 let (p, q) = (ue[j].min(ue[k]), ue[j].max(ue[k]));
-                cells.push(Rectangle::new(
-                    [(a, p), (b, q)],
-                    colour(col[j]).filled(),
-                ));
+                cells.push(Rectangle::new([(a, p), (b, q)], colour(col[j]).filled()));
                 j = k;
             }
         }

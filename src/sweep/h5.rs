@@ -310,7 +310,8 @@ pub fn write(
                 .map_err(&e)?;
             file.set_attr_string("refine_along", &spec.axes[rf.along].name)
                 .map_err(&e)?;
-            file.set_attr_numeric("refine_level", &rf.level).map_err(&e)?;
+            file.set_attr_numeric("refine_level", &rf.level)
+                .map_err(&e)?;
             file.set_attr_numeric("refine_resolution", &rf.resolution)
                 .map_err(&e)?;
             file.set_attr_numeric("refine_tolerance", &rf.tolerance)

@@ -289,7 +289,10 @@ mod tests {
         assert_eq!(back.status, r.status);
         assert_eq!(back.continued_from, r.continued_from);
         assert!(back.predicted);
-        assert_eq!(back.level_error.map(f64::to_bits), r.level_error.map(f64::to_bits));
+        assert_eq!(
+            back.level_error.map(f64::to_bits),
+            r.level_error.map(f64::to_bits)
+        );
         let integrated = RunResult {
             continued_from: None,
             predicted: false,

@@ -298,9 +298,15 @@ impl Executor<'_> {
                     > Duration::from_secs_f64(self.opts.checkpoint_every)
                 {
                     let _ = self.journal.sync();
-                    if let Err(e) =
-                        h5::write(&self.opts.out, self.spec, plan, results, &[], self.started, None)
-                    {
+                    if let Err(e) = h5::write(
+                        &self.opts.out,
+                        self.spec,
+                        plan,
+                        results,
+                        &[],
+                        self.started,
+                        None,
+                    ) {
                         io_error.get_or_insert(e.to_string());
                     }
                     self.last_checkpoint = Instant::now();

@@ -131,16 +131,11 @@ pub fn midpoints(spec: &SweepSpec, plan: &Plan, res: &Results, s: usize) -> Vec<
         let (a, b) = (value(at(col, j))?, value(at(col, j + s))?);
         Some([a, b].into_iter().filter(|v| v.is_finite()).collect())
     };
-    let straddles = |v: &[f64]| {
-        v.iter().any(|&x| x < rf.level) && v.iter().any(|&x| x >= rf.level)
-    };
-    let near = |v: &[f64]| {
-        rf.tolerance > 0.0 && v.iter().any(|&x| (x - rf.level).abs() <= rf.tolerance)
-    };
+    let straddles = |v: &[f64]| v.iter().any(|&x| x < rf.level) && v.iter().any(|&x| x >= rf.level);
+    let near =
+        |v: &[f64]| rf.tolerance > 0.0 && v.iter().any(|&x| (x - rf.level).abs() <= rf.tolerance);
     let mut out = vec![];
-    let steps = (0..n.saturating_sub(1))
-        .step_by(s)
-        .filter(|&j| j + s < n);
+    let steps = (0..n.saturating_sub(1)).step_by(s).filter(|&j| j + s < n);
     for line in lay.lines() {
         for j in steps.clone() {
             if let Some(v) = ends(&line, j)

@@ -273,7 +273,9 @@ impl SweepSpec {
                     spec.name = s.clone();
                 }
                 ("description", toml::Value::String(s)) => spec.description = s.clone(),
-                ("max_runs", toml::Value::Integer(n)) if *n > 0 && (*n as u64) <= MAX_RUNS_LIMIT as u64 => {
+                ("max_runs", toml::Value::Integer(n))
+                    if *n > 0 && (*n as u64) <= MAX_RUNS_LIMIT as u64 =>
+                {
                     spec.max_runs = *n as usize
                 }
                 ("max_runs", _) => {
@@ -446,7 +448,9 @@ impl SweepSpec {
                         return Err(doc.err(
                             sec,
                             k,
-                            format!("tolerance = {tolerance} is not allowed: must be finite and >= 0"),
+                            format!(
+                                "tolerance = {tolerance} is not allowed: must be finite and >= 0"
+                            ),
                         ));
                     }
                 }
@@ -459,7 +463,13 @@ impl SweepSpec {
                 }
             }
         }
-        let along = along.ok_or_else(|| doc.err(sec, "along", "[refine] needs along = \"<axis>\", the axis to refine"))?;
+        let along = along.ok_or_else(|| {
+            doc.err(
+                sec,
+                "along",
+                "[refine] needs along = \"<axis>\", the axis to refine",
+            )
+        })?;
         let resolution = resolution.ok_or_else(|| {
             doc.err(
                 sec,
@@ -478,28 +488,57 @@ impl SweepSpec {
             .axes
             .iter()
             .position(|x| x.name == along)
-            .ok_or_else(|| doc.err(sec, "along", format!("`{along}` is not an axis of this sweep; axes: {}", names())))?;
+            .ok_or_else(|| {
+                doc.err(
+                    sec,
+                    "along",
+                    format!("`{along}` is not an axis of this sweep; axes: {}", names()),
+                )
+            })?;
         let d_along = self
             .dims
             .iter()
             .position(|d| d.axes.contains(&a))
             .expect("every axis has a dimension");
         if self.dims[d_along].axes.len() > 1 {
-            return Err(doc.err(sec, "along", format!("axis `{along}` is zipped with another; a refined axis must vary alone")));
+            return Err(doc.err(
+                sec,
+                "along",
+                format!("axis `{along}` is zipped with another; a refined axis must vary alone"),
+            ));
         }
         let Some((start, stop, n, log)) = self.axes[a].range else {
             return Err(doc.err(sec, "along", format!("axis `{along}` is given by values; a refined axis must be a linspace or logspace")));
         };
         if n < 2 {
-            return Err(doc.err(sec, "along", format!("axis `{along}` has {n} value; refinement needs at least 2")));
+            return Err(doc.err(
+                sec,
+                "along",
+                format!("axis `{along}` has {n} value; refinement needs at least 2"),
+            ));
         }
         let across = match across {
             Some(name) => {
-                let d = self.dims.iter().position(|d| d.name == name).ok_or_else(|| {
-                    doc.err(sec, "across", format!("`{name}` is not a dimension of this sweep; dimensions: {}", names()))
-                })?;
+                let d = self
+                    .dims
+                    .iter()
+                    .position(|d| d.name == name)
+                    .ok_or_else(|| {
+                        doc.err(
+                            sec,
+                            "across",
+                            format!(
+                                "`{name}` is not a dimension of this sweep; dimensions: {}",
+                                names()
+                            ),
+                        )
+                    })?;
                 if d == d_along {
-                    return Err(doc.err(sec, "across", format!("across = `{name}` is the refined axis; give another dimension")));
+                    return Err(doc.err(
+                        sec,
+                        "across",
+                        format!("across = `{name}` is the refined axis; give another dimension"),
+                    ));
                 }
                 Some(d)
             }
@@ -510,7 +549,10 @@ impl SweepSpec {
         };
         // The coarse step against the resolution, in the axis's own spacing.
         let (step, fine) = if log {
-            ((stop / start).ln().abs() / (n - 1) as f64, resolution.ln_1p())
+            (
+                (stop / start).ln().abs() / (n - 1) as f64,
+                resolution.ln_1p(),
+            )
         } else {
             ((stop - start).abs() / (n - 1) as f64, resolution)
         };
@@ -596,7 +638,11 @@ impl SweepSpec {
                     format!(
                         "`{k}` in [fixed] and the axis `{}` both set {}; remove one",
                         a.name,
-                        if amplitude(k) { "the amplitude u0" } else { "it" }
+                        if amplitude(k) {
+                            "the amplitude u0"
+                        } else {
+                            "it"
+                        }
                     ),
                 ));
             }
@@ -1018,7 +1064,10 @@ mod tests {
             "[fixed]\nk_d = 5000.0\n[[axis]]\nname = \"k_d\"\nvalues = [1e4, 2e4]\n",
         )
         .unwrap_err();
-        assert!(e.key == "fixed.k_d" && e.line == 2 && e.msg.contains("remove one"), "{e}");
+        assert!(
+            e.key == "fixed.k_d" && e.line == 2 && e.msg.contains("remove one"),
+            "{e}"
+        );
         let e = SweepSpec::parse(
             "s.toml",
             "[fixed]\nu0 = 1e-7\n[[axis]]\nname = \"v_a\"\nvalues = [1e-4, 2e-4]\n",
@@ -1030,7 +1079,10 @@ mod tests {
             "[[axis]]\nname = \"u0\"\nlogspace = [1e-8, 1e-6, 3]\n[output]\ntraces = [{ u0 = 5.0 }]\n",
         )
         .unwrap_err();
-        assert!(e.key == "output.traces" && e.msg.contains("outside the axis"), "{e}");
+        assert!(
+            e.key == "output.traces" && e.msg.contains("outside the axis"),
+            "{e}"
+        );
         // On the grid (to round-off) it is taken.
         let s = SweepSpec::parse(
             "s.toml",
