@@ -449,7 +449,7 @@ fn run_json(r: &sim::RunResult) -> serde_json::Value {
         "window_start": r.window_start,
         "wall_time": r.wall_time,
         "continued_from": r.continued_from,
-        "predicted": r.predicted,
+        "predicted": r.predicted(),
         "level_error": r.level_error,
         "stats": r.stats,
     })

@@ -240,10 +240,7 @@ impl Analyzer {
         // that vibration makes viscous-like), and the means of an exponential over three equal
         // spans form a geometric sequence: extrapolate it to the asymptote and bound the
         // window's distance from it (Aitken's Δ²).
-        let third = w.len() / 3;
-        let m0 = Totals::of(&w[..third]).mean();
-        let m1 = Totals::of(&w[third..2 * third]).mean();
-        let m2 = Totals::of(&w[2 * third..]).mean();
+        let [m0, m1, m2] = thirds(w);
         let mean = all.mean();
         if !near_level(m0, m1, m2, mean, drift) {
             return None;
@@ -255,16 +252,7 @@ impl Analyzer {
         if last_quarter.hi - last_quarter.lo > 1.1 * (third_quarter.hi - third_quarter.lo) + 1e-12 {
             return None;
         }
-        Some(Measures {
-            d_f: all.hi - all.lo,
-            d_f_stderr: 0.0,
-            mean_force: mean,
-            stick_fraction: all.stick_fraction(),
-            period: f64::NAN,
-            peak_force: all.hi,
-            trough_force: all.lo,
-            cycles: 0,
-        })
+        Some(sliding_measures(all.lo, all.hi, mean, all.stick_fraction()))
     }
 
     /// Whether the force, sliding without stick-slip, settles so plainly along one exponential
@@ -392,10 +380,7 @@ impl Analyzer {
         if w.len() < 6 {
             return Trend::Settled;
         }
-        let third = w.len() / 3;
-        let m0 = Totals::of(&w[..third]).mean();
-        let m1 = Totals::of(&w[third..2 * third]).mean();
-        let m2 = Totals::of(&w[2 * third..]).mean();
+        let [m0, m1, m2] = thirds(w);
         let mean = Totals::of(w).mean();
         if 1.5 * (m2 - m0).abs() > range_tol || !near_level(m0, m1, m2, mean, mean_tol) {
             return Trend::Trending;
@@ -414,16 +399,7 @@ impl Analyzer {
             None => &[][..],
         };
         if drops.is_empty() {
-            return Measures {
-                d_f: all.hi - all.lo,
-                d_f_stderr: 0.0,
-                mean_force: all.mean(),
-                stick_fraction: all.stick_fraction(),
-                period: f64::NAN,
-                peak_force: all.hi,
-                trough_force: all.lo,
-                cycles: 0,
-            };
+            return sliding_measures(all.lo, all.hi, all.mean(), all.stick_fraction());
         }
         cycle_measures(drops, all.mean(), all.stick_fraction())
     }
@@ -472,16 +448,7 @@ impl Analyzer {
             f64::NAN
         };
         if self.window.drops.is_empty() {
-            return Measures {
-                d_f: self.smax - self.smin,
-                d_f_stderr: 0.0,
-                mean_force,
-                stick_fraction,
-                period: f64::NAN,
-                peak_force: self.smax,
-                trough_force: self.smin,
-                cycles: 0,
-            };
+            return sliding_measures(self.smin, self.smax, mean_force, stick_fraction);
         }
         cycle_measures(&self.window.drops, mean_force, stick_fraction)
     }
@@ -548,6 +515,31 @@ impl ZigZag {
             self.ext = f;
             self.ext_t = t;
         }
+    }
+}
+
+/// The mean forces of the three thirds of a run of blocks.
+fn thirds(w: &[Block]) -> [f64; 3] {
+    let third = w.len() / 3;
+    [
+        Totals::of(&w[..third]).mean(),
+        Totals::of(&w[third..2 * third]).mean(),
+        Totals::of(&w[2 * third..]).mean(),
+    ]
+}
+
+/// The measures of a window without stick-slip: dF is the max − min `hi − lo` of the smoothed
+/// force (MODEL.md), peak and trough its extremes.
+fn sliding_measures(lo: f64, hi: f64, mean_force: f64, stick_fraction: f64) -> Measures {
+    Measures {
+        d_f: hi - lo,
+        d_f_stderr: 0.0,
+        mean_force,
+        stick_fraction,
+        period: f64::NAN,
+        peak_force: hi,
+        trough_force: lo,
+        cycles: 0,
     }
 }
 

@@ -151,7 +151,7 @@ fn set_measures(file: &H5File, prefix: &str, r: &RunResult, path: &Path) -> Resu
         .map_err(&e)?;
     // 1 where the measures are the settled level, extrapolated from a settling force, with the
     // level's error bound (NaN where not extrapolated).
-    file.set_attr_numeric(&format!("{prefix}predicted"), &i64::from(r.predicted))
+    file.set_attr_numeric(&format!("{prefix}predicted"), &i64::from(r.predicted()))
         .map_err(&e)?;
     file.set_attr_numeric(
         &format!("{prefix}level_error"),

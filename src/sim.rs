@@ -382,18 +382,23 @@ pub struct RunResult {
     /// ([`RunOptions::periodic`]) \[s\]; `None` where every sample was integrated.
     #[serde(default)]
     pub continued_from: Option<f64>,
-    /// Whether the measures are those of the settled level, extrapolated from the force
-    /// settling along one exponential in the window `[window_start, t_end]`
-    /// ([`Analyzer::settling`](crate::measures::Analyzer::settling)) instead of integrated.
-    #[serde(default)]
-    pub predicted: bool,
-    /// Error bound of an extrapolated level's mean force \[N\]: the difference of the levels
-    /// two exponential fits give; `None` where the level was not extrapolated.
+    /// Error bound of the mean force \[N\] where the measures are those of the settled level,
+    /// extrapolated from the force settling along one exponential in the window
+    /// `[window_start, t_end]` ([`Analyzer::settling`](crate::measures::Analyzer::settling))
+    /// instead of integrated: the larger of the two fits' levels' difference and a share of the
+    /// extrapolated distance. `None` where the level was not extrapolated.
     #[serde(default)]
     pub level_error: Option<f64>,
     /// Time traces, when asked for.
     #[serde(skip)]
     pub trace: Option<Trace>,
+}
+
+impl RunResult {
+    /// Whether the measures are an extrapolated settled level ([`RunResult::level_error`]).
+    pub fn predicted(&self) -> bool {
+        self.level_error.is_some()
+    }
 }
 
 /// Simulates the rig once (no reference run) with the given solver.
@@ -740,7 +745,6 @@ fn integrate(rig: &Rig, t_end: f64, opts: &RunOptions, solver: &mut Solver) -> R
         window_start,
         wall_time: start.elapsed().as_secs_f64(),
         continued_from,
-        predicted: level_error.is_some(),
         level_error,
         trace: rec.trace,
     }

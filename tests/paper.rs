@@ -265,12 +265,12 @@ fn settled_level_extrapolated_agrees_with_the_run_continued_until_it_settles() {
             };
             let early = case(0.5e-3, f, ratio, &opts(EarlyStop::Automatic));
             let full = case(0.5e-3, f, ratio, &opts(EarlyStop::Off));
-            assert!(early.run.predicted, "f {f}: {:?}", early.run);
+            assert!(early.run.predicted(), "f {f}: {:?}", early.run);
             let err = early
                 .run
                 .level_error
                 .expect("an extrapolated level states its error");
-            assert!(!full.run.predicted && full.run.level_error.is_none());
+            assert!(!full.run.predicted() && full.run.level_error.is_none());
             assert!(full.r < 0.05, "f {f}: not eliminated, r {}", full.r);
             assert!(early.run.stats.rhs_evals < full.run.stats.rhs_evals);
             assert!(
@@ -349,7 +349,7 @@ fn a_given_t_end_ends_early_only_when_asked_always() {
     let given = case(0.5e-3, 1500.0, 2.0, &opts(EarlyStop::Automatic));
     let always = case(0.5e-3, 1500.0, 2.0, &opts(EarlyStop::Always));
     assert_eq!(given.run.t_end, 6.0);
-    assert!(!given.run.predicted);
+    assert!(!given.run.predicted());
     assert!(always.run.t_end < 6.0, "{:?}", always.run);
     assert!(
         (always.r - given.r).abs() < 3e-3,

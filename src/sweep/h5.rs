@@ -37,10 +37,6 @@ struct Grid {
     data: ArrayD<f64>,
 }
 
-fn ok(r: Option<&sim::RunResult>) -> Option<&sim::RunResult> {
-    r.filter(|r| r.status.has_measures())
-}
-
 fn status_code(r: Option<&sim::RunResult>) -> f64 {
     r.map(|r| r.status.code() as f64).unwrap_or(-1.0)
 }
@@ -144,13 +140,7 @@ fn grids(spec: &SweepSpec, plan: &Plan, res: &Results) -> Vec<Grid> {
     for i in 0..n {
         let (own, rf) = res.point(plan, i);
         let m = own.map(|r| r.measures);
-        let (r, r_se) = match (ok(own), ok(rf)) {
-            (Some(a), Some(b)) if plan.points[i].vibrates() => {
-                sim::reduction(&a.measures, &b.measures)
-            }
-            (Some(_), Some(_)) => (1.0, 0.0),
-            _ => (f64::NAN, f64::NAN),
-        };
+        let (r, r_se) = res.reduction(plan, i);
         let g = |f: fn(&crate::measures::Measures) -> f64| m.as_ref().map(f).unwrap_or(f64::NAN);
         let st = own.map(|r| r.stats);
         let sv = |f: fn(&crate::ode::Stats) -> u64| st.map(|s| f(&s) as f64).unwrap_or(f64::NAN);

@@ -85,7 +85,7 @@ pub fn format_record(task: Task, r: &RunResult) -> String {
         m.cycles,
         s.skipped_periods,
         r.continued_from.unwrap_or(f64::NAN),
-        u8::from(r.predicted),
+        u8::from(r.predicted()),
         r.level_error.unwrap_or(f64::NAN)
     )
 }
@@ -105,6 +105,10 @@ pub fn parse_record(line: &str) -> Option<(Task, RunResult)> {
         "pt" => Task::Point(i),
         _ => return None,
     };
+    // Field 22 says whether the level was extrapolated; field 23 gives its error bound.
+    if !matches!(f.get(22).copied(), None | Some("0" | "1")) {
+        return None;
+    }
     let u = |k: usize| f[k].parse::<u64>().ok();
     let x = |k: usize| f[k].parse::<f64>().ok();
     Some((
@@ -137,11 +141,6 @@ pub fn parse_record(line: &str) -> Option<(Task, RunResult)> {
                 Some(x(21)?).filter(|t| t.is_finite())
             } else {
                 None
-            },
-            predicted: match f.get(22).copied() {
-                None | Some("0") => false,
-                Some("1") => true,
-                Some(_) => return None,
             },
             level_error: match f.get(23) {
                 Some(_) => Some(x(23)?).filter(|e| e.is_finite()),
@@ -272,7 +271,6 @@ mod tests {
             window_start: 4.925,
             wall_time: 0.123456789,
             continued_from: Some(1.0 / 7.0),
-            predicted: true,
             level_error: Some(0.1 + 0.7),
             trace: None,
         };
@@ -288,20 +286,19 @@ mod tests {
         assert_eq!(back.stats, r.stats);
         assert_eq!(back.status, r.status);
         assert_eq!(back.continued_from, r.continued_from);
-        assert!(back.predicted);
+        assert!(back.predicted());
         assert_eq!(
             back.level_error.map(f64::to_bits),
             r.level_error.map(f64::to_bits)
         );
         let integrated = RunResult {
             continued_from: None,
-            predicted: false,
             level_error: None,
             ..r.clone()
         };
         let (_, back) = parse_record(&format_record(Task::Ref(1), &integrated)).unwrap();
         assert_eq!(back.continued_from, None);
-        assert!(!back.predicted);
+        assert!(!back.predicted());
         assert_eq!(back.level_error, None);
         // A line cut short of its fields is rejected (a torn number is caught by `read`).
         assert!(parse_record("pt 1 0 1.0").is_none());

@@ -97,6 +97,11 @@ impl Plan {
     }
 }
 
+/// A run with measures (succeeded, or unsettled and flagged), if any.
+pub(crate) fn measured(r: Option<&RunResult>) -> Option<&RunResult> {
+    r.filter(|r| r.status.has_measures())
+}
+
 /// Results collected so far (`None`: not run yet).
 #[derive(Clone, Debug)]
 pub struct Results {
@@ -128,25 +133,29 @@ impl Results {
         }
     }
 
+    /// The reduction coefficient of grid point `i` and its standard error (5.1): 1 without
+    /// vibration, NaN where the point or its reference has no measures.
+    pub fn reduction(&self, plan: &Plan, i: usize) -> (f64, f64) {
+        let (own, rf) = self.point(plan, i);
+        match (measured(own), measured(rf)) {
+            (Some(a), Some(b)) if plan.points[i].vibrates() => {
+                sim::reduction(&a.measures, &b.measures)
+            }
+            (Some(_), Some(_)) => (1.0, 0.0),
+            _ => (f64::NAN, f64::NAN),
+        }
+    }
+
     /// The value of measure `name` (one of [`spec::MEASURES`]) at grid point `i`: NaN where
     /// the point, or for `r` its reference, has no measures.
     pub fn measure(&self, plan: &Plan, i: usize, name: &str) -> f64 {
-        let (own, rf) = self.point(plan, i);
-        fn ok(r: Option<&RunResult>) -> Option<&RunResult> {
-            r.filter(|r| r.status.has_measures())
-        }
-        let Some(own) = ok(own) else {
+        let Some(own) = measured(self.point(plan, i).0) else {
             return f64::NAN;
         };
         let m = &own.measures;
-        let r = || match ok(rf) {
-            Some(b) if plan.points[i].vibrates() => sim::reduction(m, &b.measures),
-            Some(_) => (1.0, 0.0),
-            None => (f64::NAN, f64::NAN),
-        };
         match name {
-            "r" => r().0,
-            "r_stderr" => r().1,
+            "r" => self.reduction(plan, i).0,
+            "r_stderr" => self.reduction(plan, i).1,
             "dF" => m.d_f,
             "dF_stderr" => m.d_f_stderr,
             "mean_force" => m.mean_force,
