@@ -2,13 +2,14 @@
 
 use crate::campaign::{self, Campaign, CampaignError};
 use crate::cli::{
-    BenchArgs, BoundaryArgs, CalibrateArgs, CliError, Command, DiagnoseArgs, PlotArgs, RunArgs,
-    SweepArgs, SynthArgs,
+    BenchArgs, BoundaryArgs, CalibrateArgs, CliError, Command, DiagnoseArgs, MergeArgs, PlotArgs,
+    RunArgs, SlurmArgs, StatusArgs, SweepArgs, SynthArgs,
 };
 use crate::ode::Solver;
 use crate::output::{self, OutputError};
 use crate::plot::{self, PlotError};
 use crate::sim::{self, CaseResult, RunOptions, SimError};
+use crate::slurm::{SlurmError, SlurmJob};
 use crate::sweep::{self, SweepError};
 use std::io::Write;
 
@@ -33,6 +34,9 @@ pub enum AppError {
     /// A campaign could not be read or written.
     #[error(transparent)]
     Campaign(#[from] CampaignError),
+    /// A Slurm submission failed.
+    #[error(transparent)]
+    Slurm(#[from] SlurmError),
     /// The simulation ran but did not succeed.
     #[error("the run did not succeed: {0}")]
     Failed(String),
@@ -42,7 +46,7 @@ impl AppError {
     /// Process exit code: 2 for bad input, 1 for failures while running.
     pub fn exit_code(&self) -> i32 {
         match self {
-            AppError::Cli(_) | AppError::Sim(_) => 2,
+            AppError::Cli(_) | AppError::Sim(_) | AppError::Slurm(SlurmError::Flag { .. }) => 2,
             AppError::Campaign(CampaignError::Malformed { .. } | CampaignError::Config(_)) => 2,
             _ => 1,
         }
@@ -60,6 +64,9 @@ pub fn execute(cmd: Command) -> Result<(), AppError> {
         Command::Synth(a) => synth_cmd(&a),
         Command::Calibrate(a) => calibrate_cmd(&a),
         Command::Diagnose(a) => diagnose_cmd(&a),
+        Command::Merge(a) => merge_cmd(&a),
+        Command::Status(a) => status_cmd(&a),
+        Command::Slurm(a) => slurm_cmd(&a),
     }
 }
 
@@ -245,26 +252,55 @@ pub fn sweep_cmd(a: &SweepArgs) -> Result<(), AppError> {
         .collect::<Vec<_>>()
         .join(", ");
     let threads = opts.threads.unwrap_or_else(rayon::current_num_threads);
-    match &spec.refine {
-        None => eprintln!(
-            "sweep {}: {} points over {dims} ({} runs: {} without vibration as references), {threads} threads -> {}",
+    if a.estimate {
+        eprintln!(
+            "sweep {}: estimating from a sample of about {} {}, {threads} threads",
+            spec.name,
+            a.sample,
+            if spec.refine.is_some() {
+                "planes"
+            } else {
+                "points"
+            }
+        );
+        let e = sweep::estimate::estimate(&spec, a.sample, opts.threads)?;
+        println!("{e}");
+        return Ok(());
+    }
+    if let Some(sh) = opts.shard {
+        eprintln!(
+            "sweep {}: shard {sh} of {} points ({}), {threads} threads -> {}",
             spec.name,
             plan.points.len(),
-            plan.tasks().len(),
-            plan.refs.len(),
-            opts.out.display()
-        ),
-        Some(rf) => eprintln!(
-            "sweep {}: refining {} = {} along {} on a dense grid of {} points over {dims}: {} coarse points, steps halved {} times where needed, {threads} threads -> {}",
-            spec.name,
-            rf.measure,
-            rf.level,
-            spec.axes[rf.along].name,
-            plan.points.len(),
-            sweep::refine::coarse_points(&spec).len(),
-            rf.levels,
-            opts.out.display()
-        ),
+            if spec.refine.is_some() {
+                "dealt by plane"
+            } else {
+                "dealt point by point"
+            },
+            opts.target().display()
+        );
+    } else {
+        match &spec.refine {
+            None => eprintln!(
+                "sweep {}: {} points over {dims} ({} runs: {} without vibration as references), {threads} threads -> {}",
+                spec.name,
+                plan.points.len(),
+                plan.tasks().len(),
+                plan.refs.len(),
+                opts.out.display()
+            ),
+            Some(rf) => eprintln!(
+                "sweep {}: refining {} = {} along {} on a dense grid of {} points over {dims}: {} coarse points, steps halved {} times where needed, {threads} threads -> {}",
+                spec.name,
+                rf.measure,
+                rf.level,
+                spec.axes[rf.along].name,
+                plan.points.len(),
+                sweep::refine::coarse_points(&spec).len(),
+                rf.levels,
+                opts.out.display()
+            ),
+        }
     }
     let outcome = sweep::run(&spec, &opts)?;
     if outcome.journal_dropped > 0 {
@@ -282,16 +318,165 @@ pub fn sweep_cmd(a: &SweepArgs) -> Result<(), AppError> {
         outcome.failed,
         outcome.wall_time
     );
+    if let Some(sh) = opts.shard {
+        // A shard's file holds part of the grid: the figures come with the merge.
+        println!(
+            "shard {sh} complete; when all {} are, `stickslip merge {}` assembles the sweep",
+            sh.count,
+            opts.out.display()
+        );
+        return Ok(());
+    }
     if !a.no_plot {
-        let d = sweep::read::SweepData::read(&outcome.out).map_err(SweepError::from)?;
-        for f in sweep::figures::plot_all(&d, &outcome.out.with_extension(""))? {
-            println!("wrote {}", f.display());
+        figures_and_boundary(&outcome.out)?;
+    }
+    Ok(())
+}
+
+/// Draws a complete sweep file's figures and, with amplitude and frequency axes, its boundary.
+fn figures_and_boundary(out: &std::path::Path) -> Result<(), AppError> {
+    let d = sweep::read::SweepData::read(out).map_err(SweepError::from)?;
+    for f in sweep::figures::plot_all(&d, &out.with_extension(""))? {
+        println!("wrote {}", f.display());
+    }
+    let has_amplitude = ["u0", "v_a", "va_ratio"].iter().any(|n| d.dim(n).is_some());
+    if has_amplitude && d.dim("f").is_some() {
+        let (csv, _) = sweep::boundary::run(out)?;
+        println!("wrote {} (elimination boundary)", csv.display());
+    }
+    Ok(())
+}
+
+/// `stickslip merge`.
+pub fn merge_cmd(a: &MergeArgs) -> Result<(), AppError> {
+    let sweep = match &a.sweep {
+        Some(f) => Some(sweep::spec::SweepSpec::load(f).map_err(CliError::from)?),
+        None => None,
+    };
+    if let Some(t) = a.threads
+        && (t == 0 || t > 1024)
+    {
+        return Err(CliError::Flag {
+            flag: "threads".into(),
+            value: t.to_string(),
+            msg: "must be from 1 to 1024".into(),
         }
-        let has_amplitude = ["u0", "v_a", "va_ratio"].iter().any(|n| d.dim(n).is_some());
-        if has_amplitude && d.dim("f").is_some() {
-            let (csv, _) = sweep::boundary::run(&outcome.out)?;
-            println!("wrote {} (elimination boundary)", csv.display());
+        .into());
+    }
+    crate::cli::check_output("out", &a.out, &[])?;
+    let o = sweep::merge::merge(&sweep::merge::MergeOptions {
+        out: a.out.clone(),
+        sweep,
+        partial: a.partial,
+        threads: a.threads,
+    })?;
+    println!(
+        "wrote {}: {} shards merged{}, {} points, {} computed, {} failed, {:.1} s",
+        o.out.display(),
+        o.shards - o.incomplete.len(),
+        if o.incomplete.is_empty() {
+            String::new()
+        } else {
+            format!(
+                " ({} missing or unfinished: {}; sweep_status = partial)",
+                o.incomplete.len(),
+                o.incomplete
+                    .iter()
+                    .map(|s| s.to_string())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )
+        },
+        o.points,
+        o.computed,
+        o.failed,
+        o.wall_time
+    );
+    if !a.no_plot {
+        figures_and_boundary(&o.out)?;
+    }
+    Ok(())
+}
+
+/// `stickslip status`.
+pub fn status_cmd(a: &StatusArgs) -> Result<(), AppError> {
+    let s = sweep::status::status(&a.out)?;
+    print!("{s}");
+    Ok(())
+}
+
+/// `stickslip slurm`.
+pub fn slurm_cmd(a: &SlurmArgs) -> Result<(), AppError> {
+    let spec = sweep::spec::SweepSpec::load(&a.file).map_err(CliError::from)?;
+    let out = a
+        .out
+        .clone()
+        .unwrap_or_else(|| std::path::PathBuf::from("results").join(format!("{}.h5", spec.name)));
+    crate::cli::check_output("out", &out, &[&a.file])?;
+    let abs = |p: &std::path::Path| -> Result<std::path::PathBuf, AppError> {
+        std::path::absolute(p).map_err(|e| SlurmError::Io(format!("{}: {e}", p.display())).into())
+    };
+    let exe = std::env::current_exe()
+        .map_err(|e| SlurmError::Io(format!("the stickslip program's path: {e}")))?;
+    let job = SlurmJob {
+        file: abs(&a.file)?,
+        out: abs(&out)?,
+        tasks: a.tasks,
+        partition: a.partition.clone(),
+        time: a.time.clone(),
+        cpus: a.cpus_per_task,
+        exe,
+        name: format!("stickslip-{}", spec.name),
+    };
+    job.validate(&spec)?;
+    job.check_shards(&spec)?;
+    if a.resubmit {
+        if sweep::is_complete(&job.out) {
+            println!("{} is complete; nothing to resubmit", out.display());
+            return Ok(());
         }
+        let cancelled = job.cancel_waiting_merges()?;
+        if !cancelled.is_empty() {
+            println!(
+                "cancelled merge job(s) {} left waiting on earlier tasks",
+                cancelled.join(", ")
+            );
+        }
+        let left = job.to_resubmit()?;
+        let (array, merge) = job.submit(Some(&left))?;
+        match array {
+            Some(id) => println!(
+                "submitted array job {id} ({} task(s): {})",
+                left.len(),
+                left.iter()
+                    .map(|i| i.to_string())
+                    .collect::<Vec<_>>()
+                    .join(",")
+            ),
+            None => println!("every shard is complete or still queued; no tasks submitted"),
+        }
+        println!("submitted merge job {merge} -> {}", out.display());
+        return Ok(());
+    }
+    let (script, merge_script) = job.write_scripts()?;
+    println!("wrote {} ({} array tasks)", script.display(), a.tasks);
+    println!("wrote {}", merge_script.display());
+    if a.submit {
+        let (array, merge) = job.submit(None)?;
+        println!(
+            "submitted array job {} and merge job {merge} (afterok); {} is complete once the merge job has finished",
+            array.expect("the whole array"),
+            out.display()
+        );
+        println!("follow it with: stickslip status {}", out.display());
+    } else {
+        println!(
+            "submit with: jid=$(sbatch --parsable {}) && sbatch --dependency=afterok:$jid {}   (or: stickslip slurm {} --tasks {} --submit)",
+            script.display(),
+            merge_script.display(),
+            a.file.display(),
+            a.tasks
+        );
     }
     Ok(())
 }

@@ -49,6 +49,14 @@ pub enum Command {
     /// a campaign's recordings by least squares on their features; report them with
     /// uncertainties.
     Calibrate(CalibrateArgs),
+    /// Assemble the shards of a sweep (`sweep --shard I/N`, `slurm`) from OUT.h5.shards/ into
+    /// OUT.h5, the file one machine would have written, with its plots and boundary.
+    Merge(MergeArgs),
+    /// How far a sweep has come, on one machine or in shards: runs recorded of each shard.
+    Status(StatusArgs),
+    /// Run a sweep on a Slurm cluster as a job array (one task per shard) and a merge job:
+    /// write both scripts beside the output and, with --submit, submit them with sbatch.
+    Slurm(SlurmArgs),
     /// Diagnose the sim-to-real gap of a campaign: calibrate on a split, locate the gap by
     /// feature, phase and condition, rank the candidate effects by held-out gap reduction,
     /// decide, quantify; terminal summary, JSON, HDF5 and plots.
@@ -384,6 +392,83 @@ pub struct SweepArgs {
     /// Seconds between HDF5 checkpoints while running (>= 1).
     #[arg(long, value_name = "s", default_value_t = 30.0)]
     pub checkpoint_every: f64,
+    /// Run only part I of N of the sweep (I from 0 to N-1), into OUT.shards/I-of-N.h5 with its
+    /// own journal; `stickslip merge OUT` assembles the parts. Parts are balanced by expected
+    /// cost (interleaved over the grid); a [refine] sweep is split by plane.
+    #[arg(long, value_name = "I/N", value_parser = parse_shard)]
+    pub shard: Option<crate::sweep::shard::Shard>,
+    /// Run a small sample of the sweep (about --sample points, or planes of a [refine] sweep)
+    /// and predict the whole sweep's CPU time, per Slurm task too; writes nothing.
+    #[arg(long, conflicts_with_all = ["shard", "resume", "overwrite"])]
+    pub estimate: bool,
+    /// Grid points (planes of a [refine] sweep) that --estimate samples (1 to 100000).
+    #[arg(long, value_name = "N", default_value_t = 32, requires = "estimate")]
+    pub sample: usize,
+}
+
+fn parse_shard(s: &str) -> Result<crate::sweep::shard::Shard, String> {
+    s.parse()
+}
+
+/// Arguments of `stickslip merge`.
+#[derive(Args, Debug)]
+pub struct MergeArgs {
+    /// The sweep's output HDF5 file; its shards are in OUT.shards/ (e.g. results/quick.h5 and
+    /// results/quick.h5.shards/).
+    pub out: PathBuf,
+    /// The sweep file the shards were made from (default: the text stored in the shards); shards
+    /// of another sweep file or program version are refused.
+    #[arg(long, value_name = "FILE")]
+    pub sweep: Option<PathBuf>,
+    /// Write what there is when shards are missing or unfinished: their points NaN, status -1,
+    /// sweep_status = "partial".
+    #[arg(long)]
+    pub partial: bool,
+    /// Worker threads for the traces (default: one per core).
+    #[arg(long, value_name = "N")]
+    pub threads: Option<usize>,
+    /// Do not draw the figures or compute the boundary.
+    #[arg(long)]
+    pub no_plot: bool,
+}
+
+/// Arguments of `stickslip status`.
+#[derive(Args, Debug)]
+pub struct StatusArgs {
+    /// The sweep's output HDF5 file (on one machine or sharded).
+    pub out: PathBuf,
+}
+
+/// Arguments of `stickslip slurm`.
+#[derive(Args, Debug)]
+pub struct SlurmArgs {
+    /// The sweep file (TOML).
+    pub file: PathBuf,
+    /// Array tasks, one shard each (1 to 100000; at most the sweep's points, or planes of a
+    /// [refine] sweep).
+    #[arg(long, value_name = "N")]
+    pub tasks: usize,
+    /// Output HDF5 file. Default: results/<sweep name>.h5. The scripts are written beside it
+    /// (OUT.array.sbatch, OUT.merge.sbatch), the shards and job logs in OUT.shards/.
+    #[arg(short, long, value_name = "FILE")]
+    pub out: Option<PathBuf>,
+    /// Slurm partition (sbatch --partition); default: the cluster's default partition.
+    #[arg(long, value_name = "P")]
+    pub partition: Option<String>,
+    /// Time limit of each array task (sbatch --time: MM, MM:SS, HH:MM:SS, D-HH, D-HH:MM or
+    /// D-HH:MM:SS); default: the partition's. `sweep FILE --estimate` suggests one.
+    #[arg(long, value_name = "T")]
+    pub time: Option<String>,
+    /// CPUs of each array task, its worker threads (1 to 1024).
+    #[arg(long, value_name = "C", default_value_t = 1)]
+    pub cpus_per_task: usize,
+    /// Submit the array and the merge job (afterok on the array) with sbatch; print the job ids.
+    #[arg(long)]
+    pub submit: bool,
+    /// Submit only the shards that are not complete (after a preempted task or a failed node),
+    /// and a new merge job after them.
+    #[arg(long, conflicts_with = "submit")]
+    pub resubmit: bool,
 }
 
 /// Arguments of `stickslip plot`.
@@ -659,6 +744,20 @@ impl SweepArgs {
             .clone()
             .unwrap_or_else(|| PathBuf::from("results").join(format!("{}.h5", spec.name)));
         check_output("out", &out, &[&self.file])?;
+        if let Some(sh) = self.shard {
+            crate::sweep::shard::check(&spec, sh.count).map_err(|msg| CliError::Flag {
+                flag: "shard".into(),
+                value: sh.to_string(),
+                msg,
+            })?;
+        }
+        if !(1..=100_000).contains(&self.sample) {
+            return Err(CliError::Flag {
+                flag: "sample".into(),
+                value: self.sample.to_string(),
+                msg: "must be from 1 to 100000".into(),
+            });
+        }
         Ok((
             spec,
             crate::sweep::SweepOptions {
@@ -668,6 +767,7 @@ impl SweepArgs {
                 overwrite: self.overwrite,
                 progress: !self.quiet,
                 checkpoint_every: self.checkpoint_every,
+                shard: self.shard,
             },
         ))
     }

@@ -26,4 +26,5 @@ pub mod output;
 pub mod plot;
 pub mod progress;
 pub mod sim;
+pub mod slurm;
 pub mod sweep;

@@ -1,7 +1,8 @@
 //! Sweeps end to end: shipped files validate; the planner shares reference runs; 1 and 2
 //! threads give identical numbers; a sweep killed with SIGKILL resumes to the same numbers; a
 //! failing run is recorded and the sweep goes on; the file reads back in h5py and xarray; the
-//! boundary lies where the physics puts it.
+//! boundary lies where the physics puts it; shards merge into the single-machine file bit for
+//! bit, and a merge names what is missing.
 
 use rust_hdf5::H5File;
 use std::path::{Path, PathBuf};
@@ -86,7 +87,39 @@ fn opts(out: &Path, threads: usize) -> SweepOptions {
         overwrite: false,
         progress: false,
         checkpoint_every: 30.0,
+        shard: None,
     }
+}
+
+/// h5py finds the two sweep files identical, bit for bit, but for wall times and dates.
+fn same_sweep(a: &Path, b: &Path) {
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/python/compare_sweeps.py");
+    let out = Command::new("python3")
+        .arg(script)
+        .args([a, b])
+        .output()
+        .expect("python3 runs");
+    assert!(
+        out.status.success(),
+        "{} and {} differ:\n{}\n{}",
+        a.display(),
+        b.display(),
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+/// Runs the program; returns (success, stdout + stderr).
+fn stickslip(args: &[&str]) -> (bool, String) {
+    let o = bin().args(args).output().unwrap();
+    (
+        o.status.success(),
+        format!(
+            "{}{}",
+            String::from_utf8_lossy(&o.stdout),
+            String::from_utf8_lossy(&o.stderr)
+        ),
+    )
 }
 
 #[test]
@@ -549,4 +582,230 @@ fn killed_refinement_resumes_to_the_same_points_and_numbers() {
             .unwrap()
     };
     assert_eq!(c(&killed), c(&clean));
+}
+
+/// SMALL with a trace point and a second drive velocity: two references, two planes.
+const SHARDED: &str = r#"
+name = "sharded"
+[fixed]
+k_d = 20000.0
+[[axis]]
+name = "v_d"
+values = [1.5e-3, 2.0e-3]
+[[axis]]
+name = "f"
+values = [300.0, 1000.0, 2000.0, 3000.0]
+[[axis]]
+name = "u0"
+logspace = [1e-8, 1e-6, 5]
+[solver]
+method = "dopri5"
+[run]
+t_end = 1.5
+[output]
+traces = [{ v_d = 2.0e-3, f = 1000.0, u0 = 1e-6 }]
+"#;
+
+/// Shards run apart (3 processes) and merged equal the single-machine run bit for bit, as h5py
+/// reads them: datasets, traces, boundary, attributes (wall times and dates aside); `status`
+/// follows them; each shard holds about a third of the points, from every part of the grid.
+#[test]
+fn shards_merge_into_the_single_machine_file_bit_for_bit() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = write(dir.path(), "sharded.toml", SHARDED);
+    let f = file.to_str().unwrap();
+    let single = dir.path().join("single.h5");
+    let merged = dir.path().join("merged.h5");
+    let (ok, log) = stickslip(&["sweep", f, "-o", single.to_str().unwrap(), "-q"]);
+    assert!(ok, "{log}");
+    let m = merged.to_str().unwrap();
+    let children: Vec<_> = (0..3)
+        .map(|i| {
+            bin()
+                .args([
+                    "sweep",
+                    f,
+                    "-o",
+                    m,
+                    "--shard",
+                    &format!("{i}/3"),
+                    "--threads",
+                    "1",
+                    "-q",
+                ])
+                .output()
+                .unwrap()
+        })
+        .collect();
+    for c in &children {
+        assert!(c.status.success(), "{}", String::from_utf8_lossy(&c.stderr));
+    }
+    let (ok, st) = stickslip(&["status", m]);
+    assert!(ok, "{st}");
+    assert!(st.contains("shards: 3 of 3 complete"), "{st}");
+    assert!(st.contains("stickslip merge"), "{st}");
+    // Every shard owns a third of the 40 points, spread over both drive velocities.
+    let spec = SweepSpec::parse("sharded.toml", SHARDED).unwrap();
+    let owners = sweep::shard::owners(&spec, 3);
+    for k in 0..3 {
+        let mine: Vec<usize> = (0..40).filter(|&i| owners[i] == k).collect();
+        assert!((13..=14).contains(&mine.len()), "{mine:?}");
+        assert!(
+            mine.iter().any(|&i| i < 20) && mine.iter().any(|&i| i >= 20),
+            "{mine:?}"
+        );
+    }
+    let (ok, log) = stickslip(&["merge", m]);
+    assert!(ok, "{log}");
+    assert!(log.contains("3 shards merged"), "{log}");
+    same_sweep(&single, &merged);
+    assert!(sweep::is_complete(&merged));
+    let (ok, st) = stickslip(&["status", m]);
+    assert!(ok && st.contains(": complete"), "{st}");
+    // A shard run again is complete and makes nothing.
+    let (ok, log) = stickslip(&["sweep", f, "-o", m, "--shard", "1/3", "--resume"]);
+    assert!(ok && log.contains("0 runs made"), "{log}");
+}
+
+/// A merge refuses missing, unfinished, foreign and mixed shards, naming them; `--partial`
+/// writes what there is, the missing shard's points NaN, `sweep_status = "partial"`.
+#[test]
+fn merge_names_missing_unfinished_and_foreign_shards() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = write(dir.path(), "sharded.toml", SHARDED);
+    let f = file.to_str().unwrap();
+    let out = dir.path().join("m.h5");
+    let m = out.to_str().unwrap();
+    let (ok, log) = stickslip(&["merge", m]);
+    assert!(!ok && log.contains("no shards of"), "{log}");
+    for i in [0, 2] {
+        let (ok, log) = stickslip(&["sweep", f, "-o", m, "--shard", &format!("{i}/3"), "-q"]);
+        assert!(ok, "{log}");
+    }
+    let (ok, log) = stickslip(&["merge", m, "--no-plot"]);
+    assert!(!ok, "{log}");
+    assert!(log.contains("shard 1/3 is missing"), "{log}");
+    assert!(log.contains("--partial"), "{log}");
+    assert!(!out.exists());
+    let (ok, st) = stickslip(&["status", m]);
+    assert!(ok && st.contains("1/3: not started"), "{st}");
+    // An unfinished shard: its journal, as a kill leaves it.
+    let shard1 = sweep::shard::Shard { index: 1, count: 3 }.path(&out);
+    let jpath = sweep::journal::path_for(&shard1);
+    let fp = sweep::journal::fingerprint(&SweepSpec::parse("s", SHARDED).unwrap().text);
+    std::fs::write(&jpath, sweep::journal::header(&fp) + "\n").unwrap();
+    let (ok, log) = stickslip(&["merge", m, "--no-plot"]);
+    assert!(
+        !ok && log.contains("shard 1/3 is unfinished (0 runs recorded"),
+        "{log}"
+    );
+    let (ok, log) = stickslip(&["merge", m, "--no-plot", "--partial"]);
+    assert!(ok, "{log}");
+    assert!(log.contains("1 missing or unfinished: 1/3"), "{log}");
+    let h = H5File::open(&out).unwrap();
+    assert_eq!(h.attr_string("sweep_status").unwrap(), "partial");
+    let computed = h.dataset("computed").unwrap().read_raw::<f64>().unwrap();
+    let r = h.dataset("r").unwrap().read_raw::<f64>().unwrap();
+    let spec = SweepSpec::parse("sharded.toml", SHARDED).unwrap();
+    let owners = sweep::shard::owners(&spec, 3);
+    for i in 0..40 {
+        assert_eq!(computed[i] == 1.0, owners[i] != 1, "point {i}");
+        assert_eq!(r[i].is_nan(), owners[i] == 1, "point {i}: r = {}", r[i]);
+    }
+    drop(h);
+    // A shard of another sweep file (another t_end) is refused by name.
+    std::fs::remove_file(&jpath).unwrap();
+    let other = write(
+        dir.path(),
+        "other.toml",
+        &SHARDED.replace("t_end = 1.5", "t_end = 1.4"),
+    );
+    let (ok, log) = stickslip(&[
+        "sweep",
+        other.to_str().unwrap(),
+        "-o",
+        m,
+        "--shard",
+        "1/3",
+        "-q",
+    ]);
+    assert!(ok, "{log}");
+    let (ok, log) = stickslip(&["merge", m, "--no-plot", "--sweep", f]);
+    assert!(
+        !ok && log.contains("shard 1/3 was not made from this sweep file"),
+        "{log}"
+    );
+    // Shards of two splits side by side.
+    let (ok, log) = stickslip(&["sweep", f, "-o", m, "--shard", "0/2", "-q"]);
+    assert!(ok, "{log}");
+    let (ok, log) = stickslip(&["merge", m]);
+    assert!(!ok && log.contains("N = 2, 3"), "{log}");
+    // Bad shard flags name the rule.
+    for (bad, want) in [
+        ("3/3", "I must be from 0 to N - 1 = 2"),
+        ("0/41", "has 40 grid points"),
+    ] {
+        let (ok, log) = stickslip(&["sweep", f, "-o", m, "--shard", bad]);
+        assert!(!ok && log.contains(want), "{bad}: {log}");
+    }
+}
+
+/// A [refine] sweep is sharded by plane (here one per drive velocity): the merged file equals
+/// the single-machine refinement, computed points included; more shards than planes are
+/// refused.
+#[test]
+fn refinement_shards_by_plane() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = SHARDED
+        .replace("name = \"sharded\"", "name = \"planes\"")
+        .replace(
+            "[solver]",
+            "[refine]\nalong = \"u0\"\nacross = \"f\"\nresolution = 0.3\ntolerance = 0.04\n[solver]",
+        )
+        .replace("logspace = [1e-8, 1e-6, 5]", "logspace = [1e-8, 1e-6, 3]");
+    let file = write(dir.path(), "planes.toml", &text);
+    let f = file.to_str().unwrap();
+    let single = dir.path().join("single.h5");
+    let merged = dir.path().join("merged.h5");
+    let m = merged.to_str().unwrap();
+    let (ok, log) = stickslip(&[
+        "sweep",
+        f,
+        "-o",
+        single.to_str().unwrap(),
+        "-q",
+        "--no-plot",
+    ]);
+    assert!(ok, "{log}");
+    for i in 0..2 {
+        let (ok, log) = stickslip(&["sweep", f, "-o", m, "--shard", &format!("{i}/2"), "-q"]);
+        assert!(ok, "{log}");
+    }
+    let (ok, log) = stickslip(&["merge", m, "--no-plot"]);
+    assert!(ok, "{log}");
+    same_sweep(&single, &merged);
+    let (ok, log) = stickslip(&["sweep", f, "-o", m, "--shard", "0/3"]);
+    assert!(!ok && log.contains("sharded by plane"), "{log}");
+}
+
+/// `--estimate` on a sample as large as the sweep predicts exactly the sweep's runs and their
+/// summed cost (no extrapolation, no error); a small sample predicts the run count exactly.
+#[test]
+fn estimate_from_the_whole_sweep_is_exact() {
+    let spec = SweepSpec::parse("sharded.toml", SHARDED).unwrap();
+    let plan = Plan::new(&spec);
+    let e = sweep::estimate::estimate(&spec, 1000, Some(2)).unwrap();
+    assert_eq!(e.sampled, 40);
+    assert_eq!(e.sample_runs, plan.tasks().len());
+    assert_eq!(e.runs, plan.tasks().len() as f64);
+    assert_eq!(e.cpu_stderr, 0.0);
+    assert!(e.cpu > 0.0 && e.cpu < 2.0 * e.sample_wall + 1.0, "{e}");
+    let small = sweep::estimate::estimate(&spec, 8, Some(2)).unwrap();
+    assert!(small.sampled >= 8 && small.sampled <= 10, "{small}");
+    assert_eq!(small.runs, plan.tasks().len() as f64);
+    assert!(
+        small.cpu_stderr.is_finite() && small.cpu_stderr > 0.0,
+        "{small}"
+    );
+    assert!(format!("{small}").contains("--time"), "{small}");
 }

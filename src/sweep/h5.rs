@@ -18,9 +18,12 @@
 //! | `u0_grid`, `v_a_grid` | m, m/s | the vibration amplitude and velocity amplitude of each point |
 //!
 //! Root attributes: the sweep file's text, the resolved fixed parameters, solver settings, the
-//! program version, start and end times, and `sweep_status` (`complete` or `in_progress`).
+//! program version, start and end times, and `sweep_status` (`complete`, `in_progress`, or
+//! `partial` for a merge with shards missing); a shard's file also `shard_index` and
+//! `shard_count`.
 //! Group `traces` holds the traces of the chosen points, one group per point.
 
+use super::shard::Shard;
 use super::spec::SweepSpec;
 use super::{Plan, Results};
 use crate::model::params::PARAMS;
@@ -193,17 +196,41 @@ fn grids(spec: &SweepSpec, plan: &Plan, res: &Results) -> Vec<Grid> {
         .collect()
 }
 
-/// Writes the sweep file (under a temporary name, renamed into place). `finished` marks it
-/// complete.
+/// When and how a sweep file was made: its start, its end (none while in progress), whether
+/// points are missing on purpose (a merge with `--partial`) and which shard it holds.
+#[derive(Clone, Copy, Debug)]
+pub struct Stamp<'a> {
+    /// Start time (ISO 8601).
+    pub started: &'a str,
+    /// End time; `None` while the sweep is in progress (a checkpoint).
+    pub finished: Option<&'a str>,
+    /// A merge of the shards there were, some missing (`sweep_status = "partial"`).
+    pub partial: bool,
+    /// The shard the file holds (attributes `shard_index`, `shard_count`).
+    pub shard: Option<Shard>,
+}
+
+impl Stamp<'_> {
+    /// The `sweep_status` attribute: `in_progress`, `complete` or `partial`.
+    pub fn status(&self) -> &'static str {
+        match (self.finished, self.partial) {
+            (None, _) => "in_progress",
+            (Some(_), false) => "complete",
+            (Some(_), true) => "partial",
+        }
+    }
+}
+
+/// Writes the sweep file (under a temporary name, renamed into place).
 pub fn write(
     path: &Path,
     spec: &SweepSpec,
     plan: &Plan,
     res: &Results,
     traces: &[(usize, Trace)],
-    started: &str,
-    finished: Option<&str>,
+    stamp: Stamp,
 ) -> Result<(), OutputError> {
+    let (started, finished) = (stamp.started, stamp.finished);
     output::ensure_parent(path)?;
     let tmp = output::temp_path(path);
     {
@@ -262,17 +289,16 @@ pub fn write(
         file.set_attr_string("started", started).map_err(&e)?;
         file.set_attr_string("finished", finished.unwrap_or(""))
             .map_err(&e)?;
-        file.set_attr_string(
-            "sweep_status",
-            if finished.is_some() {
-                "complete"
-            } else {
-                "in_progress"
-            },
-        )
-        .map_err(&e)?;
-        file.set_attr_numeric("complete", &(finished.is_some() as i64))
+        file.set_attr_string("sweep_status", stamp.status())
             .map_err(&e)?;
+        file.set_attr_numeric("complete", &i64::from(stamp.status() == "complete"))
+            .map_err(&e)?;
+        if let Some(sh) = stamp.shard {
+            file.set_attr_numeric("shard_index", &(sh.index as i64))
+                .map_err(&e)?;
+            file.set_attr_numeric("shard_count", &(sh.count as i64))
+                .map_err(&e)?;
+        }
         file.set_attr_string(
             "dims",
             &spec

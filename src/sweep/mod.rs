@@ -9,12 +9,16 @@
 //! the thread count or on the order in which runs finish.
 
 pub mod boundary;
+pub mod estimate;
 pub mod figures;
 pub mod h5;
 pub mod journal;
+pub mod merge;
 pub mod read;
 pub mod refine;
+pub mod shard;
 pub mod spec;
+pub mod status;
 
 use crate::model::{Params, params::PARAMS};
 use crate::ode::{Solver, Status};
@@ -22,6 +26,7 @@ use crate::progress::Progress;
 use crate::sim::{self, RunOptions, RunResult, Trace};
 use journal::{Journal, Task};
 use rayon::prelude::*;
+use shard::Shard;
 use spec::SweepSpec;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -196,6 +201,19 @@ pub struct SweepOptions {
     pub progress: bool,
     /// Seconds between HDF5 checkpoints. Default 30.
     pub checkpoint_every: f64,
+    /// Run only this part of the sweep, into its own file beside `out` ([`shard`]). Default
+    /// `None`: the whole sweep into `out`.
+    pub shard: Option<Shard>,
+}
+
+impl SweepOptions {
+    /// The file this invocation writes: `out`, or the shard's file beside it.
+    pub fn target(&self) -> PathBuf {
+        match self.shard {
+            Some(s) => s.path(&self.out),
+            None => self.out.clone(),
+        }
+    }
 }
 
 /// What stopped a sweep.
@@ -263,6 +281,7 @@ struct Executor<'a> {
     run_opts: &'a RunOptions,
     pool: &'a rayon::ThreadPool,
     journal: &'a mut Journal,
+    target: &'a Path,
     started: &'a str,
     last_checkpoint: Instant,
     /// Runs made so far.
@@ -308,13 +327,17 @@ impl Executor<'_> {
                 {
                     let _ = self.journal.sync();
                     if let Err(e) = h5::write(
-                        &self.opts.out,
+                        self.target,
                         self.spec,
                         plan,
                         results,
                         &[],
-                        self.started,
-                        None,
+                        h5::Stamp {
+                            started: self.started,
+                            finished: None,
+                            partial: false,
+                            shard: self.opts.shard,
+                        },
                     ) {
                         io_error.get_or_insert(e.to_string());
                     }
@@ -329,16 +352,49 @@ impl Executor<'_> {
     }
 }
 
-/// Runs a whole sweep to `opts.out` (see the module docs).
+/// Runs a whole sweep to `opts.out`, or one shard of it to the shard's file (see the module
+/// docs and [`shard`]).
 pub fn run(spec: &SweepSpec, opts: &SweepOptions) -> Result<SweepOutcome, SweepError> {
     let start = Instant::now();
     let started = crate::output::now_iso();
     spec.run.validate().map_err(sim::SimError::from)?;
     let plan = Plan::new(spec);
+    let target = opts.target();
+    // The grid points this invocation answers for (all, or the shard's).
+    let owned: Vec<bool> = match opts.shard {
+        None => vec![true; plan.points.len()],
+        Some(sh) => {
+            shard::check(spec, sh.count).map_err(SweepError::State)?;
+            shard::owners(spec, sh.count)
+                .into_iter()
+                .map(|o| o == sh.index)
+                .collect()
+        }
+    };
+    let mine = |i: &usize| owned[*i];
     let mut results = Results::new(&plan);
-    crate::output::ensure_parent(&opts.out)?;
-    let jpath = journal::path_for(&opts.out);
+    crate::output::ensure_parent(&target)?;
+    let jpath = journal::path_for(&target);
     let fp = journal::fingerprint(&spec.text);
+    if let Some(sh) = opts.shard
+        && shard_complete(&target)
+        && !opts.overwrite
+    {
+        // A shard is idempotent: a job array may run a finished task again.
+        let points = owned.iter().filter(|&&o| o).count();
+        return Ok(SweepOutcome {
+            points,
+            runs_made: 0,
+            runs_resumed: journal::read(&shard::runs_path(&target), &fp)
+                .map_err(|e| SweepError::State(format!("shard {sh}: {e}")))?
+                .0
+                .len(),
+            journal_dropped: 0,
+            failed: 0,
+            wall_time: start.elapsed().as_secs_f64(),
+            out: target,
+        });
+    }
     let mut resumed = 0;
     let mut journal_dropped = 0;
     let mut journal = if jpath.exists() && !opts.overwrite {
@@ -363,25 +419,42 @@ pub fn run(spec: &SweepSpec, opts: &SweepOptions) -> Result<SweepOutcome, SweepE
         Journal::append(&jpath)
             .map_err(|e| SweepError::State(format!("{}: {e}", jpath.display())))?
     } else {
-        if opts.resume && is_complete(&opts.out) {
+        if opts.resume && is_complete(&target) && opts.shard.is_none() {
             return Err(SweepError::State(format!(
                 "{} is already complete; nothing to resume",
-                opts.out.display()
+                target.display()
             )));
         }
         // A file without its journal is no checkpoint of this sweep: --resume must not replace
         // it (with nothing there, there is nothing to lose, and the sweep starts).
-        if opts.resume && !opts.overwrite && opts.out.exists() {
+        if opts.resume && !opts.overwrite && target.exists() {
             return Err(SweepError::State(format!(
                 "{} is not an interrupted sweep's checkpoint (no journal {} beside it); nothing to resume. \
                  Run without --resume to start afresh, which replaces it",
-                opts.out.display(),
+                target.display(),
                 jpath.display()
             )));
         }
         Journal::create(&jpath, &fp)
             .map_err(|e| SweepError::State(format!("{}: {e}", jpath.display())))?
     };
+    if opts.overwrite {
+        let _ = std::fs::remove_file(shard::runs_path(&target));
+    }
+    // A checkpoint at once: `stickslip status` reads the sweep from it.
+    h5::write(
+        &target,
+        spec,
+        &plan,
+        &results,
+        &[],
+        h5::Stamp {
+            started: &started,
+            finished: None,
+            partial: false,
+            shard: opts.shard,
+        },
+    )?;
 
     let run_opts = RunOptions {
         trace: false,
@@ -398,15 +471,21 @@ pub fn run(spec: &SweepSpec, opts: &SweepOptions) -> Result<SweepOutcome, SweepE
         run_opts: &run_opts,
         pool: &pool,
         journal: &mut journal,
+        target: &target,
         started: &started,
         last_checkpoint: Instant::now(),
         made: 0,
     };
-    // The tasks of the first round: the whole grid, or the coarse grid of a refinement.
-    let first: Vec<Task> = match &spec.refine {
-        None => plan.tasks(),
-        Some(_) => tasks_of(&plan, &refine::coarse_points(spec)),
+    // The tasks of the first round: the whole grid, or the coarse grid of a refinement (the
+    // shard's part of either).
+    let first: Vec<usize> = match &spec.refine {
+        None => (0..plan.points.len()).filter(mine).collect(),
+        Some(_) => refine::coarse_points(spec)
+            .into_iter()
+            .filter(mine)
+            .collect(),
     };
+    let first = tasks_of(&plan, &first);
     let todo: Vec<Task> = first.iter().copied().filter(|t| !results.has(*t)).collect();
     let mut progress = Progress::new(
         first.len() as u64,
@@ -416,7 +495,10 @@ pub fn run(spec: &SweepSpec, opts: &SweepOptions) -> Result<SweepOutcome, SweepE
     exec.round(&todo, &mut results, &mut progress)?;
     if let Some(rf) = &spec.refine {
         for s in refine::widths(rf) {
-            let asked = refine::midpoints(spec, &plan, &results, s);
+            let asked: Vec<usize> = refine::midpoints(spec, &plan, &results, s)
+                .into_iter()
+                .filter(mine)
+                .collect();
             let round: Vec<Task> = tasks_of(&plan, &asked)
                 .into_iter()
                 .filter(|t| !results.has(*t))
@@ -430,40 +512,86 @@ pub fn run(spec: &SweepSpec, opts: &SweepOptions) -> Result<SweepOutcome, SweepE
     let _ = journal.sync();
 
     // Points that keep traces are run once more with tracing on (deterministic: same numbers).
-    let method = spec.run.method;
-    let traced: Vec<(usize, Trace)> = spec
-        .trace_points()
-        .into_par_iter()
-        .map_init(
-            || Solver::new(method),
-            |solver, i| {
-                let o = RunOptions {
-                    trace: true,
-                    ..spec.run.clone()
-                };
-                let r = sim::simulate_with(&plan.points[i], &plan.effects, &o, solver)
-                    .expect("validated");
-                (i, r.trace.unwrap_or_default())
-            },
-        )
-        .collect();
-
+    // A shard leaves them to the merge.
+    let traced = if opts.shard.is_none() {
+        traces(spec, &plan, &results, &pool)
+    } else {
+        vec![]
+    };
     let finished = crate::output::now_iso();
     h5::write(
-        &opts.out,
+        &target,
         spec,
         &plan,
         &results,
         &traced,
-        &started,
-        Some(&finished),
+        h5::Stamp {
+            started: &started,
+            finished: Some(&finished),
+            partial: false,
+            shard: opts.shard,
+        },
     )?;
-    // The complete file holds everything the journal did.
-    let _ = std::fs::remove_file(&jpath);
-    let failed = (0..plan.points.len())
+    // The complete file holds everything the journal did; a shard keeps its runs for the merge.
+    match opts.shard {
+        None => {
+            let _ = std::fs::remove_file(&jpath);
+        }
+        Some(_) => std::fs::rename(&jpath, shard::runs_path(&target))
+            .map_err(|e| SweepError::State(format!("{}: {e}", jpath.display())))?,
+    }
+    let failed = failed_points(spec, &plan, &results, &owned);
+    Ok(SweepOutcome {
+        points: owned.iter().filter(|&&o| o).count(),
+        runs_made,
+        runs_resumed: resumed,
+        journal_dropped,
+        failed,
+        wall_time: start.elapsed().as_secs_f64(),
+        out: target,
+    })
+}
+
+/// The traces of the sweep's chosen points (`[output] traces`) that have results, run once more
+/// with tracing on (the runs are deterministic: the same numbers).
+fn traces(
+    spec: &SweepSpec,
+    plan: &Plan,
+    results: &Results,
+    pool: &rayon::ThreadPool,
+) -> Vec<(usize, Trace)> {
+    let method = spec.run.method;
+    let points: Vec<usize> = spec
+        .trace_points()
+        .into_iter()
+        .filter(|&i| results.point(plan, i).0.is_some())
+        .collect();
+    pool.install(|| {
+        points
+            .into_par_iter()
+            .map_init(
+                || Solver::new(method),
+                |solver, i| {
+                    let o = RunOptions {
+                        trace: true,
+                        ..spec.run.clone()
+                    };
+                    let r = sim::simulate_with(&plan.points[i], &plan.effects, &o, solver)
+                        .expect("validated");
+                    (i, r.trace.unwrap_or_default())
+                },
+            )
+            .collect()
+    })
+}
+
+/// The grid points among `owned` whose run or reference did not succeed (a refinement leaves
+/// the points far from the level out on purpose: those do not count).
+fn failed_points(spec: &SweepSpec, plan: &Plan, results: &Results, owned: &[bool]) -> usize {
+    (0..plan.points.len())
+        .filter(|&i| owned[i])
         .filter(|&i| {
-            // A refinement leaves the points far from the level out on purpose.
-            let (own, rf) = results.point(&plan, i);
+            let (own, rf) = results.point(plan, i);
             match own {
                 None => spec.refine.is_none(),
                 Some(a) => {
@@ -472,16 +600,12 @@ pub fn run(spec: &SweepSpec, opts: &SweepOptions) -> Result<SweepOutcome, SweepE
                 }
             }
         })
-        .count();
-    Ok(SweepOutcome {
-        points: plan.points.len(),
-        runs_made,
-        runs_resumed: resumed,
-        journal_dropped,
-        failed,
-        wall_time: start.elapsed().as_secs_f64(),
-        out: opts.out.clone(),
-    })
+        .count()
+}
+
+/// Whether a shard's file is complete: its HDF5 file says so and its runs are kept beside it.
+pub fn shard_complete(path: &Path) -> bool {
+    is_complete(path) && shard::runs_path(path).exists()
 }
 
 /// Whether an HDF5 sweep file exists and is marked complete.

@@ -1,0 +1,308 @@
+//! `stickslip sweep FILE --estimate`: the CPU time of a whole sweep predicted from a small
+//! sample of its runs, so that a user can choose the number of Slurm tasks and `--time`.
+//!
+//! The sample is a shard ([`super::shard`]): shard 0 of `M`, with `M` chosen so that it holds
+//! about `sample` grid points (dense sweeps) or planes (`[refine]` sweeps), with the reference
+//! runs they need, dealt from the scrambled order, so it spreads over the whole grid. It runs to
+//! a temporary folder, removed afterwards. Each run's cost is its wall time on one thread (runs
+//! are single-threaded), i.e. CPU seconds.
+//!
+//! - Dense sweep: `CPU = c_pt N_pt + c_ref N_ref`, the sample means of runs with vibration and of
+//!   references times their counts in the whole sweep; the stated uncertainty is one standard
+//!   error of the mean, `N_pt s_pt / sqrt(k_pt)` (and the references' alike, where not all were
+//!   run).
+//! - `[refine]` sweep: the runs of a plane depend on where its level lies, so whole planes are
+//!   sampled: `CPU = c_plane N_plane`, with the standard error over the sampled planes (a single
+//!   sampled plane gives none).
+//!
+//! For a Slurm array of `N` tasks, a task of a dense sweep holds `N_pt / N` points and, expecting
+//! the points spread evenly over the `N_ref` references, `N_ref (1 − (1 − 1/N_ref)^(N_pt/N))` of
+//! them (each task makes the references its points need); a task of a `[refine]` sweep holds
+//! `ceil(N_plane / N)` planes.
+
+use super::journal::{self, Task};
+use super::shard::{self, Shard};
+use super::spec::SweepSpec;
+use super::{Plan, SweepError, SweepOptions};
+use std::fmt;
+use std::time::Instant;
+
+/// A predicted sweep cost (module docs).
+#[derive(Clone, Debug)]
+pub struct Estimate {
+    /// The sweep's name.
+    pub name: String,
+    /// Whether the sweep refines (units are planes).
+    pub refine: bool,
+    /// Grid points (dense) or planes (refine) sampled, and in the whole sweep.
+    pub sampled: usize,
+    /// Units in the whole sweep.
+    pub units: usize,
+    /// Runs made for the sample.
+    pub sample_runs: usize,
+    /// Wall time of the sample \[s\].
+    pub sample_wall: f64,
+    /// Predicted runs of the whole sweep.
+    pub runs: f64,
+    /// Predicted CPU time of the whole sweep \[s\].
+    pub cpu: f64,
+    /// One standard error of `cpu` \[s\] (NaN where the sample cannot tell).
+    pub cpu_stderr: f64,
+    /// The longest run of the sample \[s\]: no task finishes sooner.
+    pub longest_run: f64,
+    /// Points with vibration and references of the whole sweep (dense sweeps), for per-task
+    /// predictions.
+    counts: (f64, f64),
+    /// Mean cost of a run with vibration, of a reference, of a plane \[s\].
+    means: (f64, f64, f64),
+    /// Threads of the machine the estimate is for.
+    pub threads: usize,
+}
+
+fn mean_sd(v: &[f64]) -> (f64, f64) {
+    let n = v.len() as f64;
+    let m = v.iter().sum::<f64>() / n;
+    let var = if v.len() > 1 {
+        v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n - 1.0)
+    } else {
+        f64::NAN
+    };
+    (m, var.sqrt())
+}
+
+/// Runs a sample of about `sample` units of the sweep on `threads` threads and predicts the
+/// whole (module docs).
+pub fn estimate(
+    spec: &SweepSpec,
+    sample: usize,
+    threads: Option<usize>,
+) -> Result<Estimate, SweepError> {
+    let units = shard::units(spec);
+    let sample = sample.clamp(1, units);
+    let count = units.div_ceil(sample);
+    let sh = Shard { index: 0, count };
+    let dir = std::env::temp_dir().join(format!(
+        "stickslip-estimate-{}-{}",
+        std::process::id(),
+        journal::fingerprint(&spec.text)
+    ));
+    std::fs::create_dir_all(&dir)
+        .map_err(|e| SweepError::State(format!("{}: {e}", dir.display())))?;
+    let out = dir.join("sample.h5");
+    let t0 = Instant::now();
+    let opts = SweepOptions {
+        out: out.clone(),
+        threads,
+        resume: false,
+        overwrite: true,
+        progress: true,
+        checkpoint_every: 1e9,
+        shard: Some(sh),
+    };
+    let outcome = super::run(spec, &opts);
+    let sample_wall = t0.elapsed().as_secs_f64();
+    let records = outcome.and_then(|o| {
+        journal::read(&shard::runs_path(&o.out), &journal::fingerprint(&spec.text))
+            .map_err(SweepError::State)
+    });
+    let _ = std::fs::remove_dir_all(&dir);
+    let (records, _) = records?;
+    let plan = Plan::new(spec);
+    let owners = shard::owners(spec, count);
+    // Dense sweeps: the sample's points; [refine] sweeps: its planes, counted below.
+    let sampled = owners.iter().filter(|&&o| o == 0).count();
+    let longest_run = records.iter().map(|(_, r)| r.wall_time).fold(0.0, f64::max);
+    let n_pt = plan.points.iter().filter(|p| p.vibrates()).count() as f64;
+    let n_ref = plan.refs.len() as f64;
+    let threads = threads.unwrap_or_else(rayon::current_num_threads);
+    let base = Estimate {
+        name: spec.name.clone(),
+        refine: spec.refine.is_some(),
+        sampled,
+        units,
+        sample_runs: records.len(),
+        sample_wall,
+        runs: 0.0,
+        cpu: 0.0,
+        cpu_stderr: f64::NAN,
+        longest_run,
+        counts: (n_pt, n_ref),
+        means: (0.0, 0.0, 0.0),
+        threads,
+    };
+    Ok(match spec.refine {
+        None => {
+            let pts: Vec<f64> = records
+                .iter()
+                .filter(|(t, _)| matches!(t, Task::Point(_)))
+                .map(|(_, r)| r.wall_time)
+                .collect();
+            let refs: Vec<f64> = records
+                .iter()
+                .filter(|(t, _)| matches!(t, Task::Ref(_)))
+                .map(|(_, r)| r.wall_time)
+                .collect();
+            let (cp, sp) = if pts.is_empty() {
+                (0.0, 0.0)
+            } else {
+                mean_sd(&pts)
+            };
+            let (cr, sr) = mean_sd(&refs);
+            let se_p = if pts.len() as f64 >= n_pt {
+                0.0
+            } else {
+                n_pt * sp / (pts.len() as f64).sqrt()
+            };
+            let se_r = if refs.len() as f64 >= n_ref {
+                0.0
+            } else {
+                n_ref * sr / (refs.len() as f64).sqrt()
+            };
+            Estimate {
+                runs: n_pt + n_ref,
+                cpu: cp * n_pt + cr * n_ref,
+                cpu_stderr: se_p.hypot(se_r),
+                means: (cp, cr, 0.0),
+                ..base
+            }
+        }
+        Some(_) => {
+            let (plane, _) = shard::planes(spec);
+            let mut cost = std::collections::BTreeMap::<usize, f64>::new();
+            for (i, &o) in owners.iter().enumerate() {
+                if o == 0 {
+                    cost.entry(plane[i]).or_default();
+                }
+            }
+            for (t, r) in &records {
+                let p = match *t {
+                    Task::Point(i) => plane[i],
+                    Task::Ref(k) => {
+                        plane[(0..plan.points.len())
+                            .find(|&i| owners[i] == 0 && plan.point_ref[i] == k)
+                            .expect("a reference the shard made serves one of its points")]
+                    }
+                };
+                *cost.entry(p).or_default() += r.wall_time;
+            }
+            let per: Vec<f64> = cost.values().copied().collect();
+            let (c, s) = mean_sd(&per);
+            let k = per.len() as f64;
+            Estimate {
+                sampled: per.len(),
+                runs: records.len() as f64 / k * units as f64,
+                cpu: c * units as f64,
+                cpu_stderr: if per.len() >= units {
+                    0.0
+                } else {
+                    units as f64 * s / k.sqrt()
+                },
+                means: (0.0, 0.0, c),
+                ..base
+            }
+        }
+    })
+}
+
+impl Estimate {
+    /// Predicted CPU time of one task of a Slurm array of `tasks` tasks \[s\] (module docs).
+    pub fn per_task(&self, tasks: usize) -> f64 {
+        let n = tasks as f64;
+        if self.refine {
+            return self.means.2 * self.units.div_ceil(tasks) as f64;
+        }
+        let (n_pt, n_ref) = self.counts;
+        let (cp, cr, _) = self.means;
+        let refs = if n_ref > 0.0 {
+            n_ref * (1.0 - (1.0 - 1.0 / n_ref).powf((n_pt / n).max(1.0)))
+        } else {
+            0.0
+        };
+        cp * n_pt / n + cr * refs
+    }
+}
+
+/// Formats seconds as Slurm's `--time` does: `D-HH:MM:SS` or `HH:MM:SS`.
+pub fn slurm_time(secs: f64) -> String {
+    let s = secs.max(0.0).ceil() as u64;
+    let (d, h, m, s) = (s / 86_400, s / 3600 % 24, s / 60 % 60, s % 60);
+    if d > 0 {
+        format!("{d}-{h:02}:{m:02}:{s:02}")
+    } else {
+        format!("{h:02}:{m:02}:{s:02}")
+    }
+}
+
+fn human(secs: f64) -> String {
+    if secs < 120.0 {
+        format!("{secs:.1} s")
+    } else if secs < 7200.0 {
+        format!("{:.1} min", secs / 60.0)
+    } else {
+        format!("{:.2} h", secs / 3600.0)
+    }
+}
+
+impl fmt::Display for Estimate {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let unit = if self.refine { "planes" } else { "grid points" };
+        writeln!(
+            f,
+            "estimate for sweep {}: sampled {} of {} {unit} ({} runs) in {}",
+            self.name,
+            self.sampled,
+            self.units,
+            self.sample_runs,
+            human(self.sample_wall)
+        )?;
+        let se = if self.cpu_stderr.is_finite() {
+            format!(" ± {} (one standard error)", human(self.cpu_stderr))
+        } else {
+            " (one plane sampled: no spread known)".into()
+        };
+        writeln!(
+            f,
+            "  predicted: {:.0} runs, {} CPU{se}",
+            self.runs,
+            human(self.cpu),
+        )?;
+        writeln!(
+            f,
+            "  on this machine ({} threads): about {}",
+            self.threads,
+            human((self.cpu / self.threads as f64).max(self.longest_run))
+        )?;
+        writeln!(
+            f,
+            "  as a Slurm array (stickslip slurm FILE --tasks N --cpus-per-task C): per task about"
+        )?;
+        for n in [4, 16, 64, 256, 1024] {
+            if n > self.units {
+                break;
+            }
+            let t = self.per_task(n).max(self.longest_run);
+            writeln!(
+                f,
+                "    N = {n:>4}: {} CPU, so with C = 1 suggest --time {} (twice that, at least 10 min)",
+                human(t),
+                slurm_time((2.0 * t).max(600.0))
+            )?;
+        }
+        write!(
+            f,
+            "  the longest sampled run took {}; no task can take less",
+            human(self.longest_run)
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn slurm_times_read_as_slurm_writes_them() {
+        assert_eq!(slurm_time(59.2), "00:01:00");
+        assert_eq!(slurm_time(3600.0 * 25.0 + 61.0), "1-01:01:01");
+    }
+}
