@@ -69,9 +69,10 @@ pub enum SlurmError {
 /// or `UNLIMITED`/`INFINITE` (the forms `sbatch --time` accepts).
 pub fn check_time(t: &str) -> Result<(), String> {
     let bad = || {
-        Err(format!(
+        Err(
             "not a Slurm time limit; use minutes, MM:SS, HH:MM:SS, D-HH, D-HH:MM or D-HH:MM:SS (for example 2:00:00)"
-        ))
+                .to_string(),
+        )
     };
     if matches!(t, "UNLIMITED" | "INFINITE" | "unlimited" | "infinite") {
         return Ok(());
@@ -85,12 +86,7 @@ pub fn check_time(t: &str) -> Result<(), String> {
         return bad();
     }
     let parts: Vec<&str> = rest.split(':').collect();
-    let ok = parts.iter().all(|p| num(p))
-        && match days {
-            None => parts.len() <= 3,
-            Some(_) => parts.len() <= 3,
-        };
-    if !ok {
+    if !(parts.iter().all(|p| num(p)) && parts.len() <= 3) {
         return bad();
     }
     if t.bytes().all(|b| b == b'0' || b == b':' || b == b'-') {
@@ -311,7 +307,7 @@ impl SlurmJob {
             if kind != "array" {
                 continue;
             }
-            let o = run_slurm("squeue", &["-h", "-r", "-j", &id, "-o", "%K %T"])?;
+            let o = squeue(&id, "%K %T")?;
             for line in o.lines() {
                 let mut w = line.split_whitespace();
                 if let (Some(k), Some(state)) = (w.next(), w.next())
@@ -334,7 +330,7 @@ impl SlurmJob {
             if kind != "merge" {
                 continue;
             }
-            let o = run_slurm("squeue", &["-h", "-j", &id, "-o", "%T"])?;
+            let o = squeue(&id, "%T")?;
             if o.lines().any(|s| s.trim() == "PENDING") {
                 run_slurm("scancel", &[&id])?;
                 cancelled.push(id);
@@ -378,6 +374,15 @@ fn quote(p: &Path) -> String {
         s
     } else {
         format!("'{}'", s.replace('\'', "'\\''"))
+    }
+}
+
+/// squeue's lines for job `id` in `format`: empty once the job has left the queue (squeue then
+/// calls the id invalid).
+fn squeue(id: &str, format: &str) -> Result<String, SlurmError> {
+    match run_slurm("squeue", &["-h", "-r", "-j", id, "-o", format]) {
+        Err(SlurmError::Slurm(e)) if e.contains("Invalid job id") => Ok(String::new()),
+        r => r,
     }
 }
 
