@@ -366,6 +366,7 @@ pub fn merge_cmd(a: &MergeArgs) -> Result<(), AppError> {
     crate::cli::check_output("out", &a.out, &[])?;
     let o = sweep::merge::merge(&sweep::merge::MergeOptions {
         out: a.out.clone(),
+        shards: a.shards.clone(),
         sweep,
         partial: a.partial,
         threads: a.threads,

@@ -416,6 +416,10 @@ pub struct MergeArgs {
     /// The sweep's output HDF5 file; its shards are in OUT.shards/ (e.g. results/quick.h5 and
     /// results/quick.h5.shards/).
     pub out: PathBuf,
+    /// The folder holding the shards I-of-N.h5 and I-of-N.runs (default: OUT.shards/ beside
+    /// OUT), e.g. where the shards of several hosts were copied.
+    #[arg(long, value_name = "DIR")]
+    pub shards: Option<PathBuf>,
     /// The sweep file the shards were made from (default: the text stored in the shards); shards
     /// of another sweep file or program version are refused.
     #[arg(long, value_name = "FILE")]

@@ -660,6 +660,22 @@ fn shards_merge_into_the_single_machine_file_bit_for_bit() {
     assert!(log.contains("3 shards merged"), "{log}");
     same_sweep(&single, &merged);
     assert!(sweep::is_complete(&merged));
+    // The shards copied into a folder of their own (as from several hosts) merge alike.
+    let copied = dir.path().join("copied");
+    std::fs::create_dir(&copied).unwrap();
+    for e in std::fs::read_dir(dir.path().join("merged.h5.shards")).unwrap() {
+        let e = e.unwrap();
+        std::fs::copy(e.path(), copied.join(e.file_name())).unwrap();
+    }
+    let elsewhere = dir.path().join("elsewhere.h5");
+    let (ok, log) = stickslip(&[
+        "merge",
+        elsewhere.to_str().unwrap(),
+        "--shards",
+        copied.to_str().unwrap(),
+    ]);
+    assert!(ok, "{log}");
+    same_sweep(&single, &elsewhere);
     let (ok, st) = stickslip(&["status", m]);
     assert!(ok && st.contains(": complete"), "{st}");
     // A shard run again is complete and makes nothing.

@@ -25,8 +25,10 @@ use std::time::Instant;
 /// How to merge. Fields document their defaults.
 #[derive(Clone, Debug)]
 pub struct MergeOptions {
-    /// The merged sweep file; its shards are in `OUT.shards/`.
+    /// The merged sweep file.
     pub out: PathBuf,
+    /// The folder of the shards. Default `None`: `OUT.shards/` beside `out`.
+    pub shards: Option<PathBuf>,
     /// The sweep file the shards were made from. Default `None`: the sweep text stored in the
     /// shards' HDF5 files (the lowest shard that has one).
     pub sweep: Option<SweepSpec>,
@@ -79,11 +81,15 @@ pub fn has_shards(out: &Path) -> bool {
     })
 }
 
-/// Finds the shards of sweep output `out` (see [`Found`]). Errors when there are none, or
-/// when shards of different counts lie side by side.
+/// Finds the shards of sweep output `out` in `OUT.shards/` (see [`find_in`]).
 pub fn find(out: &Path) -> Result<Found, SweepError> {
-    let dir = shard::dir_for(out);
-    let entries = std::fs::read_dir(&dir).map_err(|e| {
+    find_in(&shard::dir_for(out), out)
+}
+
+/// Finds the shards of sweep output `out` in folder `dir` (see [`Found`]). Errors when there
+/// are none, or when shards of different counts lie side by side.
+pub fn find_in(dir: &Path, out: &Path) -> Result<Found, SweepError> {
+    let entries = std::fs::read_dir(dir).map_err(|e| {
         SweepError::State(format!(
             "no shards of {} found: {}: {e} (shards are made by `stickslip sweep FILE -o {} --shard I/N`)",
             out.display(),
@@ -120,7 +126,7 @@ pub fn find(out: &Path) -> Result<Found, SweepError> {
         }
     };
     let states = (0..count)
-        .map(|index| state(&Shard { index, count }.path(out)))
+        .map(|index| state(&Shard { index, count }.path_in(dir)))
         .collect();
     Ok(Found { count, states })
 }
@@ -169,10 +175,14 @@ pub struct MergeOutcome {
 /// Merges the shards of `opts.out` into it (module docs).
 pub fn merge(opts: &MergeOptions) -> Result<MergeOutcome, SweepError> {
     let t0 = Instant::now();
-    let found = find(&opts.out)?;
+    let dir = opts
+        .shards
+        .clone()
+        .unwrap_or_else(|| shard::dir_for(&opts.out));
+    let found = find_in(&dir, &opts.out)?;
     let n = found.count;
     let shards: Vec<Shard> = (0..n).map(|index| Shard { index, count: n }).collect();
-    let path = |s: &Shard| s.path(&opts.out);
+    let path = |s: &Shard| s.path_in(&dir);
     let spec = match &opts.sweep {
         Some(s) => s.clone(),
         None => shards
@@ -181,7 +191,7 @@ pub fn merge(opts: &MergeOptions) -> Result<MergeOutcome, SweepError> {
             .ok_or_else(|| {
                 SweepError::State(format!(
                     "none of the {n} shards in {} holds the sweep file's text; give it with --sweep FILE",
-                    shard::dir_for(&opts.out).display()
+                    dir.display()
                 ))
             })?,
     };

@@ -71,7 +71,12 @@ impl std::fmt::Display for Shard {
 impl Shard {
     /// The shard's HDF5 file for the sweep output `out`: `OUT.shards/I-of-N.h5`.
     pub fn path(&self, out: &Path) -> PathBuf {
-        dir_for(out).join(format!("{}-of-{}.h5", self.index, self.count))
+        self.path_in(&dir_for(out))
+    }
+
+    /// The shard's HDF5 file in folder `dir`: `DIR/I-of-N.h5`.
+    pub fn path_in(&self, dir: &Path) -> PathBuf {
+        dir.join(format!("{}-of-{}.h5", self.index, self.count))
     }
 }
 
