@@ -485,6 +485,85 @@ fn outputs_never_replace_inputs_and_sizes_are_checked_before_anything_runs() {
             ],
             vec!["t-end", "1e5"],
         ),
+        (
+            vec!["sweep".into(), p("s.toml"), "--shard".into(), "2/2".into()],
+            vec!["--shard", "2/2", "I must be from 0 to N - 1 = 1"],
+        ),
+        (
+            vec!["sweep".into(), p("s.toml"), "--shard".into(), "0/3".into()],
+            vec!["--shard", "0/3", "2 grid points"],
+        ),
+        (
+            vec![
+                "slurm".into(),
+                p("s.toml"),
+                "--tasks".into(),
+                "3".into(),
+                "-o".into(),
+                p("sl.h5"),
+            ],
+            vec!["--tasks", "3", "2 grid points"],
+        ),
+        (
+            vec![
+                "slurm".into(),
+                p("s.toml"),
+                "--tasks".into(),
+                "2".into(),
+                "--time".into(),
+                "2h".into(),
+                "-o".into(),
+                p("sl.h5"),
+            ],
+            vec!["--time", "2h", "HH:MM:SS"],
+        ),
+        (
+            vec![
+                "slurm".into(),
+                p("s.toml"),
+                "--tasks".into(),
+                "2".into(),
+                "--cpus-per-task".into(),
+                "0".into(),
+                "-o".into(),
+                p("sl.h5"),
+            ],
+            vec!["--cpus-per-task", "from 1 to 1024"],
+        ),
+        (
+            vec![
+                "slurm".into(),
+                p("s.toml"),
+                "--tasks".into(),
+                "2".into(),
+                "--partition".into(),
+                "a b".into(),
+                "-o".into(),
+                p("sl.h5"),
+            ],
+            vec!["--partition", "a b", "no spaces"],
+        ),
+        (
+            vec![
+                "slurm".into(),
+                p("s.toml"),
+                "--tasks".into(),
+                "2".into(),
+                "-o".into(),
+                p("s.toml"),
+            ],
+            vec!["--out", "s.toml", "input"],
+        ),
+        (
+            vec![
+                "sweep".into(),
+                p("s.toml"),
+                "--estimate".into(),
+                "--sample".into(),
+                "0".into(),
+            ],
+            vec!["--sample", "from 1"],
+        ),
     ];
     let snapshot = || {
         let mut files: Vec<(String, Vec<u8>)> = walk(d)
@@ -505,6 +584,21 @@ fn outputs_never_replace_inputs_and_sizes_are_checked_before_anything_runs() {
         }
         assert_eq!(snapshot(), before, "{args:?} changed a file");
     }
+    // `status` and `merge` on what is no sweep name it and change nothing.
+    let before = snapshot();
+    let out = stickslip(&["status", &p("afile")]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("not a stickslip sweep file"),
+        "{err}"
+    );
+    let out = stickslip(&["merge", &p("nothing.h5")]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("no shards of"),
+        "{err}"
+    );
+    assert_eq!(snapshot(), before, "status or merge changed a file");
 }
 
 /// Every file below `dir`.

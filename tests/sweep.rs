@@ -560,6 +560,19 @@ fn killed_refinement_resumes_to_the_same_points_and_numbers() {
     }
     child.kill().unwrap();
     child.wait().unwrap();
+    // `status` reads the interrupted sweep from its checkpoint and journal: the coarse grid's 21
+    // runs are planned, more recorded than that.
+    let st = bin()
+        .args(["status", killed.to_str().unwrap()])
+        .output()
+        .unwrap();
+    let st = String::from_utf8_lossy(&st.stdout);
+    assert!(st.contains("in progress or interrupted"), "{st}");
+    assert!(
+        st.contains("on one machine: running or interrupted"),
+        "{st}"
+    );
+    assert!(st.contains(" of 21 runs recorded"), "{st}");
     let out = sweep_args(&killed, &["--resume", "--quiet"])
         .output()
         .unwrap();
