@@ -70,9 +70,38 @@ pub fn execute(cmd: Command) -> Result<(), AppError> {
     }
 }
 
+/// The model extensions that were on, as `{"name": {"param": value, ...}, ...}` (empty for
+/// the base model).
+pub fn effects_json(fx: &crate::model::Effects) -> serde_json::Value {
+    fx.list
+        .iter()
+        .map(|(k, v)| {
+            let ps: serde_json::Map<String, serde_json::Value> = k
+                .info()
+                .params
+                .iter()
+                .zip(v)
+                .map(|(p, x)| (p.name.to_string(), serde_json::json!(x)))
+                .collect();
+            (k.name().to_string(), serde_json::Value::from(ps))
+        })
+        .collect::<serde_json::Map<_, _>>()
+        .into()
+}
+
 /// `stickslip synth`.
 pub fn synth_cmd(a: &SynthArgs) -> Result<(), AppError> {
     let spec = a.resolve()?;
+    if a.dir.exists() && !a.dir.is_dir() {
+        return Err(CliError::Flag {
+            flag: "dir".into(),
+            value: a.dir.display().to_string(),
+            msg: "is a file; give a directory for the campaign".into(),
+        }
+        .into());
+    }
+    // Its parents must be folders (or not exist yet): checked as for an output file inside it.
+    crate::cli::check_output("dir", &a.dir.join("campaign.toml"), &[])?;
     if !a.overwrite && a.dir.is_dir() {
         let has = std::fs::read_dir(&a.dir)
             .map(|d| {
@@ -92,21 +121,7 @@ pub fn synth_cmd(a: &SynthArgs) -> Result<(), AppError> {
     let start = std::time::Instant::now();
     let recs = campaign::synth::synth(&a.dir, &spec)?;
     if let Some(path) = &a.truth {
-        let effects: serde_json::Map<String, serde_json::Value> = spec
-            .effects
-            .list
-            .iter()
-            .map(|(k, v)| {
-                let ps: serde_json::Map<String, serde_json::Value> = k
-                    .info()
-                    .params
-                    .iter()
-                    .zip(v)
-                    .map(|(p, x)| (p.name.to_string(), serde_json::json!(x)))
-                    .collect();
-                (k.name().to_string(), ps.into())
-            })
-            .collect();
+        let effects = effects_json(&spec.effects);
         let truth = serde_json::json!({"effects": effects, "base": spec.base, "seed": spec.seed});
         output::ensure_parent(path)?;
         std::fs::write(
@@ -131,7 +146,7 @@ pub fn synth_cmd(a: &SynthArgs) -> Result<(), AppError> {
 /// `stickslip calibrate`.
 pub fn calibrate_cmd(a: &CalibrateArgs) -> Result<(), AppError> {
     let effect = a.resolve()?;
-    let c = Campaign::load(&a.campaign)?;
+    let (c, skipped) = checked(Campaign::load(&a.campaign)?, a.skip_implausible)?;
     let target = campaign::fit::Target::new(c.recordings.iter().collect());
     let opts = campaign::fit::FitOptions {
         max_iter: a.max_iter,
@@ -146,10 +161,12 @@ pub fn calibrate_cmd(a: &CalibrateArgs) -> Result<(), AppError> {
         }
     };
     print!("{}", campaign::report::calibration_summary(&c, &f));
+    print_skipped(&skipped);
     if let Some(path) = &a.json {
         output::ensure_parent(path)?;
-        let text = serde_json::to_string_pretty(&campaign::report::calibration_json(&c, &f))
-            .unwrap_or_default();
+        let mut j = campaign::report::calibration_json(&c, &f);
+        j["skipped_implausible"] = skipped_json(&skipped);
+        let text = serde_json::to_string_pretty(&j).unwrap_or_default();
         std::fs::write(path, text).map_err(|e| CampaignError::Io {
             path: path.display().to_string(),
             msg: e.to_string(),
@@ -159,10 +176,74 @@ pub fn calibrate_cmd(a: &CalibrateArgs) -> Result<(), AppError> {
     Ok(())
 }
 
+/// Checks every recording before any fit ([`campaign::check`]): refuses the campaign when one
+/// is implausible, or with `skip` sets those aside and returns them.
+fn checked(
+    c: Campaign,
+    skip: bool,
+) -> Result<(Campaign, Vec<campaign::check::Implausible>), AppError> {
+    let bad = campaign::check::check_campaign(&c);
+    if bad.is_empty() {
+        return Ok((c, bad));
+    }
+    if !skip {
+        return Err(CampaignError::Malformed {
+            file: c.dir.display().to_string(),
+            line: 0,
+            msg: format!(
+                "{} implausible recording(s), refused before any fit:\n  {}\nfix them, or set them aside with --skip-implausible",
+                bad.len(),
+                bad.iter()
+                    .map(|b| b.to_string())
+                    .collect::<Vec<_>>()
+                    .join("\n  ")
+            ),
+        }
+        .into());
+    }
+    let mut names: Vec<String> = bad.iter().map(|b| b.recording.clone()).collect();
+    names.dedup();
+    let rest = c.without(&names);
+    if rest.recordings.is_empty() {
+        return Err(CampaignError::Malformed {
+            file: c.dir.display().to_string(),
+            line: 0,
+            msg: "every recording is implausible; nothing is left to fit".into(),
+        }
+        .into());
+    }
+    Ok((rest, bad))
+}
+
+fn print_skipped(skipped: &[campaign::check::Implausible]) {
+    if !skipped.is_empty() {
+        println!("set aside as implausible (--skip-implausible):");
+        for s in skipped {
+            println!("  {s}");
+        }
+    }
+}
+
+fn skipped_json(skipped: &[campaign::check::Implausible]) -> serde_json::Value {
+    serde_json::Value::Array(
+        skipped
+            .iter()
+            .map(|s| {
+                serde_json::json!({
+                    "recording": s.recording,
+                    "check": s.check,
+                    "found": s.found,
+                    "expected": s.expected,
+                })
+            })
+            .collect(),
+    )
+}
+
 /// `stickslip diagnose`.
 pub fn diagnose_cmd(a: &DiagnoseArgs) -> Result<(), AppError> {
     let opts = a.resolve()?;
-    let c = Campaign::load(&a.campaign)?;
+    let (c, skipped) = checked(Campaign::load(&a.campaign)?, a.skip_implausible)?;
     let name = a
         .campaign
         .file_name()
@@ -179,7 +260,9 @@ pub fn diagnose_cmd(a: &DiagnoseArgs) -> Result<(), AppError> {
     })?;
     let json_path = a.json.clone().unwrap_or_else(|| out.join("diagnosis.json"));
     output::ensure_parent(&json_path)?;
-    let text = serde_json::to_string_pretty(&campaign::report::json(&c, &d)).unwrap_or_default();
+    let mut j = campaign::report::json(&c, &d);
+    j["skipped_implausible"] = skipped_json(&skipped);
+    let text = serde_json::to_string_pretty(&j).unwrap_or_default();
     std::fs::write(&json_path, text).map_err(|e| CampaignError::Io {
         path: json_path.display().to_string(),
         msg: e.to_string(),
@@ -191,6 +274,7 @@ pub fn diagnose_cmd(a: &DiagnoseArgs) -> Result<(), AppError> {
         written.extend(campaign::report::plots(&out, &c, &d)?);
     }
     print!("{}", campaign::report::summary(&c, &d));
+    print_skipped(&skipped);
     for w in written {
         println!("wrote {}", w.display());
     }
@@ -336,6 +420,11 @@ pub fn sweep_cmd(a: &SweepArgs) -> Result<(), AppError> {
 /// Draws a complete sweep file's figures and, with amplitude and frequency axes, its boundary.
 fn figures_and_boundary(out: &std::path::Path) -> Result<(), AppError> {
     let d = sweep::read::SweepData::read(out).map_err(SweepError::from)?;
+    if let Err(e) = d.require_results() {
+        // The sweep itself is complete: its statuses say what failed.
+        eprintln!("no figures or boundary: {e}");
+        return Ok(());
+    }
     for f in sweep::figures::plot_all(&d, &out.with_extension(""))? {
         println!("wrote {}", f.display());
     }
@@ -484,8 +573,15 @@ pub fn slurm_cmd(a: &SlurmArgs) -> Result<(), AppError> {
 
 /// `stickslip plot`.
 pub fn plot_cmd(a: &PlotArgs) -> Result<(), AppError> {
-    let d = sweep::read::SweepData::read(&a.file).map_err(SweepError::from)?;
     let stem = a.out.clone().unwrap_or_else(|| a.file.with_extension(""));
+    // The figures are STEM_map.png, ...: their folder must be one.
+    crate::cli::check_output(
+        "out",
+        &std::path::PathBuf::from(format!("{}_map.png", stem.display())),
+        &[&a.file],
+    )?;
+    let d = sweep::read::SweepData::read(&a.file).map_err(SweepError::from)?;
+    d.require_results().map_err(SweepError::State)?;
     for f in sweep::figures::plot_all(&d, &stem)? {
         println!("wrote {}", f.display());
     }
@@ -494,6 +590,10 @@ pub fn plot_cmd(a: &PlotArgs) -> Result<(), AppError> {
 
 /// `stickslip boundary`.
 pub fn boundary_cmd(a: &BoundaryArgs) -> Result<(), AppError> {
+    sweep::read::SweepData::read(&a.file)
+        .map_err(SweepError::from)?
+        .require_results()
+        .map_err(SweepError::State)?;
     let (csv, pts) = sweep::boundary::run(&a.file)?;
     let mut out = std::io::stdout().lock();
     for p in &pts {
@@ -555,7 +655,7 @@ pub fn run(a: &RunArgs) -> Result<(), AppError> {
             a.out.display()
         )));
     }
-    output::write_case_h5(&a.out, &res, &case.run)?;
+    output::write_case_h5(&a.out, &res, &case.run, &case.effects)?;
     let mut written = vec![a.out.clone()];
     if let (Some(path), Some(tr)) = (&a.csv, &res.run.trace) {
         output::write_trace_csv(path, tr)?;
@@ -583,8 +683,13 @@ pub fn run(a: &RunArgs) -> Result<(), AppError> {
     let mut out = std::io::stdout().lock();
     if a.json {
         let mut v = case_json(&res, &case.run);
+        let obj = v.as_object_mut().expect("object");
+        obj.insert("effects".into(), effects_json(&case.effects));
+        obj.insert(
+            "effects_described".into(),
+            serde_json::json!(case.effects.describe()),
+        );
         if let Some((median, min)) = timing {
-            let obj = v.as_object_mut().expect("object");
             obj.insert("repeats".into(), serde_json::json!(a.repeats));
             obj.insert("wall_time_median".into(), serde_json::json!(median));
             obj.insert("wall_time_min".into(), serde_json::json!(min));
@@ -592,6 +697,9 @@ pub fn run(a: &RunArgs) -> Result<(), AppError> {
         let _ = writeln!(out, "{v}");
     } else {
         let _ = write!(out, "{}", case_summary(&res, &case.run));
+        if !case.effects.is_empty() {
+            let _ = writeln!(out, "effects   {}", case.effects.describe());
+        }
         if let Some((median, min)) = timing {
             let _ = writeln!(
                 out,
@@ -697,16 +805,31 @@ pub fn case_summary(c: &CaseResult, o: &RunOptions) -> String {
         p.f_s, p.f_c, p.v_s, p.k_t, p.h_t, p.h_d, p.m
     );
     let _ = writeln!(s, "status    {}", c.status().name());
-    let _ = writeln!(
-        s,
-        "r         {:.4} ± {:.4}   (dF with / without vibration, Eq. 5.1)",
-        c.r, c.r_stderr
-    );
-    let _ = writeln!(
-        s,
-        "dF        {:.4} ± {:.4} N over {} cycles",
-        m.d_f, m.d_f_stderr, m.cycles
-    );
+    let ref_slides = c.reference.as_ref().is_some_and(|r| r.measures.cycles == 0);
+    if ref_slides {
+        let _ = writeln!(
+            s,
+            "r         undefined: the run without vibration has no stick-slip cycle either (nothing to reduce)"
+        );
+    } else {
+        let _ = writeln!(
+            s,
+            "r         {:.4} ± {:.4}   (dF with / without vibration, Eq. 5.1)",
+            c.r, c.r_stderr
+        );
+    }
+    if m.cycles == 0 {
+        let _ = writeln!(
+            s,
+            "dF        0 N: no stick-slip cycle in the steady window (the body slides)"
+        );
+    } else {
+        let _ = writeln!(
+            s,
+            "dF        {:.4} ± {:.4} N over {} cycles",
+            m.d_f, m.d_f_stderr, m.cycles
+        );
+    }
     let _ = writeln!(s, "mean F_d  {:.4} N", m.mean_force);
     let _ = writeln!(
         s,

@@ -116,6 +116,10 @@ pub struct CalibrateArgs {
     /// Write the estimates as JSON to this file.
     #[arg(long, value_name = "FILE")]
     pub json: Option<PathBuf>,
+    /// Set implausible recordings aside (a flat channel, a force or travel off by orders of
+    /// magnitude, x_d against v_d, spikes) and fit the rest, listing them; default: refuse.
+    #[arg(long)]
+    pub skip_implausible: bool,
 }
 
 /// Arguments of `stickslip diagnose`.
@@ -129,6 +133,11 @@ pub struct DiagnoseArgs {
     /// JSON verdict file. Default OUT/diagnosis.json.
     #[arg(long, value_name = "FILE")]
     pub json: Option<PathBuf>,
+    /// Set implausible recordings aside (a flat channel, a force or travel off by orders of
+    /// magnitude, x_d against v_d, spikes) and diagnose the rest, listing them in the report
+    /// and the JSON; default: refuse.
+    #[arg(long)]
+    pub skip_implausible: bool,
     /// Candidate effects (comma-separated). Default: all nine.
     #[arg(long, value_delimiter = ',')]
     pub candidates: Vec<String>,
@@ -195,6 +204,7 @@ impl SynthArgs {
             let mut rng = rand::rngs::StdRng::seed_from_u64(self.seed ^ 0x5eed);
             spec.effects = draw(kind, &mut rng);
         }
+        once_each(&self.effects)?;
         for e in &self.effects {
             spec.effects.apply_spec(e).map_err(|err| CliError::Flag {
                 flag: "effect".into(),
@@ -404,6 +414,32 @@ pub struct SweepArgs {
     /// Grid points (planes of a [refine] sweep) that --estimate samples (1 to 100000).
     #[arg(long, value_name = "N", default_value_t = 32, requires = "estimate")]
     pub sample: usize,
+}
+
+/// Refuses an effect parameter given twice with different values across `--effect` flags
+/// (`aging:b=0.01 --effect aging:b=0.02`), which would otherwise be resolved silently by order.
+fn once_each(specs: &[String]) -> Result<(), CliError> {
+    let mut seen: Vec<(String, String, String)> = vec![];
+    for spec in specs {
+        let (name, rest) = spec.split_once(':').unwrap_or((spec, ""));
+        for kv in rest.split(',').filter(|s| !s.trim().is_empty()) {
+            let (k, v) = kv.split_once('=').unwrap_or((kv, ""));
+            let (name, k, v) = (name.trim(), k.trim(), v.trim());
+            if let Some((_, _, v0)) = seen.iter().find(|(n, key, _)| n == name && key == k)
+                && v0 != v
+            {
+                return Err(CliError::Flag {
+                    flag: "effect".into(),
+                    value: spec.clone(),
+                    msg: format!(
+                        "{name}.{k} is given twice, as {v0} and as {v}; give each parameter once"
+                    ),
+                });
+            }
+            seen.push((name.to_string(), k.to_string(), v.to_string()));
+        }
+    }
+    Ok(())
 }
 
 fn parse_shard(s: &str) -> Result<crate::sweep::shard::Shard, String> {
@@ -789,6 +825,7 @@ impl RunArgs {
                 path: None,
             },
         };
+        once_each(&self.effects)?;
         for spec in &self.effects {
             case.effects.apply_spec(spec).map_err(|e| CliError::Flag {
                 flag: "effect".into(),
@@ -826,7 +863,7 @@ impl RunArgs {
                     .map(|i| i.flag)
                     .unwrap_or(name)
                     .to_string(),
-                value: value.to_string(),
+                value: crate::model::params::number(value),
                 msg: allowed,
             },
             other => CliError::Flag {

@@ -178,7 +178,12 @@ fn set_measures(file: &H5File, prefix: &str, r: &RunResult, path: &Path) -> Resu
 /// Writes one case (`stickslip run`) to HDF5: the measures, `r`, statistics, parameters (with
 /// units) and solver settings as root attributes, and the traces in group `trace`, each
 /// channel a 1-D dataset with `units`, with `t` attached as its dimension scale.
-pub fn write_case_h5(path: &Path, case: &CaseResult, opts: &RunOptions) -> Result<()> {
+pub fn write_case_h5(
+    path: &Path,
+    case: &CaseResult,
+    opts: &RunOptions,
+    effects: &crate::model::Effects,
+) -> Result<()> {
     ensure_parent(path)?;
     let tmp = temp_path(path);
     {
@@ -190,6 +195,16 @@ pub fn write_case_h5(path: &Path, case: &CaseResult, opts: &RunOptions) -> Resul
             .map_err(&e)?;
         file.set_attr_numeric("rtol", &opts.ode.rtol).map_err(&e)?;
         file.set_attr_numeric("atol", &opts.ode.atol).map_err(&e)?;
+        // The model extensions that were on: `base` or `name(k=v, ...)+...`, and each
+        // parameter as `effect_<name>_<param>`.
+        file.set_attr_string("effects", &effects.describe())
+            .map_err(&e)?;
+        for (k, v) in &effects.list {
+            for (p, x) in k.info().params.iter().zip(v) {
+                file.set_attr_numeric(&format!("effect_{}_{}", k.name(), p.name), x)
+                    .map_err(&e)?;
+            }
+        }
         file.set_attr_numeric("r", &case.r).map_err(&e)?;
         file.set_attr_numeric("r_stderr", &case.r_stderr)
             .map_err(&e)?;

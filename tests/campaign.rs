@@ -28,6 +28,9 @@ fn campaign(effects: Effects, seed: u64) -> (tempfile::TempDir, Campaign) {
     synth(dir.path(), &spec).unwrap();
     let c = Campaign::load(dir.path()).unwrap();
     assert_eq!(c.recordings.len(), 16);
+    // Every recording synth makes passes the plausibility checks.
+    let bad = stickslip::campaign::check::check_campaign(&c);
+    assert!(bad.is_empty(), "{bad:?}");
     (dir, c)
 }
 

@@ -704,3 +704,106 @@ fn resume_and_failed_runs_never_replace_what_is_there() {
     );
     assert_eq!(std::fs::read(&h5).unwrap(), before);
 }
+
+/// Corrupted recordings are refused before any fit, each named with its check, the value found
+/// and what was expected: a dead force channel, a force 1e6 too large, `v_d` half the recorded
+/// drive slope, one 1e300 N sample. `--skip-implausible` fits the rest and lists them in the
+/// report and the JSON. Nothing in the campaign changes.
+#[test]
+fn implausible_recordings_are_refused_by_name_or_set_aside() {
+    let dir = tempfile::tempdir().unwrap();
+    let camp = dir.path().join("camp");
+    let c = camp.to_str().unwrap();
+    let out = stickslip(&["synth", c, "--design", "small"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let edit = |name: &str, f: &dyn Fn(usize, &mut Vec<String>)| {
+        let p = camp.join(format!("{name}.csv"));
+        let text = std::fs::read_to_string(&p).unwrap();
+        let mut lines = text.lines();
+        let mut out = vec![lines.next().unwrap().to_string()];
+        for (i, l) in lines.enumerate() {
+            let mut cols: Vec<String> = l.split(',').map(String::from).collect();
+            f(i, &mut cols);
+            out.push(cols.join(","));
+        }
+        std::fs::write(&p, out.join("\n") + "\n").unwrap();
+    };
+    edit("d0_v1", &|_, c| c[1] = "0".into());
+    edit("d1_v0", &|_, c| {
+        c[1] = format!("{:e}", c[1].parse::<f64>().unwrap() * 1e6)
+    });
+    edit("d2_v0", &|i, c| {
+        if i == 777 {
+            c[1] = "1e300".into()
+        }
+    });
+    let toml = camp.join("d1_v1.toml");
+    let text = std::fs::read_to_string(&toml).unwrap();
+    let v_d: f64 = text
+        .lines()
+        .find_map(|l| l.strip_prefix("v_d = "))
+        .unwrap()
+        .trim()
+        .parse()
+        .unwrap();
+    std::fs::write(
+        &toml,
+        text.replace(&format!("v_d = {v_d:e}"), &format!("v_d = {:e}", v_d / 2.0)),
+    )
+    .unwrap();
+    let before = walk(&camp)
+        .into_iter()
+        .map(|f| std::fs::read(f).unwrap())
+        .collect::<Vec<_>>();
+    for cmd in ["calibrate", "diagnose"] {
+        let out = stickslip(&[cmd, c, "--max-iter", "1"]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{cmd}: {err}");
+        for needle in [
+            "recording d0_v1: flat channel",
+            "recording d1_v0: force scale: found max |F_d| = 1.",
+            "recording d1_v1: drive slope: found x_d rises at",
+            "2.000 times v_d",
+            "recording d2_v0: spikes",
+            "1.0000e300 N",
+            "--skip-implausible",
+        ] {
+            assert!(err.contains(needle), "{cmd}: `{needle}` missing from {err}");
+        }
+    }
+    let json = dir.path().join("cal.json");
+    let out = stickslip(&[
+        "calibrate",
+        c,
+        "--max-iter",
+        "1",
+        "--skip-implausible",
+        "--json",
+        json.to_str().unwrap(),
+    ]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(text.contains("set aside as implausible"), "{text}");
+    let j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let skipped: Vec<&str> = j["skipped_implausible"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| s["recording"].as_str().unwrap())
+        .collect();
+    assert_eq!(skipped, ["d0_v1", "d1_v0", "d1_v1", "d2_v0", "d2_v0"]);
+    let after = walk(&camp)
+        .into_iter()
+        .map(|f| std::fs::read(f).unwrap())
+        .collect::<Vec<_>>();
+    assert_eq!(before, after, "the campaign changed");
+}

@@ -48,7 +48,11 @@ fn make(name: &str, dir: &std::path::Path) -> (Campaign, serde_json::Value) {
         &std::fs::read_to_string(dir.join(format!("{name}.truth.json"))).unwrap(),
     )
     .unwrap();
-    (Campaign::load(&out).unwrap(), truth)
+    let c = Campaign::load(&out).unwrap();
+    // Every recording of the independent rig passes the plausibility checks.
+    let bad = stickslip::campaign::check::check_campaign(&c);
+    assert!(bad.is_empty(), "{name}: {bad:?}");
+    (c, truth)
 }
 
 /// Whether the diagnosis gives the verdict the truth asks for.

@@ -19,6 +19,7 @@
 //! ignored. A `.csv` without its `.toml` (or the reverse) is an error, as is any malformed line:
 //! the message names the file, the line and the problem. No recording is skipped silently.
 
+pub mod check;
 pub mod diagnose;
 pub mod features;
 pub mod fit;

@@ -91,18 +91,24 @@ pub struct ParamInfo {
     pub doc: &'static str,
     /// Lower bound (all parameters must also be finite).
     pub bound: Bound,
+    /// The physically plausible range for a rig of this kind (a mass on a drive spring over a
+    /// vibrating substrate, MODEL.md), wide by orders of magnitude around the paper's values:
+    /// a value outside it is a unit mistake, and would only meet a Newton failure or a run
+    /// that never ends. Checked after `bound`.
+    pub plausible: (f64, f64),
     get: fn(&Params) -> f64,
     set: fn(&mut Params, f64),
 }
 
 macro_rules! p {
-    ($name:literal, $flag:literal, $field:ident, $unit:literal, $bound:ident, $doc:literal) => {
+    ($name:literal, $flag:literal, $field:ident, $unit:literal, $bound:ident, $lo:expr, $hi:expr, $doc:literal) => {
         ParamInfo {
             name: $name,
             flag: $flag,
             unit: $unit,
             doc: $doc,
             bound: Bound::$bound,
+            plausible: ($lo, $hi),
             get: |p| p.$field,
             set: |p, v| p.$field = v,
         }
@@ -111,14 +117,34 @@ macro_rules! p {
 
 /// Every parameter, in the order of MODEL.md.
 pub const PARAMS: &[ParamInfo] = &[
-    p!("m", "m", m, "kg", Positive, "mass of the shifted body"),
-    p!("k_t", "k-t", k_t, "N/m", Positive, "contact stiffness"),
+    p!(
+        "m",
+        "m",
+        m,
+        "kg",
+        Positive,
+        1e-4,
+        1e3,
+        "mass of the shifted body"
+    ),
+    p!(
+        "k_t",
+        "k-t",
+        k_t,
+        "N/m",
+        Positive,
+        1e3,
+        1e12,
+        "contact stiffness"
+    ),
     p!(
         "h_t",
         "h-t",
         h_t,
         "N s/m",
         NonNegative,
+        0.0,
+        1e8,
         "contact damping at zero slip velocity"
     ),
     p!(
@@ -127,30 +153,90 @@ pub const PARAMS: &[ParamInfo] = &[
         h_v,
         "N s/m",
         NonNegative,
+        0.0,
+        1e6,
         "viscous damping of the contact"
     ),
-    p!("F_c", "f-c", f_c, "N", Positive, "Coulomb force"),
-    p!("F_s", "f-s", f_s, "N", Positive, "static force (>= F_c)"),
-    p!("v_s", "v-s", v_s, "m/s", Positive, "Stribeck velocity"),
-    p!("k_d", "k-d", k_d, "N/m", Positive, "drive stiffness"),
-    p!("h_d", "h-d", h_d, "N s/m", NonNegative, "drive damping"),
-    p!("v_d", "v-d", v_d, "m/s", Positive, "drive velocity"),
+    p!("F_c", "f-c", f_c, "N", Positive, 1e-6, 1e6, "Coulomb force"),
+    p!(
+        "F_s",
+        "f-s",
+        f_s,
+        "N",
+        Positive,
+        1e-6,
+        1e6,
+        "static force (>= F_c)"
+    ),
+    p!(
+        "v_s",
+        "v-s",
+        v_s,
+        "m/s",
+        Positive,
+        1e-9,
+        10.0,
+        "Stribeck velocity"
+    ),
+    p!(
+        "k_d",
+        "k-d",
+        k_d,
+        "N/m",
+        Positive,
+        1e-2,
+        1e9,
+        "drive stiffness"
+    ),
+    p!(
+        "h_d",
+        "h-d",
+        h_d,
+        "N s/m",
+        NonNegative,
+        0.0,
+        1e6,
+        "drive damping"
+    ),
+    p!(
+        "v_d",
+        "v-d",
+        v_d,
+        "m/s",
+        Positive,
+        1e-9,
+        10.0,
+        "drive velocity"
+    ),
     p!(
         "f",
         "f",
         f,
         "Hz",
         NonNegative,
+        0.0,
+        1e6,
         "vibration frequency (> 0 when u0 > 0)"
     ),
-    p!("u0", "u0", u0, "m", NonNegative, "vibration amplitude"),
-    p!("F_N", "f-n", f_n, "N", Positive, "normal load"),
+    p!(
+        "u0",
+        "u0",
+        u0,
+        "m",
+        NonNegative,
+        0.0,
+        1e-2,
+        "vibration amplitude"
+    ),
+    p!("F_N", "f-n", f_n, "N", Positive, 1e-6, 1e6, "normal load"),
     p!(
         "t_on",
         "t-on",
         t_on,
         "s",
         NonNegative,
+        0.0,
+        1e5,
         "time the vibration is switched on (two-stage run; 0: from the start)"
     ),
 ];
@@ -159,7 +245,7 @@ pub const PARAMS: &[ParamInfo] = &[
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum ParamError {
     /// The value violates the parameter's bound.
-    #[error("parameter `{name}` = {value} {unit} is not allowed: {allowed}")]
+    #[error("parameter `{name}` = {} {unit} is not allowed: {allowed}", number(*value))]
     OutOfRange {
         name: &'static str,
         value: f64,
@@ -169,6 +255,17 @@ pub enum ParamError {
     /// No parameter of that name.
     #[error("unknown parameter `{0}`; known parameters: {known}", known = names().join(", "))]
     Unknown(String),
+}
+
+/// A number as a user reads it: plain for ordinary magnitudes (`0.0005`, `11700`), in
+/// exponent form beyond them (`1e300`, `1e-300`).
+pub fn number(v: f64) -> String {
+    let a = v.abs();
+    if v == 0.0 || !v.is_finite() || (1e-4..1e7).contains(&a) {
+        v.to_string()
+    } else {
+        format!("{v:e}")
+    }
 }
 
 /// Names of all parameters.
@@ -203,16 +300,27 @@ impl ParamInfo {
                 format!("must be finite and >= 0 {}", self.unit),
             ),
         };
-        if ok {
-            Ok(())
-        } else {
-            Err(ParamError::OutOfRange {
+        let (lo, hi) = self.plausible;
+        if !ok {
+            return Err(ParamError::OutOfRange {
                 name: self.name,
                 value: v,
                 unit: self.unit,
                 allowed,
-            })
+            });
         }
+        if !(lo..=hi).contains(&v) {
+            return Err(ParamError::OutOfRange {
+                name: self.name,
+                value: v,
+                unit: self.unit,
+                allowed: format!(
+                    "must lie within {lo:e} to {hi:e} {}, the plausible range for a rig of this kind (check the unit: SI)",
+                    self.unit
+                ),
+            });
+        }
+        Ok(())
     }
 }
 
