@@ -110,6 +110,18 @@ const REQUIRED: [&str; 3] = ["v_d", "k_d", "f"];
 impl Campaign {
     /// Reads every recording of a campaign directory.
     pub fn load(dir: &Path) -> Result<Campaign, CampaignError> {
+        if !dir.is_dir() {
+            return Err(CampaignError::Malformed {
+                file: dir.display().to_string(),
+                line: 0,
+                msg: if dir.exists() {
+                    "is a file; a campaign is a directory of recordings (NAME.csv with NAME.toml)"
+                        .into()
+                } else {
+                    "no such campaign directory".into()
+                },
+            });
+        }
         let entries = std::fs::read_dir(dir).map_err(|e| io(dir, e))?;
         let mut stems: BTreeMap<String, (bool, bool)> = BTreeMap::new();
         for e in entries {

@@ -1,0 +1,889 @@
+//! A census of bad input across every command: for each malformed input, the exit code (2 for a
+//! malformed input, 1 for a file that is not what the command reads), that the message names
+//! what a user needs to act (the file and line, key or flag, the value, what is allowed), that
+//! nothing panicked, and that no file in the fixture folder changed: neither an input nor the
+//! earlier results lying there (`prev.h5`, a finished sweep, a campaign).
+//!
+//! The count by outcome is printed (`cargo test --release --test census -- --nocapture`).
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn walk(dir: &Path) -> Vec<PathBuf> {
+    let mut out = vec![];
+    for e in std::fs::read_dir(dir).unwrap() {
+        let p = e.unwrap().path();
+        if p.is_dir() {
+            out.extend(walk(&p));
+        } else {
+            out.push(p);
+        }
+    }
+    out.sort();
+    out
+}
+
+fn snapshot(dir: &Path) -> Vec<(PathBuf, Vec<u8>)> {
+    walk(dir)
+        .into_iter()
+        .map(|f| {
+            let b = std::fs::read(&f).unwrap();
+            (f, b)
+        })
+        .collect()
+}
+
+fn run(dir: &Path, args: &[String]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_stickslip"))
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .unwrap()
+}
+
+/// A plausible synthetic recording (a noisy saw-tooth, the drive at `v_d`).
+fn recording(rows: usize, v_d: f64) -> String {
+    let mut s = String::from("t,F_d,x_s,x_d\n");
+    for i in 0..rows {
+        let t = i as f64 * 1e-3;
+        let noise = 0.02 * ((i * 7919 % 1000) as f64 / 500.0 - 1.0);
+        s += &format!(
+            "{t},{},{},{}\n",
+            8.0 + 3.0 * (t * 2.0).fract() + noise,
+            v_d * t - 8e-4 + 1e-7 * noise,
+            v_d * t
+        );
+    }
+    s
+}
+
+const SWEEP: &str = "name = \"s\"\n[fixed]\nk_d = 20000.0\nv_d = 1.5e-3\n[[axis]]\nname = \"u0\"\nlogspace = [1e-8, 1e-6, 2]\n[run]\nt_end = 0.5\n";
+
+#[test]
+fn census_of_bad_input() {
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    let w = |name: &str, text: &str| {
+        let p = d.join(name);
+        std::fs::create_dir_all(p.parent().unwrap()).unwrap();
+        std::fs::write(&p, text).unwrap();
+    };
+    // Fixtures: good inputs, earlier results, and the bad files the cases name.
+    w("s.toml", SWEEP);
+    w("c.toml", "k_d = 1e4\nv_d = 1e-3\n");
+    w("afile", "a text file");
+    w("prev.h5", "an earlier result that must survive");
+    std::fs::create_dir(d.join("outdir")).unwrap();
+    // A finished sweep and a run's HDF5 file (not a sweep).
+    let ok = run(
+        d,
+        &[
+            "sweep".into(),
+            "s.toml".into(),
+            "-o".into(),
+            "done.h5".into(),
+            "-q".into(),
+        ],
+    );
+    assert!(
+        ok.status.success(),
+        "{}",
+        String::from_utf8_lossy(&ok.stderr)
+    );
+    let ok = run(
+        d,
+        &[
+            "run",
+            "--no-trace",
+            "-o",
+            "run.h5",
+            "--k-d",
+            "20000",
+            "--v-d",
+            "1.5e-3",
+        ]
+        .map(String::from),
+    );
+    assert!(
+        ok.status.success(),
+        "{}",
+        String::from_utf8_lossy(&ok.stderr)
+    );
+    // A campaign of two plausible recordings, and broken copies.
+    let good = recording(400, 1e-3);
+    let camp = |dir: &str, csv: &str, toml: &str| {
+        w(&format!("{dir}/a.csv"), csv);
+        w(&format!("{dir}/a.toml"), toml);
+        w(&format!("{dir}/b.csv"), &good);
+        w(
+            &format!("{dir}/b.toml"),
+            "v_d = 1e-3\nk_d = 1e4\nf = 0\nu0 = 0\n",
+        );
+    };
+    let cond = "v_d = 1e-3\nk_d = 1e4\nf = 0\nu0 = 0\n";
+    camp("camp", &good, cond);
+    camp("c_notnum", &good.replacen("\n0.05,", "\nx,", 1), cond);
+    camp("c_nohead", &good.replacen("t,F_d", "time,F_d", 1), cond);
+    camp(
+        "c_dupcol",
+        &good.replacen("t,F_d,x_s,x_d", "t,F_d,x_s,F_d", 1),
+        cond,
+    );
+    camp("c_short", &recording(50, 1e-3), cond);
+    camp("c_unknown", &good, &format!("{cond}colour = 3\n"));
+    camp("c_nov_d", &good, "k_d = 1e4\nf = 0\nu0 = 0\n");
+    camp("c_noamp", &good, "v_d = 1e-3\nk_d = 1e4\nf = 0\n");
+    camp("c_u0", &good, "v_d = 1e-3\nk_d = 1e4\nf = 1500\nu0 = 1\n");
+    camp("c_kd", &good, "v_d = 1e-3\nk_d = -1\nf = 0\nu0 = 0\n");
+    camp(
+        "c_dead",
+        &good
+            .lines()
+            .enumerate()
+            .map(|(i, l)| {
+                if i == 0 {
+                    l.to_string()
+                } else {
+                    let c: Vec<&str> = l.split(',').collect();
+                    format!("{},0,{},{}", c[0], c[2], c[3])
+                }
+            })
+            .collect::<Vec<_>>()
+            .join("\n"),
+        cond,
+    );
+    camp(
+        "c_gain",
+        &good
+            .lines()
+            .enumerate()
+            .map(|(i, l)| {
+                if i == 0 {
+                    l.to_string()
+                } else {
+                    let c: Vec<&str> = l.split(',').collect();
+                    format!(
+                        "{},{},{},{}",
+                        c[0],
+                        c[1].parse::<f64>().unwrap() * 1e6,
+                        c[2],
+                        c[3]
+                    )
+                }
+            })
+            .collect::<Vec<_>>()
+            .join("\n"),
+        cond,
+    );
+    camp("c_slope", &good, "v_d = 5e-4\nk_d = 1e4\nf = 0\nu0 = 0\n");
+    w("c_orphan/a.csv", &good);
+    w("c_empty/readme.txt", "no recordings here");
+    w("c_nocsv/a.toml", cond);
+    // Sweep files, each with one fault.
+    let sw = |name: &str, text: &str| w(&format!("{name}.toml"), text);
+    sw("unknown_key", &format!("{SWEEP}colour = 1\n"));
+    sw("bad_axis", "[[axis]]\nname = \"speed\"\nvalues = [1.0]\n");
+    sw(
+        "count0",
+        "[[axis]]\nname = \"u0\"\nlinspace = [1e-8, 1e-6, 0]\n",
+    );
+    sw(
+        "log0",
+        "[[axis]]\nname = \"u0\"\nlogspace = [0.0, 1e-6, 4]\n",
+    );
+    sw("strnum", "[[axis]]\nname = \"u0\"\nvalues = [\"small\"]\n");
+    sw(
+        "dupaxis",
+        "[[axis]]\nname = \"u0\"\nvalues = [1e-8]\n[[axis]]\nname = \"u0\"\nvalues = [1e-7]\n",
+    );
+    sw("emptyvals", "[[axis]]\nname = \"u0\"\nvalues = []\n");
+    sw(
+        "t_end_neg",
+        "[run]\nt_end = -1.0\n[[axis]]\nname = \"u0\"\nvalues = [1e-8]\n",
+    );
+    sw(
+        "rtol0",
+        "[solver]\nrtol = 0.0\n[[axis]]\nname = \"u0\"\nvalues = [1e-8]\n",
+    );
+    sw(
+        "method",
+        "[solver]\nmethod = \"euler\"\n[[axis]]\nname = \"u0\"\nvalues = [1e-8]\n",
+    );
+    sw(
+        "maxruns0",
+        "max_runs = 0\n[[axis]]\nname = \"u0\"\nvalues = [1e-8]\n",
+    );
+    sw(
+        "refine_measure",
+        "[[axis]]\nname = \"u0\"\nlogspace = [1e-8, 1e-6, 3]\n[refine]\nmeasure = \"colour\"\nalong = \"u0\"\nresolution = 0.1\n",
+    );
+    sw(
+        "refine_along",
+        "[[axis]]\nname = \"u0\"\nlogspace = [1e-8, 1e-6, 3]\n[refine]\nalong = \"f\"\nresolution = 0.1\n",
+    );
+    sw(
+        "refine_res",
+        "[[axis]]\nname = \"u0\"\nlogspace = [1e-8, 1e-6, 3]\n[refine]\nalong = \"u0\"\nresolution = 0.0\n",
+    );
+    sw(
+        "trace_off",
+        "[[axis]]\nname = \"u0\"\nvalues = [1e-8, 1e-7]\n[output]\ntraces = [{ u0 = 5.0 }]\n",
+    );
+    sw(
+        "fixed_u0_va",
+        "[fixed]\nu0 = 1e-7\n[[axis]]\nname = \"v_a\"\nvalues = [1e-4]\n",
+    );
+    sw(
+        "fixed_and_axis",
+        "[fixed]\nf = 100.0\n[[axis]]\nname = \"f\"\nvalues = [200.0]\n",
+    );
+    sw(
+        "kd_huge",
+        "[fixed]\nk_d = 1e12\n[[axis]]\nname = \"u0\"\nvalues = [1e-8]\n",
+    );
+    sw("u0_1m", "[[axis]]\nname = \"u0\"\nvalues = [1.0]\n");
+    sw("f_neg", "[[axis]]\nname = \"f\"\nvalues = [-5.0]\n");
+    sw(
+        "zip_len",
+        "[[axis]]\nname = \"u0\"\nvalues = [1e-8, 1e-7]\n[[axis]]\nname = \"f\"\nvalues = [100.0]\nzip = \"u0\"\n",
+    );
+    sw("notoml", "[[axis\nname = \"u0\"\n");
+    sw(
+        "huge",
+        "[[axis]]\nname = \"u0\"\nlinspace = [1e-8, 1e-6, 1000000000000000000]\n",
+    );
+    sw(
+        "cap",
+        "max_runs = 1000000000000\n[[axis]]\nname = \"u0\"\nvalues = [1e-8]\n",
+    );
+    sw(
+        "name_up",
+        "name = \"../x\"\n[[axis]]\nname = \"u0\"\nvalues = [1e-8]\n",
+    );
+    sw(
+        "name_empty",
+        "name = \"\"\n[[axis]]\nname = \"u0\"\nvalues = [1e-8]\n",
+    );
+    sw(
+        "t_end_far",
+        "[run]\nt_end = 1e300\n[[axis]]\nname = \"u0\"\nvalues = [1e-8]\n",
+    );
+    // Case files.
+    w("case_unknown.toml", "k_d = 1e4\ncolour = 2\n");
+    w("case_kt.toml", "k_t = 1e300\n");
+    w("case_m.toml", "m = 1e-300\n");
+    w("case_u0.toml", "u0 = 1.0\nf = 100.0\n");
+    w("case_both.toml", "u0 = 1e-7\nv_a = 1e-3\n");
+    w("case_str.toml", "k_d = \"stiff\"\n");
+    w("case_effect.toml", "[effects.aging]\nb = 2.0\n");
+    w("case_noeffect.toml", "[effects.wear]\nk = 1.0\n");
+
+    // (arguments, exit code, what the message must contain)
+    let s = |v: &[&str]| v.iter().map(|x| x.to_string()).collect::<Vec<String>>();
+    let cases: Vec<(Vec<String>, i32, Vec<&str>)> = vec![
+        // run: flags
+        (s(&["run", "--k-d", "-5"]), 2, vec!["--k-d", "-5", "> 0"]),
+        (s(&["run", "--m", "0"]), 2, vec!["--m", "0"]),
+        (
+            s(&["run", "--m", "1e-300"]),
+            2,
+            vec!["--m", "1e-300", "plausible"],
+        ),
+        (
+            s(&["run", "--k-t", "1e300"]),
+            2,
+            vec!["--k-t", "1e300", "1e12"],
+        ),
+        (
+            s(&["run", "--k-d", "1e12"]),
+            2,
+            vec!["--k-d", "1e12", "1e9"],
+        ),
+        (s(&["run", "--u0", "1"]), 2, vec!["--u0", "1", "1e-2 m"]),
+        (s(&["run", "--u0", "1e-7", "--f", "0"]), 2, vec!["f", "u0"]),
+        (s(&["run", "--rtol", "3"]), 2, vec!["--rtol", "3"]),
+        (s(&["run", "--rtol", "nan"]), 2, vec!["--rtol"]),
+        (
+            s(&["run", "--va-ratio", "1.2", "--f", "0"]),
+            2,
+            vec!["--va-ratio"],
+        ),
+        (s(&["run", "--va-ratio", "-1"]), 2, vec!["--va-ratio", "-1"]),
+        (s(&["run", "--f-s", "5"]), 2, vec!["--f-s", "5", "F_c"]),
+        (s(&["run", "--solver", "euler"]), 2, vec!["euler", "radau5"]),
+        (
+            s(&["run", "--t-end", "1e12", "-o", "r.h5"]),
+            2,
+            vec!["t-end", "1e5"],
+        ),
+        (
+            s(&["run", "--t-end", "-1", "-o", "r.h5"]),
+            2,
+            vec!["t-end", "-1"],
+        ),
+        (s(&["run", "--t-on", "-1"]), 2, vec!["t-on", "-1"]),
+        (
+            s(&["run", "--effect", "wear"]),
+            2,
+            vec!["--effect", "wear", "aging"],
+        ),
+        (
+            s(&["run", "--effect", "aging:b=abc"]),
+            2,
+            vec!["aging.b", "abc", "not a number"],
+        ),
+        (
+            s(&["run", "--effect", "aging:b=2"]),
+            2,
+            vec!["aging.b = 2", "[0, 0.5]"],
+        ),
+        (
+            s(&["run", "--effect", "aging:zz=1"]),
+            2,
+            vec!["aging", "zz", "allowed"],
+        ),
+        (
+            s(&[
+                "run",
+                "--effect",
+                "aging:b=0.01",
+                "--effect",
+                "aging:b=0.02",
+            ]),
+            2,
+            vec!["aging.b", "twice", "0.01", "0.02"],
+        ),
+        (s(&["run", "--repeats", "0"]), 2, vec!["repeats", "0"]),
+        (
+            s(&["run", "--case", "/nonexistent/case.toml"]),
+            2,
+            vec!["/nonexistent/case.toml", "cannot read"],
+        ),
+        // run: outputs
+        (
+            s(&["run", "--case", "c.toml", "-o", "c.toml"]),
+            2,
+            vec!["--out", "c.toml", "input"],
+        ),
+        (
+            s(&["run", "-o", "x.h5", "--csv", "x.h5"]),
+            2,
+            vec!["--csv", "x.h5", "input"],
+        ),
+        (
+            s(&["run", "-o", "afile/run.h5"]),
+            2,
+            vec!["--out", "afile", "is a file"],
+        ),
+        (
+            s(&["run", "-o", "outdir"]),
+            2,
+            vec!["--out", "outdir", "is a directory"],
+        ),
+        (
+            s(&["run", "--csv", "afile/x.csv"]),
+            2,
+            vec!["--csv", "afile", "is a file"],
+        ),
+        // run: case files
+        (
+            s(&["run", "--case", "case_unknown.toml"]),
+            2,
+            vec!["case_unknown.toml:2", "colour"],
+        ),
+        (
+            s(&["run", "--case", "case_kt.toml"]),
+            2,
+            vec!["case_kt.toml:1", "k_t", "1e12"],
+        ),
+        (
+            s(&["run", "--case", "case_m.toml"]),
+            2,
+            vec!["case_m.toml:1", "m", "1e-4"],
+        ),
+        (
+            s(&["run", "--case", "case_u0.toml"]),
+            2,
+            vec!["case_u0.toml", "u0", "1e-2"],
+        ),
+        (
+            s(&["run", "--case", "case_both.toml"]),
+            2,
+            vec!["case_both.toml", "u0", "v_a"],
+        ),
+        (
+            s(&["run", "--case", "case_str.toml"]),
+            2,
+            vec!["case_str.toml:1", "k_d"],
+        ),
+        (
+            s(&["run", "--case", "case_effect.toml"]),
+            2,
+            vec!["case_effect.toml", "b", "[0, 0.5]"],
+        ),
+        (
+            s(&["run", "--case", "case_noeffect.toml"]),
+            2,
+            vec!["case_noeffect.toml", "wear"],
+        ),
+        // sweep: flags
+        (
+            s(&["sweep", "s.toml", "--threads", "0"]),
+            2,
+            vec!["--threads", "0", "1 to 1024"],
+        ),
+        (
+            s(&["sweep", "s.toml", "--checkpoint-every", "0"]),
+            2,
+            vec!["--checkpoint-every", "0", ">= 1"],
+        ),
+        (
+            s(&["sweep", "s.toml", "--shard", "2/2"]),
+            2,
+            vec!["--shard", "2/2", "N - 1 = 1"],
+        ),
+        (
+            s(&["sweep", "s.toml", "--shard", "x"]),
+            2,
+            vec!["--shard", "I/N"],
+        ),
+        (
+            s(&["sweep", "s.toml", "--shard", "0/3"]),
+            2,
+            vec!["--shard", "0/3", "2 grid points"],
+        ),
+        (
+            s(&["sweep", "s.toml", "--estimate", "--sample", "0"]),
+            2,
+            vec!["--sample", "from 1"],
+        ),
+        (
+            s(&["sweep", "s.toml", "--resume", "--overwrite"]),
+            2,
+            vec!["--resume", "--overwrite"],
+        ),
+        (s(&["sweep", "missing.toml"]), 2, vec!["missing.toml"]),
+        // sweep: outputs and what lies there
+        (
+            s(&["sweep", "s.toml", "-o", "s.toml"]),
+            2,
+            vec!["--out", "s.toml", "input"],
+        ),
+        (
+            s(&["sweep", "s.toml", "-o", "outdir"]),
+            2,
+            vec!["--out", "is a directory"],
+        ),
+        (
+            s(&["sweep", "s.toml", "-o", "afile/x.h5"]),
+            2,
+            vec!["--out", "afile", "is a file"],
+        ),
+        (
+            s(&["sweep", "s.toml", "-o", "prev.h5", "--resume"]),
+            1,
+            vec!["prev.h5", "not an interrupted sweep", "no journal"],
+        ),
+        (
+            s(&["sweep", "s.toml", "-o", "done.h5", "--resume"]),
+            1,
+            vec!["done.h5", "already complete"],
+        ),
+        // sweep files
+        (
+            s(&["sweep", "unknown_key.toml"]),
+            2,
+            vec!["unknown_key.toml", "colour"],
+        ),
+        (
+            s(&["sweep", "bad_axis.toml"]),
+            2,
+            vec!["bad_axis.toml:2", "speed"],
+        ),
+        (
+            s(&["sweep", "count0.toml"]),
+            2,
+            vec!["count0.toml", "linspace"],
+        ),
+        (s(&["sweep", "log0.toml"]), 2, vec!["log0.toml", "logspace"]),
+        (
+            s(&["sweep", "strnum.toml"]),
+            2,
+            vec!["strnum.toml:3", "values"],
+        ),
+        (
+            s(&["sweep", "dupaxis.toml"]),
+            2,
+            vec!["dupaxis.toml", "u0", "keep one"],
+        ),
+        (
+            s(&["sweep", "emptyvals.toml"]),
+            2,
+            vec!["emptyvals.toml", "values"],
+        ),
+        (
+            s(&["sweep", "t_end_neg.toml"]),
+            2,
+            vec!["t_end_neg.toml", "t_end"],
+        ),
+        (s(&["sweep", "rtol0.toml"]), 2, vec!["rtol0.toml", "rtol"]),
+        (
+            s(&["sweep", "method.toml"]),
+            2,
+            vec!["method.toml", "euler"],
+        ),
+        (
+            s(&["sweep", "maxruns0.toml"]),
+            2,
+            vec!["maxruns0.toml", "max_runs"],
+        ),
+        (
+            s(&["sweep", "refine_measure.toml"]),
+            2,
+            vec!["refine_measure.toml", "colour"],
+        ),
+        (
+            s(&["sweep", "refine_along.toml"]),
+            2,
+            vec!["refine_along.toml", "along", "f"],
+        ),
+        (
+            s(&["sweep", "refine_res.toml"]),
+            2,
+            vec!["refine_res.toml", "resolution"],
+        ),
+        (
+            s(&["sweep", "trace_off.toml"]),
+            2,
+            vec!["trace_off.toml", "u0", "5"],
+        ),
+        (
+            s(&["sweep", "fixed_u0_va.toml"]),
+            2,
+            vec!["fixed_u0_va.toml", "u0", "v_a"],
+        ),
+        (
+            s(&["sweep", "fixed_and_axis.toml"]),
+            2,
+            vec!["fixed_and_axis.toml", "f"],
+        ),
+        (
+            s(&["sweep", "kd_huge.toml"]),
+            2,
+            vec!["kd_huge.toml:2", "k_d", "1e9"],
+        ),
+        (
+            s(&["sweep", "u0_1m.toml"]),
+            2,
+            vec!["u0_1m.toml", "u0", "1e-2"],
+        ),
+        (
+            s(&["sweep", "f_neg.toml"]),
+            2,
+            vec!["f_neg.toml", "f", "-5"],
+        ),
+        (
+            s(&["sweep", "zip_len.toml"]),
+            2,
+            vec!["zip_len.toml", "zip"],
+        ),
+        (s(&["sweep", "notoml.toml"]), 2, vec!["notoml.toml"]),
+        (
+            s(&["sweep", "huge.toml"]),
+            2,
+            vec!["linspace", "1000000000000000000", "max_runs"],
+        ),
+        (s(&["sweep", "cap.toml"]), 2, vec!["max_runs", "10000000"]),
+        (
+            s(&["sweep", "name_up.toml"]),
+            2,
+            vec!["name", "../x", "file stem"],
+        ),
+        (
+            s(&["sweep", "name_empty.toml"]),
+            2,
+            vec!["name", "file stem"],
+        ),
+        (s(&["sweep", "t_end_far.toml"]), 2, vec!["t_end", "1e5"]),
+        // plot, boundary, status, merge on files that are no sweep output
+        (s(&["plot", "afile"]), 1, vec!["afile", "not an HDF5 file"]),
+        (
+            s(&["plot", "run.h5"]),
+            1,
+            vec!["run.h5", "not a stickslip sweep file"],
+        ),
+        (s(&["plot", "missing.h5"]), 1, vec!["missing.h5"]),
+        (
+            s(&["plot", "done.h5", "-o", "afile/fig"]),
+            2,
+            vec!["--out", "afile", "is a file"],
+        ),
+        (
+            s(&["boundary", "run.h5"]),
+            1,
+            vec!["run.h5", "not a stickslip sweep file"],
+        ),
+        (
+            s(&["status", "afile"]),
+            1,
+            vec!["afile", "not a stickslip sweep file"],
+        ),
+        (
+            s(&["merge", "nothing.h5"]),
+            1,
+            vec!["no shards of", "nothing.h5"],
+        ),
+        (
+            s(&["merge", "x.h5", "--threads", "0"]),
+            2,
+            vec!["--threads", "0"],
+        ),
+        // slurm
+        (
+            s(&["slurm", "s.toml", "--tasks", "3", "-o", "sl.h5"]),
+            2,
+            vec!["--tasks", "3", "2 grid points"],
+        ),
+        (
+            s(&["slurm", "s.toml", "--tasks", "0", "-o", "sl.h5"]),
+            2,
+            vec!["--tasks", "0", "from 1"],
+        ),
+        (
+            s(&[
+                "slurm", "s.toml", "--tasks", "2", "--time", "2h", "-o", "sl.h5",
+            ]),
+            2,
+            vec!["--time", "2h", "HH:MM:SS"],
+        ),
+        (
+            s(&[
+                "slurm",
+                "s.toml",
+                "--tasks",
+                "2",
+                "--cpus-per-task",
+                "0",
+                "-o",
+                "sl.h5",
+            ]),
+            2,
+            vec!["--cpus-per-task", "from 1 to 1024"],
+        ),
+        (
+            s(&[
+                "slurm",
+                "s.toml",
+                "--tasks",
+                "2",
+                "--partition",
+                "a b",
+                "-o",
+                "sl.h5",
+            ]),
+            2,
+            vec!["--partition", "a b", "no spaces"],
+        ),
+        (
+            s(&["slurm", "s.toml", "--tasks", "2", "-o", "s.toml"]),
+            2,
+            vec!["--out", "s.toml", "input"],
+        ),
+        // synth
+        (s(&["synth", "afile"]), 2, vec!["dir", "afile", "is a file"]),
+        (
+            s(&["synth", "afile/camp"]),
+            2,
+            vec!["dir", "afile", "is a file"],
+        ),
+        (
+            s(&["synth", "camp"]),
+            2,
+            vec!["camp", "already holds recordings", "--overwrite"],
+        ),
+        (s(&["synth", "new", "--rate", "0"]), 2, vec!["rate", "0"]),
+        (
+            s(&["synth", "new", "--noise=-1"]),
+            2,
+            vec!["noise", "-1"],
+        ),
+        (
+            s(&["synth", "new", "--design", "huge"]),
+            2,
+            vec!["design", "huge"],
+        ),
+        (
+            s(&["synth", "new", "--effect", "wear"]),
+            2,
+            vec!["--effect", "wear"],
+        ),
+        // calibrate and diagnose: campaigns
+        (
+            s(&["calibrate", "c_notnum"]),
+            2,
+            vec!["a.csv:52", "`x` is not a number"],
+        ),
+        (s(&["calibrate", "c_nohead"]), 2, vec!["a.csv:1", "`t`"]),
+        (
+            s(&["calibrate", "c_dupcol"]),
+            2,
+            vec!["a.csv:1", "F_d", "twice"],
+        ),
+        (s(&["calibrate", "c_short"]), 2, vec!["a.csv", "200"]),
+        (
+            s(&["calibrate", "c_unknown"]),
+            2,
+            vec!["a.toml:5", "colour"],
+        ),
+        (s(&["calibrate", "c_nov_d"]), 2, vec!["a.toml", "v_d"]),
+        (s(&["calibrate", "c_noamp"]), 2, vec!["a.toml", "u0", "v_a"]),
+        (s(&["calibrate", "c_u0"]), 2, vec!["a.toml:4", "u0", "1e-2"]),
+        (s(&["calibrate", "c_kd"]), 2, vec!["a.toml:2", "k_d", "-1"]),
+        (
+            s(&["calibrate", "c_orphan"]),
+            2,
+            vec!["a.csv", "without conditions", "a.toml"],
+        ),
+        (
+            s(&["calibrate", "c_nocsv"]),
+            2,
+            vec!["a.toml", "a.csv is missing"],
+        ),
+        (
+            s(&["calibrate", "c_empty"]),
+            2,
+            vec!["c_empty", "no recordings"],
+        ),
+        (
+            s(&["calibrate", "c_dead"]),
+            2,
+            vec!["recording a: flat channel", "F_d", "single value"],
+        ),
+        (
+            s(&["calibrate", "c_gain"]),
+            2,
+            vec!["recording a: force scale", "max |F_d|"],
+        ),
+        (
+            s(&["calibrate", "c_slope"]),
+            2,
+            vec!["recording a: drive slope", "2.000 times v_d"],
+        ),
+        (
+            s(&["diagnose", "c_dead"]),
+            2,
+            vec!["recording a: flat channel", "--skip-implausible"],
+        ),
+        (
+            s(&["calibrate", "camp", "--max-iter", "0"]),
+            2,
+            vec!["max-iter", "0"],
+        ),
+        (
+            s(&["calibrate", "camp", "--effect", "wear"]),
+            2,
+            vec!["effect", "wear"],
+        ),
+        (
+            s(&["calibrate", "camp", "--json", "camp/a.csv"]),
+            2,
+            vec!["--json", "a.csv", "input"],
+        ),
+        (
+            s(&["calibrate", "camp", "--json", "afile/x.json"]),
+            2,
+            vec!["--json", "afile", "is a file"],
+        ),
+        (
+            s(&["diagnose", "camp", "--json", "camp/a.toml"]),
+            2,
+            vec!["--json", "a.toml", "input"],
+        ),
+        (
+            s(&["diagnose", "camp", "--candidates", "viscous,wear"]),
+            2,
+            vec!["--candidates", "wear"],
+        ),
+        (
+            s(&["diagnose", "camp", "--candidates", "viscous,aging,viscous"]),
+            2,
+            vec!["--candidates", "viscous", "listed twice"],
+        ),
+        (
+            s(&["diagnose", "missing_dir"]),
+            2,
+            vec!["missing_dir", "no such campaign directory"],
+        ),
+        (
+            s(&["calibrate", "afile"]),
+            2,
+            vec!["afile", "is a file", "directory"],
+        ),
+        // bench
+        (
+            s(&["bench", "--tolerances", "0", "-o", "b.h5"]),
+            2,
+            vec!["tolerances", "0"],
+        ),
+        (
+            s(&["bench", "--cases", "wobbly", "-o", "b.h5"]),
+            2,
+            vec!["cases", "wobbly"],
+        ),
+        (
+            s(&["bench", "--methods", "euler", "-o", "b.h5"]),
+            2,
+            vec!["euler"],
+        ),
+        (
+            s(&["bench", "--repeats", "0", "-o", "b.h5"]),
+            2,
+            vec!["repeats", "0"],
+        ),
+    ];
+    let mut failures = vec![];
+    let mut by_code = std::collections::BTreeMap::<i32, usize>::new();
+    for (args, code, needles) in &cases {
+        let before = snapshot(d);
+        let out = run(d, args);
+        let err = format!(
+            "{}{}",
+            String::from_utf8_lossy(&out.stderr),
+            String::from_utf8_lossy(&out.stdout)
+        );
+        let got = out.status.code().unwrap_or(-1);
+        *by_code.entry(got).or_default() += 1;
+        let mut why = vec![];
+        if got != *code {
+            why.push(format!("exit code {got}, expected {code}"));
+        }
+        for n in needles {
+            if !err.contains(n) {
+                why.push(format!("`{n}` missing"));
+            }
+        }
+        if err.contains("panicked") {
+            why.push("panicked".into());
+        }
+        if snapshot(d) != before {
+            why.push("changed a file".into());
+        }
+        if !why.is_empty() {
+            failures.push(format!("{args:?}: {}\n    {}", why.join("; "), err.trim()));
+        }
+    }
+    eprintln!(
+        "census: {} malformed inputs; exit codes {:?}; {} as expected",
+        cases.len(),
+        by_code,
+        cases.len() - failures.len()
+    );
+    assert!(cases.len() >= 80);
+    assert!(
+        failures.is_empty(),
+        "{} of {} cases:\n{}",
+        failures.len(),
+        cases.len(),
+        failures.join("\n")
+    );
+}
