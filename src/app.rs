@@ -637,7 +637,19 @@ pub fn boundary_cmd(a: &BoundaryArgs) -> Result<(), AppError> {
 pub fn run(a: &RunArgs) -> Result<(), AppError> {
     let case = a.resolve()?;
     let mut solver = Solver::new(case.run.method);
+    let waiting = crate::progress::Waiting::new(
+        &format!(
+            "simulating{} (and the run without vibration)",
+            case.run
+                .t_end
+                .map(|t| format!(" {t} s"))
+                .unwrap_or_default()
+        ),
+        std::time::Duration::from_secs(2),
+        true,
+    );
     let mut res = sim::run_case_with(&case.params, &case.effects, &case.run, &mut solver)?;
+    drop(waiting);
     // Timing: the run's own wall time (as `wall_time`; the reference without vibration is timed
     // apart), its median over the repeats, as hyperfine and the peers' timing loops report.
     let mut times = vec![res.run.wall_time];

@@ -54,3 +54,42 @@ impl Progress {
         self.bar.finish_and_clear();
     }
 }
+
+/// A spinner with the elapsed time for one long computation without steps to count (a single
+/// `run`): it appears only once the computation has taken `after`, on a terminal, and is
+/// cleared when dropped.
+pub struct Waiting {
+    bar: ProgressBar,
+}
+
+impl Waiting {
+    /// Starts the clock; `what` says what is being waited for.
+    pub fn new(what: &str, after: std::time::Duration, enabled: bool) -> Waiting {
+        let target = if enabled && std::io::stderr().is_terminal() {
+            ProgressDrawTarget::stderr()
+        } else {
+            ProgressDrawTarget::hidden()
+        };
+        let bar = ProgressBar::with_draw_target(None, target);
+        bar.set_style(
+            ProgressStyle::with_template("{spinner} {msg}: {elapsed} so far")
+                .expect("valid template"),
+        );
+        bar.set_message(what.to_string());
+        let shown = bar.clone();
+        // Short runs stay silent: the spinner starts ticking only after `after`.
+        std::thread::spawn(move || {
+            std::thread::sleep(after);
+            if !shown.is_finished() {
+                shown.enable_steady_tick(std::time::Duration::from_millis(200));
+            }
+        });
+        Waiting { bar }
+    }
+}
+
+impl Drop for Waiting {
+    fn drop(&mut self) {
+        self.bar.finish_and_clear();
+    }
+}

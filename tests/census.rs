@@ -702,11 +702,7 @@ fn census_of_bad_input() {
             vec!["camp", "already holds recordings", "--overwrite"],
         ),
         (s(&["synth", "new", "--rate", "0"]), 2, vec!["rate", "0"]),
-        (
-            s(&["synth", "new", "--noise=-1"]),
-            2,
-            vec!["noise", "-1"],
-        ),
+        (s(&["synth", "new", "--noise=-1"]), 2, vec!["noise", "-1"]),
         (
             s(&["synth", "new", "--design", "huge"]),
             2,

@@ -10,8 +10,9 @@
 //! stands for the injected one first, for a single effect, or either of the two, for two (partial
 //! explanations count: the forms differ from the library's by design).
 //!
-//! `.ci/run` runs four campaigns (effect-free on a small unbalanced design, an out-of-library load
-//! modulation, screw error with its harmonic, and two effects at once); the whole panel of twelve is
+//! `.ci/run` runs three campaigns (effect-free on a small unbalanced design, an out-of-library load
+//! modulation, screw error with its harmonic); two effects at once (`rig_sensor_and_slip_law_ageing`,
+//! `--ignored`) and the whole panel of twelve are
 //! `cargo test --release --test rig -- --ignored --nocapture` (README, "Measured data").
 
 use stickslip::campaign::Campaign;
@@ -126,8 +127,9 @@ fn right_on(name: &str) {
     assert_eq!(ok, 1, "\n{}", rows.join("\n"));
 }
 
-// `.ci/run`'s four: effect-free (the small unbalanced design), an effect outside the library's
-// forms, and two with an effect (screw error with its harmonic; a sensor with slip-law ageing).
+// `.ci/run`'s three: effect-free (the small unbalanced design), an effect outside the library's
+// forms, and one with an effect (screw error with its harmonic); two effects at once (a sensor
+// with slip-law ageing) is left to the whole panel for `.ci/run`'s time budget.
 
 #[test]
 fn rig_effect_free_small_unbalanced_campaign() {
@@ -145,13 +147,14 @@ fn rig_screw_error_with_its_harmonic() {
 }
 
 #[test]
+#[ignore = "part of the whole panel; left out of .ci/run for its time budget"]
 fn rig_sensor_and_slip_law_ageing() {
     right_on("sensor+aging");
 }
 
 /// The whole panel: at least 10 of 12 right.
 #[test]
-#[ignore = "the whole panel takes about an hour on 2 cores; .ci/run runs the four rig_* tests"]
+#[ignore = "the whole panel takes about an hour on 2 cores; .ci/run runs three rig_* tests"]
 fn independent_rig_panel() {
     let (ok, rows) = run(&PANEL);
     eprintln!(
