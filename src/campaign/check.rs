@@ -10,10 +10,10 @@
 //! | check | refused when |
 //! |---|---|
 //! | flat channel | a channel (`F_d`, `x_s`, `x_d`) takes fewer than 3 distinct values (dead, disconnected, or zero-filled) |
-//! | force scale | `max |F_d|` lies beyond `S × 100` or below `min(k_d v_d T, F_s) / 100` (a unit or gain off by orders of magnitude) |
+//! | force scale | the largest `abs(F_d)` lies beyond `S × 100` or below `min(k_d v_d T, F_s) / 100` (a unit or gain off by orders of magnitude) |
 //! | travel scale | the range of `x_s` or `x_d` exceeds `100 X` |
 //! | drive slope | the least-squares slope of `x_d` over `t` differs from `v_d` by more than a factor 1.25 |
-//! | spikes | a force sample stands out from both neighbours, which agree with each other: `|F_i − (F_{i−1} + F_{i+1})/2| > max(50 σ, 0.05 S)` with `|F_{i+1} − F_{i−1}|` under a fifth of that, `σ` the median-absolute-deviation scale of that second difference (a slip drops the force over neighbouring samples, which then disagree) |
+//! | spikes | a force sample stands out from both neighbours, which agree with each other: `abs(F_i − (F_{i−1} + F_{i+1})/2) > max(50 σ, 0.05 S)` with `abs(F_{i+1} − F_{i−1})` under a fifth of that, `σ` the median-absolute-deviation scale of that second difference (a slip drops the force over neighbouring samples, which then disagree) |
 //!
 //! The thresholds are orders of magnitude away from anything a rig like the paper's records:
 //! every campaign of `synth` and of the independent test rig passes.
