@@ -347,9 +347,11 @@ fn frictional_lag_delays_the_stribeck_curve() {
     rig.rhs(0.0, &y, &mut dy);
     assert!((dy[3] - v / tau).abs() < 1e-12);
     // Friction with w = 0 uses g(0) = F_s/k_t; with w = v it is the base model's.
-    let b = Rig::new(Params { v_s: 1e9, ..p }).unwrap(); // g ≡ F_s/k_t
+    // The widest plausible v_s makes g(v) = F_s/k_t to (v/v_s)² = 4e-8 of the Stribeck drop
+    // (1e-7 N); the base model at v gives F_c instead, 3 N away.
+    let b = Rig::new(Params { v_s: 10.0, ..p }).unwrap();
     let yb = state(&b, 0.0, v, 1e-7);
-    assert!((friction(&rig, 0.0, &y) - friction(&b, 0.0, &yb)).abs() < 1e-9);
+    assert!((friction(&rig, 0.0, &y) - friction(&b, 0.0, &yb)).abs() < 1e-6);
     y[3] = v;
     let yb = state(&base, 0.0, v, 1e-7);
     assert!((friction(&rig, 0.0, &y) - friction(&base, 0.0, &yb)).abs() < 1e-9);

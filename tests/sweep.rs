@@ -838,3 +838,26 @@ fn estimate_from_the_whole_sweep_is_exact() {
     );
     assert!(format!("{small}").contains("--time"), "{small}");
 }
+
+/// A `[refine]` sweep is estimated by whole planes: sampling both planes of a two-plane sweep
+/// gives its exact runs and cost; sampling one predicts twice that plane's runs.
+#[test]
+fn estimate_of_a_refinement_samples_whole_planes() {
+    let text = SHARDED
+        .replace("name = \"sharded\"", "name = \"planes\"")
+        .replace(
+            "[solver]",
+            "[refine]\nalong = \"u0\"\nacross = \"f\"\nresolution = 0.3\ntolerance = 0.04\n[solver]",
+        )
+        .replace("logspace = [1e-8, 1e-6, 5]", "logspace = [1e-8, 1e-6, 3]");
+    let spec = SweepSpec::parse("planes.toml", &text).unwrap();
+    let all = sweep::estimate::estimate(&spec, 2, Some(2)).unwrap();
+    assert_eq!((all.sampled, all.units), (2, 2), "{all}");
+    assert_eq!(all.cpu_stderr, 0.0);
+    assert_eq!(all.runs, all.sample_runs as f64);
+    let one = sweep::estimate::estimate(&spec, 1, Some(2)).unwrap();
+    assert_eq!(one.sampled, 1, "{one}");
+    assert_eq!(one.runs, 2.0 * one.sample_runs as f64);
+    assert!(one.cpu_stderr.is_nan(), "{one}");
+    assert!(format!("{one}").contains("no spread known"), "{one}");
+}

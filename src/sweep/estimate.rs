@@ -258,7 +258,7 @@ impl fmt::Display for Estimate {
         let se = if self.cpu_stderr.is_finite() {
             format!(" ± {} (one standard error)", human(self.cpu_stderr))
         } else {
-            " (one plane sampled: no spread known)".into()
+            " (a single plane or point sampled: no spread known)".into()
         };
         writeln!(
             f,
