@@ -341,7 +341,14 @@ impl SlurmJob {
 
     /// The shards to submit again: not complete, and not queued or running.
     pub fn to_resubmit(&self) -> Result<Vec<usize>, SlurmError> {
-        let st = status::status(&self.out).map_err(|e| SlurmError::Io(e.to_string()))?;
+        // Nothing on disk yet (never submitted, or its folder removed): every shard is left.
+        let st = match status::status(&self.out) {
+            Ok(st) => st,
+            Err(_) if !shard::dir_for(&self.out).exists() => {
+                return Ok((0..self.tasks).collect());
+            }
+            Err(e) => return Err(SlurmError::Io(e.to_string())),
+        };
         let queued = self.queued_tasks()?;
         let mut left: Vec<usize> = if st.shards.is_empty() {
             (0..self.tasks).collect()
