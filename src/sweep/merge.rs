@@ -14,7 +14,7 @@
 //! foreign. With `partial`, it writes what there is: missing points NaN, status −1,
 //! `sweep_status = "partial"`.
 
-use super::journal::{self, Task};
+use super::journal;
 use super::shard::{self, Shard};
 use super::spec::SweepSpec;
 use super::{Plan, Results, SweepError, h5};
@@ -137,13 +137,20 @@ pub fn state(h5: &Path) -> ShardState {
         return ShardState::Complete;
     }
     let jpath = journal::path_for(h5);
-    match std::fs::read_to_string(&jpath) {
-        Ok(text) => ShardState::Unfinished {
-            runs: text.lines().skip(1).count(),
-        },
-        Err(_) if h5.exists() => ShardState::Unfinished { runs: 0 },
-        Err(_) => ShardState::Missing,
+    if jpath.exists() || h5.exists() {
+        ShardState::Unfinished {
+            runs: records_in(&jpath),
+        }
+    } else {
+        ShardState::Missing
     }
+}
+
+/// The number of records in a journal or runs file (its lines after the header; 0 if absent).
+pub fn records_in(path: &Path) -> usize {
+    std::fs::read_to_string(path)
+        .map(|t| t.lines().skip(1).count())
+        .unwrap_or(0)
 }
 
 /// The sweep text stored in a sweep or shard HDF5 file.
@@ -243,15 +250,7 @@ pub fn merge(opts: &MergeOptions) -> Result<MergeOutcome, SweepError> {
                 "shard {s} was not made from this sweep file and program version: {e}"
             ))
         })?;
-        for (t, r) in records {
-            let valid = match t {
-                Task::Ref(i) => i < plan.refs.len(),
-                Task::Point(i) => i < plan.points.len(),
-            };
-            if valid && !results.has(t) {
-                results.store(t, r);
-            }
-        }
+        results.absorb(&plan, records);
         if let Some(st) = rust_hdf5::H5File::open(path(s))
             .ok()
             .and_then(|f| f.attr_string("started").ok())

@@ -131,6 +131,23 @@ impl Results {
         }
     }
 
+    /// Stores journal records that belong to this plan and are not stored yet (later records
+    /// of a task do not replace the first); returns how many were stored.
+    fn absorb(&mut self, plan: &Plan, records: Vec<(Task, RunResult)>) -> usize {
+        let mut stored = 0;
+        for (t, r) in records {
+            let valid = match t {
+                Task::Ref(i) => i < plan.refs.len(),
+                Task::Point(i) => i < plan.points.len(),
+            };
+            if valid && !self.has(t) {
+                self.store(t, r);
+                stored += 1;
+            }
+        }
+        stored
+    }
+
     fn has(&self, t: Task) -> bool {
         match t {
             Task::Ref(i) => self.refs[i].is_some(),
@@ -272,6 +289,18 @@ fn tasks_of(plan: &Plan, points: &[usize]) -> Vec<Task> {
     t
 }
 
+/// The grid points of a sweep's first round among those `owned`: the whole grid, or the coarse
+/// grid of a refinement.
+fn first_points(spec: &SweepSpec, owned: impl Fn(usize) -> bool) -> Vec<usize> {
+    match &spec.refine {
+        None => (0..spec.len()).filter(|&i| owned(i)).collect(),
+        Some(_) => refine::coarse_points(spec)
+            .into_iter()
+            .filter(|&i| owned(i))
+            .collect(),
+    }
+}
+
 /// Runs rounds of tasks in parallel: each finished run goes to the journal at once, and the
 /// HDF5 file is checkpointed every `checkpoint_every` seconds.
 struct Executor<'a> {
@@ -406,16 +435,7 @@ pub fn run(spec: &SweepSpec, opts: &SweepOptions) -> Result<SweepOutcome, SweepE
         }
         let (records, dropped) = journal::read(&jpath, &fp).map_err(SweepError::State)?;
         journal_dropped = dropped;
-        for (t, r) in records {
-            let valid = match t {
-                Task::Ref(i) => i < plan.refs.len(),
-                Task::Point(i) => i < plan.points.len(),
-            };
-            if valid && !results.has(t) {
-                results.store(t, r);
-                resumed += 1;
-            }
-        }
+        resumed = results.absorb(&plan, records);
         Journal::append(&jpath)
             .map_err(|e| SweepError::State(format!("{}: {e}", jpath.display())))?
     } else {
@@ -478,14 +498,7 @@ pub fn run(spec: &SweepSpec, opts: &SweepOptions) -> Result<SweepOutcome, SweepE
     };
     // The tasks of the first round: the whole grid, or the coarse grid of a refinement (the
     // shard's part of either).
-    let first: Vec<usize> = match &spec.refine {
-        None => (0..plan.points.len()).filter(mine).collect(),
-        Some(_) => refine::coarse_points(spec)
-            .into_iter()
-            .filter(mine)
-            .collect(),
-    };
-    let first = tasks_of(&plan, &first);
+    let first = tasks_of(&plan, &first_points(spec, |i| owned[i]));
     let todo: Vec<Task> = first.iter().copied().filter(|t| !results.has(*t)).collect();
     let mut progress = Progress::new(
         first.len() as u64,

@@ -10,7 +10,7 @@ use super::journal;
 use super::merge::{self, ShardState};
 use super::shard::{self, Shard};
 use super::spec::SweepSpec;
-use super::{Plan, SweepError, tasks_of};
+use super::{Plan, SweepError, first_points, tasks_of};
 use std::fmt;
 use std::path::{Path, PathBuf};
 
@@ -52,22 +52,9 @@ fn idle_of(path: &Path) -> Option<f64> {
     Some(m.elapsed().map(|d| d.as_secs_f64()).unwrap_or(0.0))
 }
 
-fn lines(path: &Path) -> usize {
-    std::fs::read_to_string(path)
-        .map(|t| t.lines().skip(1).count())
-        .unwrap_or(0)
-}
-
 /// The runs a part of the sweep needs (see [`PartStatus::planned`]).
 fn planned(spec: &SweepSpec, plan: &Plan, owned: impl Fn(usize) -> bool) -> usize {
-    let points: Vec<usize> = match &spec.refine {
-        None => (0..plan.points.len()).filter(|&i| owned(i)).collect(),
-        Some(_) => super::refine::coarse_points(spec)
-            .into_iter()
-            .filter(|&i| owned(i))
-            .collect(),
-    };
-    tasks_of(plan, &points).len()
+    tasks_of(plan, &first_points(spec, owned)).len()
 }
 
 /// Reads the status of sweep output `out` (module docs).
@@ -111,9 +98,9 @@ pub fn status(out: &Path) -> Result<SweepStatus, SweepError> {
     let local = jpath.exists().then(|| PartStatus {
         shard: None,
         state: ShardState::Unfinished {
-            runs: lines(&jpath),
+            runs: merge::records_in(&jpath),
         },
-        runs: lines(&jpath),
+        runs: merge::records_in(&jpath),
         planned: spec
             .as_ref()
             .zip(plan.as_ref())
@@ -133,7 +120,7 @@ pub fn status(out: &Path) -> Result<SweepStatus, SweepError> {
             };
             let h5 = sh.path(out);
             let (runs, idle) = match state {
-                ShardState::Complete => (lines(&shard::runs_path(&h5)), None),
+                ShardState::Complete => (merge::records_in(&shard::runs_path(&h5)), None),
                 ShardState::Unfinished { runs } => (*runs, idle_of(&journal::path_for(&h5))),
                 ShardState::Missing => (0, None),
             };
