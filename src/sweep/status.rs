@@ -95,17 +95,19 @@ pub fn status(out: &Path) -> Result<SweepStatus, SweepError> {
     });
     let plan = spec.as_ref().map(Plan::new);
     let jpath = journal::path_for(out);
-    let local = jpath.exists().then(|| PartStatus {
-        shard: None,
-        state: ShardState::Unfinished {
-            runs: merge::records_in(&jpath),
-        },
-        runs: merge::records_in(&jpath),
-        planned: spec
-            .as_ref()
-            .zip(plan.as_ref())
-            .map(|(s, p)| planned(s, p, |_| true)),
-        idle: idle_of(&jpath),
+    let local = jpath.exists().then(|| {
+        // One read of the journal, which can hold tens of thousands of records.
+        let runs = merge::records_in(&jpath);
+        PartStatus {
+            shard: None,
+            state: ShardState::Unfinished { runs },
+            runs,
+            planned: spec
+                .as_ref()
+                .zip(plan.as_ref())
+                .map(|(s, p)| planned(s, p, |_| true)),
+            idle: idle_of(&jpath),
+        }
     });
     let mut shards = vec![];
     if let Some(f) = &found {
