@@ -87,23 +87,23 @@ macro_rules! identification_tests {
 // (README); the independent rig (`tests/rig.rs`) names effects in CI on data this crate did not
 // make.
 identification_tests! {
-    #[ignore = "about 3 min on 2 cores; run with --include-ignored"]
+    #[ignore = "2 to 8 min each on 2 cores (27 min for the nine); run with --include-ignored"]
     names_aging: EffectKind::Aging, 11;
-    #[ignore = "about 3 min on 2 cores; run with --include-ignored"]
+    #[ignore = "2 to 8 min each on 2 cores (27 min for the nine); run with --include-ignored"]
     names_actuator_response: EffectKind::ActuatorResponse, 12;
-    #[ignore = "about 3 min on 2 cores; run with --include-ignored"]
+    #[ignore = "2 to 8 min each on 2 cores (27 min for the nine); run with --include-ignored"]
     names_normal_coupling: EffectKind::NormalCoupling, 13;
-    #[ignore = "about 3 min on 2 cores; run with --include-ignored"]
+    #[ignore = "2 to 8 min each on 2 cores (27 min for the nine); run with --include-ignored"]
     names_sensor_dynamics: EffectKind::SensorDynamics, 14;
-    #[ignore = "about 3 min on 2 cores; run with --include-ignored"]
+    #[ignore = "2 to 8 min each on 2 cores (27 min for the nine); run with --include-ignored"]
     names_drive_ripple: EffectKind::DriveRipple, 15;
-    #[ignore = "about 3 min on 2 cores; run with --include-ignored"]
+    #[ignore = "2 to 8 min each on 2 cores (27 min for the nine); run with --include-ignored"]
     names_viscous: EffectKind::Viscous, 16;
-    #[ignore = "about 3 min on 2 cores; run with --include-ignored"]
+    #[ignore = "2 to 8 min each on 2 cores (27 min for the nine); run with --include-ignored"]
     names_stribeck_shape: EffectKind::StribeckShape, 17;
-    #[ignore = "about 3 min on 2 cores; run with --include-ignored"]
+    #[ignore = "2 to 8 min each on 2 cores (27 min for the nine); run with --include-ignored"]
     names_presliding: EffectKind::Presliding, 18;
-    #[ignore = "about 3 min on 2 cores; run with --include-ignored"]
+    #[ignore = "2 to 8 min each on 2 cores (27 min for the nine); run with --include-ignored"]
     names_frictional_lag: EffectKind::FrictionalLag, 19;
 }
 
