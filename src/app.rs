@@ -156,7 +156,7 @@ pub fn calibrate_cmd(a: &CalibrateArgs) -> Result<(), AppError> {
     let f = match effect {
         None => base,
         Some(k) => {
-            let start = campaign::fit::starts(&target, &base.model, k);
+            let start = campaign::fit::starts(&target, &base, k);
             campaign::fit::fit(&target, &start, &[k], opts)
         }
     };

@@ -26,7 +26,8 @@
 //!
 //! **Decision.** With `E0`, `E1` the held-out gaps of the calibrated base model and of the best
 //! candidate (ranked by `E1 (1 + 0.05 k)` with `k` the effect's fitted parameters):
-//! - `no_significant_gap` when `E0 <` [`SIGNIFICANT_GAP`];
+//! - `no_significant_gap` when `E0 <` [`SIGNIFICANT_GAP`] and no single feature's held-out
+//!   gap reaches [`FEATURE_GAP`] on two recordings or more;
 //! - `effect` when the best candidate cuts the gap by at least [`MIN_REDUCTION`], lowers the gap
 //!   of at least [`MIN_BREADTH`] of the held-out recordings that carry one (held-out gap at
 //!   least [`GAPPED`]; two of them at least), and its score is at most [`CLEAR_MARGIN`] times
@@ -50,6 +51,13 @@ use rayon::prelude::*;
 
 /// Held-out gap below which the base model counts as matching the data.
 pub const SIGNIFICANT_GAP: f64 = 2.0;
+/// Held-out gap of a single feature (its `√(mean z²)` over the checked units that define it)
+/// from which the base model's gap counts as significant even where the whole gap is under
+/// [`SIGNIFICANT_GAP`], when at least two checked recordings reach it in that feature: an
+/// effect that leaves its trace in one feature (a load cell's attenuation of the ripple at
+/// `f`) is diluted by the sixteen others that it leaves alone. Effect-free campaigns of the
+/// independent rig keep every feature's held-out gap under 2.
+pub const FEATURE_GAP: f64 = 3.0;
 /// Smallest held-out reduction `(E0 − E1)/E0` for naming an effect.
 pub const MIN_REDUCTION: f64 = 0.5;
 /// The best candidate's score must be at most this share of the runner-up's.
@@ -190,6 +198,10 @@ pub struct Diagnosis {
     pub effects: Vec<EffectKind>,
     /// The named effect explains only part of the gap ([`MIN_PARTIAL`] to [`MIN_REDUCTION`]).
     pub partial: bool,
+    /// The feature in which the base model's held-out gap concentrates, where one does
+    /// ([`FEATURE_GAP`]): the feature, its held-out gap and the number of checked recordings
+    /// on which its `|z|` reaches that level.
+    pub concentrated: Option<(Feature, f64, usize)>,
     /// Held-out gap of the calibrated base model.
     pub gap_before: f64,
     /// Spread of the folds' held-out gaps of the base model.
@@ -328,6 +340,9 @@ struct CrossValidated {
     spread: f64,
     /// Each recording's held-out gap (NaN where not checked).
     per_recording: Vec<f64>,
+    /// Each feature's held-out gap, with the number of checked recordings on which its `|z|`
+    /// is at least [`FEATURE_GAP`] (NaN, 0 where no checked unit defines it).
+    per_feature: Vec<(f64, usize)>,
 }
 
 fn cross_validate(
@@ -339,8 +354,12 @@ fn cross_validate(
     checked: &[bool],
 ) -> CrossValidated {
     let row_rec = all.row_recordings();
+    let row_feat = all.row_features();
     let n = all.recs.len();
     let mut per_recording = vec![f64::NAN; n];
+    let mut feat_sum = [0.0; N_FEATURES];
+    let mut feat_n = [0usize; N_FEATURES];
+    let mut feat_far = vec![vec![]; N_FEATURES];
     let mut pooled = vec![];
     let mut fold_gaps = vec![];
     let same_layout = row_rec.len() == fr.z.len();
@@ -379,6 +398,16 @@ fn cross_validate(
         }
         let z = z.unwrap_or_else(|| fr.z.clone());
         let mut fz = vec![];
+        for (j, (&r, &f)) in row_rec.iter().zip(&row_feat).enumerate() {
+            if fold[r] == k && checked[r] && j < z.len() {
+                let f = f as usize;
+                feat_sum[f] += z[j] * z[j];
+                feat_n[f] += 1;
+                if z[j].abs() >= FEATURE_GAP && !feat_far[f].contains(&r) {
+                    feat_far[f].push(r);
+                }
+            }
+        }
         for i in (0..n).filter(|&i| fold[i] == k && checked[i]) {
             let zi: Vec<f64> = z
                 .iter()
@@ -407,7 +436,26 @@ fn cross_validate(
         },
         spread,
         per_recording,
+        per_feature: (0..N_FEATURES)
+            .map(|f| {
+                if feat_n[f] == 0 {
+                    (f64::NAN, 0)
+                } else {
+                    ((feat_sum[f] / feat_n[f] as f64).sqrt(), feat_far[f].len())
+                }
+            })
+            .collect(),
     }
+}
+
+/// The feature whose held-out gap is largest among those that carry a concentrated gap: at
+/// least [`FEATURE_GAP`], with `|z|` at least that on two checked recordings or more.
+fn concentrated(cv: &CrossValidated) -> Option<(Feature, f64, usize)> {
+    FEATURES
+        .iter()
+        .filter_map(|&f| cv.per_feature.get(f as usize).map(|&(g, n)| (f, g, n)))
+        .filter(|&(_, g, n)| g >= FEATURE_GAP && n >= 2)
+        .max_by(|a, b| a.1.total_cmp(&b.1))
 }
 
 fn ranks(x: &[f64]) -> Vec<f64> {
@@ -462,7 +510,7 @@ fn try_candidate(
     opts: FitOptions,
 ) -> Ranked {
     let clock = std::time::Instant::now();
-    let start = fit::starts(all, &from.model, k);
+    let start = fit::starts(all, from, k);
     let mut effects = with.to_vec();
     effects.push(k);
     let f = fit::fit(all, &start, &effects, opts);
@@ -583,7 +631,8 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
     let breadth = ranking.first().map_or(0.0, |b| {
         breadth_of(&base_cv.per_recording, &b.per_recording)
     });
-    let (verdict, partial) = if !(gap_before >= SIGNIFICANT_GAP) {
+    let concentrated = concentrated(&base_cv);
+    let (verdict, partial) = if !(gap_before >= SIGNIFICANT_GAP) && concentrated.is_none() {
         (Verdict::NoSignificantGap, false)
     } else {
         match ranking.first() {
@@ -619,6 +668,7 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
                 gap: first.gap_after,
                 spread: first.gap_spread,
                 per_recording: first.per_recording.clone(),
+                per_feature: vec![],
             };
             (first.fit.clone(), cv)
         };
@@ -678,6 +728,7 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
     };
     Ok(Diagnosis {
         verdict,
+        concentrated,
         best_effect: effects.first().copied(),
         partial,
         effects,
@@ -930,6 +981,41 @@ mod tests {
             dir: "mem".into(),
             recordings,
         }
+    }
+
+    fn with_features(gaps: &[(Feature, f64, usize)]) -> CrossValidated {
+        let mut per_feature = vec![(f64::NAN, 0); N_FEATURES];
+        for &(f, g, n) in gaps {
+            per_feature[f as usize] = (g, n);
+        }
+        CrossValidated {
+            gap: 1.5,
+            spread: 0.1,
+            per_recording: vec![],
+            per_feature,
+        }
+    }
+
+    /// A gap concentrated in one feature counts on two recordings or more, never on one, and
+    /// the largest such feature is the one reported.
+    #[test]
+    fn a_concentrated_gap_needs_two_recordings() {
+        let one = with_features(&[(Feature::ForceAmp1, 8.0, 1), (Feature::DF, 1.2, 0)]);
+        assert_eq!(concentrated(&one), None);
+        let low = with_features(&[(Feature::ForceAmp1, 2.9, 6)]);
+        assert_eq!(concentrated(&low), None);
+        let two = with_features(&[
+            (Feature::ForceAmp1, 5.3, 5),
+            (Feature::SlipTime, 3.3, 2),
+            (Feature::R, 9.0, 1),
+        ]);
+        assert_eq!(concentrated(&two), Some((Feature::ForceAmp1, 5.3, 5)));
+        // Without per-feature gaps (a cross-validation carried over), nothing is concentrated.
+        let none = CrossValidated {
+            per_feature: vec![],
+            ..with_features(&[])
+        };
+        assert_eq!(concentrated(&none), None);
     }
 
     /// Every fold's calibration holds every kind its checked held-out part holds.

@@ -300,6 +300,19 @@ impl<'a> Target<'a> {
         rows
     }
 
+    /// The feature of each row of [`Target::residuals`] (rows as [`Target::row_recordings`]).
+    pub fn row_features(&self) -> Vec<Feature> {
+        self.measured
+            .iter()
+            .flat_map(|m| {
+                FEATURES
+                    .iter()
+                    .copied()
+                    .filter(|f| m.value[*f as usize].is_finite())
+            })
+            .collect()
+    }
+
     /// The standardised differences, one per (unit, feature) that the measurement defines, in
     /// a fixed layout; a feature the model does not produce (no cycles) counts 0, since dF
     /// carries that difference.
@@ -344,7 +357,21 @@ pub fn zscore(m: &FeatureSet, p: &FeatureSet, f: Feature) -> Option<f64> {
         // Angles: the difference wrapped to (−π, π].
         let tau = std::f64::consts::TAU;
         let w = (pv - mv).rem_euclid(tau);
-        if w > 0.5 * tau { w - tau } else { w }
+        let w = if w > 0.5 * tau { w - tau } else { w };
+        // The phase difference counts as the part of the two phasors' difference across the
+        // measured one: scaled by the model's amplitude where that is the smaller. A harmonic
+        // the model hardly produces has a phase that means nothing; its amplitude carries the
+        // difference (a 2f ripple measured at 3 standard errors against a model's 1 % of it
+        // would otherwise count a z of 9 for the phase of nothing).
+        let scale = f.amplitude_of().map_or(1.0, |a| {
+            let (am, ap) = (m.value[a as usize], p.value[a as usize]);
+            if am > 0.0 && ap.is_finite() {
+                (ap.abs() / am).min(1.0)
+            } else {
+                1.0
+            }
+        });
+        w * scale
     } else {
         pv - mv
     };
@@ -737,7 +764,8 @@ fn fit_range(kind: EffectKind, param: &str) -> Option<(f64, f64)> {
 /// The values the global scan of [`starts`] tries for one fitted effect parameter, over its
 /// plausible range: resonances (actuator and sensor) at ten frequencies from 200 Hz to 20 kHz
 /// (the sensor's from 20 Hz: a load cell carrying the frame rings at tens of hertz), each at a
-/// light and a moderate damping; the others at four or five points of their range.
+/// light, a moderate and a critical-like damping (0.05, 0.3, 0.7); the others at four or five
+/// points of their range.
 fn scan_values(kind: EffectKind, param: &str) -> Vec<f64> {
     use EffectKind as K;
     let logspace = |lo: f64, hi: f64, n: usize| -> Vec<f64> {
@@ -749,7 +777,7 @@ fn scan_values(kind: EffectKind, param: &str) -> Vec<f64> {
         (K::Aging, "b") => vec![0.02, 0.05, 0.1, 0.2],
         (K::ActuatorResponse, "f_r") => logspace(200.0, 2e4, 10),
         (K::SensorDynamics, "f_n") => logspace(20.0, 2e4, 10),
-        (K::ActuatorResponse, "zeta") | (K::SensorDynamics, "zeta") => vec![0.05, 0.3],
+        (K::ActuatorResponse, "zeta") | (K::SensorDynamics, "zeta") => vec![0.05, 0.3, 0.7],
         (K::NormalCoupling, "k_n") => logspace(1e6, 1e8, 5),
         (K::Viscous, "h_v") => vec![20.0, 50.0, 100.0, 200.0],
         (K::StribeckShape, "delta") => vec![0.5, 1.0, 1.5, 3.0],
@@ -761,15 +789,16 @@ fn scan_values(kind: EffectKind, param: &str) -> Vec<f64> {
 
 /// Starting values for an effect's fitted parameters, from a global scan over their plausible
 /// ranges (every combination: resonances at ten frequencies from 200 Hz to 20 kHz, a sensor's
-/// from 20 Hz, each at two dampings; the others at three to five values) on the calibrated base
-/// parameters `base`, scored on up to [`SCAN_RECORDINGS`] recordings, with
+/// from 20 Hz, each at three dampings; the others at three to five values) on the calibrated
+/// parameters of `base`, scored on up to [`SCAN_RECORDINGS`] recordings (half of them those
+/// `base` misses most), with
 /// the neutral start ([`neutral`]) among them; for the drive ripple, the wavelength and
 /// amplitude read off the recorded drive position, where recorded. The scan's best start is
 /// refined locally by [`fit`]. As the scan holds the neutral start, its best is not worse than
 /// the base model on the scored recordings; `diagnose` reports the base model for a candidate
 /// whose fit still ends worse on all of them.
-pub fn starts(target: &Target, base: &Model, kind: EffectKind) -> Model {
-    let mut m0 = base.clone();
+pub fn starts(target: &Target, base: &FitResult, kind: EffectKind) -> Model {
+    let mut m0 = base.model.clone();
     m0.effects.enable(kind);
     for p in kind.info().params {
         if let Some(v) = neutral(kind, p.name) {
@@ -815,7 +844,7 @@ pub fn starts(target: &Target, base: &Model, kind: EffectKind) -> Model {
         return m0;
     }
     // The scan only chooses a start: score the starts on a subset of the recordings.
-    let sub = scan_subset(target);
+    let sub = scan_subset(target, &base.z);
     let costs: Vec<f64> = candidates.par_iter().map(|m| evaluate(&sub, m)).collect();
     let best = (0..costs.len())
         .min_by(|&a, &b| costs[a].total_cmp(&costs[b]))
@@ -826,17 +855,37 @@ pub fn starts(target: &Target, base: &Model, kind: EffectKind) -> Model {
 /// Most recordings [`starts`] scores its starts on.
 pub const SCAN_RECORDINGS: usize = 8;
 
-/// The recordings a start scan is scored on: all of them up to [`SCAN_RECORDINGS`], else that
-/// many taken evenly over the set in its order (the campaign's sorted names), each vibrated one
-/// with its reference where the set has one.
-fn scan_subset<'a>(target: &Target<'a>) -> Target<'a> {
+/// The recordings a start scan is scored on: all of them up to [`SCAN_RECORDINGS`]; else half
+/// of that many where the model the candidate extends misses most (largest gap over the
+/// recording's residuals `z`, rows as [`Target::row_recordings`]), the rest taken evenly over
+/// the others in their order (the campaign's sorted names); each vibrated one with its
+/// reference where the set has one. Why the worst ones: an effect that acts on a few
+/// conditions (a sensor at the lowest forcing frequencies) is invisible on recordings chosen
+/// by name, and the scan would start its fit where it cannot find them.
+fn scan_subset<'a>(target: &Target<'a>, z: &[f64]) -> Target<'a> {
     let n = target.recs.len();
     if n <= SCAN_RECORDINGS {
         return Target::new(target.recs.clone());
     }
-    let mut pick: Vec<usize> = (0..SCAN_RECORDINGS)
-        .map(|k| k * n / SCAN_RECORDINGS)
-        .collect();
+    let rows = target.row_recordings();
+    let mut pick: Vec<usize> = vec![];
+    if rows.len() == z.len() {
+        let mut sum = vec![(0.0, 0usize); n];
+        for (&r, v) in rows.iter().zip(z) {
+            sum[r].0 += v * v;
+            sum[r].1 += 1;
+        }
+        let gaps: Vec<f64> = sum
+            .iter()
+            .map(|&(s, c)| if c == 0 { 0.0 } else { s / c as f64 })
+            .collect();
+        let mut order: Vec<usize> = (0..n).collect();
+        order.sort_by(|&a, &b| gaps[b].total_cmp(&gaps[a]).then(a.cmp(&b)));
+        pick.extend(order.into_iter().take(SCAN_RECORDINGS / 2));
+    }
+    let rest: Vec<usize> = (0..n).filter(|i| !pick.contains(i)).collect();
+    let k_rest = SCAN_RECORDINGS - pick.len();
+    pick.extend((0..k_rest).map(|k| rest[k * rest.len() / k_rest]));
     for k in 0..SCAN_RECORDINGS {
         let i = pick[k];
         for u in target.units_of(i) {
@@ -910,4 +959,44 @@ fn ripple_from_drive(recs: &[&Recording]) -> Option<(f64, f64)> {
         .collect();
     let best = (0..n_l).max_by(|&a, &b| power[a].0.total_cmp(&power[b].0))?;
     Some((power[best].1, lambdas[best]))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn harmonic(amp: f64, amp_se: f64, phase: f64, phase_se: f64) -> FeatureSet {
+        let mut fs = FeatureSet::nan();
+        fs.value[Feature::ForceAmp2 as usize] = amp;
+        fs.stderr[Feature::ForceAmp2 as usize] = amp_se;
+        fs.value[Feature::ForcePhase2 as usize] = phase;
+        fs.stderr[Feature::ForcePhase2 as usize] = phase_se;
+        fs
+    }
+
+    /// A phase is compared across the measured phasor: where the model's harmonic has the
+    /// measured amplitude, the whole wrapped difference counts; where the model hardly has the
+    /// harmonic (1 % of a ripple measured at 3 standard errors, as on the independent rig's
+    /// effect-free factorial campaign), its phase counts by that share, and the amplitude
+    /// carries the difference.
+    #[test]
+    fn phase_of_a_vanishing_harmonic_counts_by_its_amplitude() {
+        let m = harmonic(5.7e-4, 1.8e-4, -1.433, 0.318);
+        let sigma = (0.318f64.powi(2) + 0.05f64.powi(2)).sqrt();
+        // Wrapped: 1.85 − (−1.433) = 3.283 → 3.283 − 2π.
+        let full = (3.283 - std::f64::consts::TAU) / sigma;
+        let same = harmonic(5.7e-4, 0.0, 1.85, 0.0);
+        let z = zscore(&m, &same, Feature::ForcePhase2).unwrap();
+        assert!((z - full).abs() < 1e-9, "{z} against {full}");
+        // A model with more of the harmonic than measured: the measured phase's error rules.
+        let more = harmonic(2e-3, 0.0, 1.85, 0.0);
+        let z = zscore(&m, &more, Feature::ForcePhase2).unwrap();
+        assert!((z - full).abs() < 1e-9, "{z} against {full}");
+        let tiny = harmonic(5.7e-6, 0.0, 1.85, 0.0);
+        let z = zscore(&m, &tiny, Feature::ForcePhase2).unwrap();
+        assert!((z - 0.01 * full).abs() < 1e-9 && z.abs() < 0.1, "{z}");
+        // The amplitude still tells the two apart: (5.7e-6 − 5.7e-4) over its error and floor.
+        let za = zscore(&m, &tiny, Feature::ForceAmp2).unwrap();
+        assert!(za < -2.5, "{za}");
+    }
 }

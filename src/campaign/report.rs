@@ -46,6 +46,9 @@ pub fn json(c: &Campaign, d: &Diagnosis) -> serde_json::Value {
         "partial": d.partial,
         "gap_before": num(d.gap_before),
         "gap_before_spread": num(d.gap_before_spread),
+        "concentrated": d.concentrated.map(|(f, g, n)| json!({
+            "feature": f.name(), "gap": num(g), "recordings": n,
+        })),
         "gap_after": num(d.gap_after),
         "gap_after_spread": num(d.gap_after_spread),
         "reduction": num(d.reduction),
@@ -64,6 +67,7 @@ pub fn json(c: &Campaign, d: &Diagnosis) -> serde_json::Value {
             "gapped": super::diagnose::GAPPED,
             "partial_margin": super::diagnose::PARTIAL_MARGIN,
             "significant_gap": super::diagnose::SIGNIFICANT_GAP,
+            "feature_gap": super::diagnose::FEATURE_GAP,
             "min_reduction": super::diagnose::MIN_REDUCTION,
             "min_partial": super::diagnose::MIN_PARTIAL,
             "min_second": super::diagnose::MIN_SECOND,
@@ -196,6 +200,16 @@ pub fn summary(c: &Campaign, d: &Diagnosis) -> String {
         "candidates (held-out gap, base {:.2} ± {:.2} over folds; 1 = within noise):",
         d.gap_before, d.gap_before_spread
     );
+    if let Some((f, g, n)) = d.concentrated {
+        let _ = writeln!(
+            s,
+            "  concentrated in {}: held-out gap {:.2} in that feature, |z| >= {} on {} recordings",
+            f.name(),
+            g,
+            super::diagnose::FEATURE_GAP,
+            n
+        );
+    }
     for r in &d.ranking {
         let ps: Vec<String> = r
             .fit
@@ -245,9 +259,10 @@ pub fn summary(c: &Campaign, d: &Diagnosis) -> String {
             }
         ),
         None if d.verdict == super::diagnose::Verdict::NoSignificantGap => format!(
-            "verdict: no significant gap (held-out gap {:.2} < {})",
+            "verdict: no significant gap (held-out gap {:.2} < {}, no feature's >= {})",
             d.gap_before,
-            super::diagnose::SIGNIFICANT_GAP
+            super::diagnose::SIGNIFICANT_GAP,
+            super::diagnose::FEATURE_GAP
         ),
         None => format!(
             "verdict: unexplained: no candidate explains the gap (best {} cuts it by {:.0} %)",
