@@ -981,8 +981,8 @@ mod tests {
     /// carries the difference.
     #[test]
     fn phase_of_a_vanishing_harmonic_counts_by_its_amplitude() {
-        let m = harmonic(5.7e-4, 1.8e-4, -1.433, 0.318);
-        let sigma = (0.318f64.powi(2) + 0.05f64.powi(2)).sqrt();
+        let m = harmonic(5.7e-4, 1.8e-4, -1.433, 0.32);
+        let sigma = (0.32f64.powi(2) + 0.05f64.powi(2)).sqrt();
         // Wrapped: 1.85 − (−1.433) = 3.283 → 3.283 − 2π.
         let full = (3.283 - std::f64::consts::TAU) / sigma;
         let same = harmonic(5.7e-4, 0.0, 1.85, 0.0);
