@@ -28,6 +28,8 @@
 //! candidate (ranked by `E1 (1 + 0.05 k)` with `k` the effect's fitted parameters):
 //! - `no_significant_gap` when `E0 <` [`SIGNIFICANT_GAP`] and no single feature's held-out
 //!   gap reaches [`FEATURE_GAP`] on two recordings or more;
+//! - where only a concentrated feature makes the gap significant (`E0 <` [`SIGNIFICANT_GAP`]),
+//!   the shares and margins below are of the gap beyond noise, `E − 1` ([`NOISE_GAP`]);
 //! - `effect` when the best candidate cuts the gap by at least [`MIN_REDUCTION`], lowers the gap
 //!   of at least [`MIN_BREADTH`] of the held-out recordings that carry one (held-out gap at
 //!   least [`GAPPED`]; two of them at least), and its score is at most [`CLEAR_MARGIN`] times
@@ -58,6 +60,11 @@ pub const SIGNIFICANT_GAP: f64 = 2.0;
 /// `f`) is diluted by the sixteen others that it leaves alone. Effect-free campaigns of the
 /// independent rig keep every feature's held-out gap under 2.
 pub const FEATURE_GAP: f64 = 3.0;
+/// The gap of a model that matches the data within noise and floors. Where the whole gap
+/// `E0` is under [`SIGNIFICANT_GAP`] and only a concentrated feature ([`FEATURE_GAP`]) makes
+/// it significant, the decision's shares are of the gap beyond it, `(E0 − E1)/(E0 − 1)`, and
+/// so are the margins between scores.
+pub const NOISE_GAP: f64 = 1.0;
 /// Smallest held-out reduction `(E0 − E1)/E0` for naming an effect.
 pub const MIN_REDUCTION: f64 = 0.5;
 /// The best candidate's score must be at most this share of the runner-up's.
@@ -202,6 +209,9 @@ pub struct Diagnosis {
     /// ([`FEATURE_GAP`]): the feature, its held-out gap and the number of checked recordings
     /// on which its `|z|` reaches that level.
     pub concentrated: Option<(Feature, f64, usize)>,
+    /// Where only [`Diagnosis::concentrated`] makes the gap significant: the held-out
+    /// reduction of the gap beyond noise, `(E0 − E1)/(E0 − 1)`, which the decision used.
+    pub reduction_beyond_noise: Option<f64>,
     /// Held-out gap of the calibrated base model.
     pub gap_before: f64,
     /// Spread of the folds' held-out gaps of the base model.
@@ -567,10 +577,12 @@ fn breadth_of(before: &[f64], after: &[f64]) -> f64 {
     lowered as f64 / pairs.len() as f64
 }
 
-/// Whether the best of `ranked` (sorted) is clearly ahead of the runner-up.
-fn clear(ranked: &[Ranked]) -> bool {
+/// Whether the best of `ranked` (sorted) is clearly ahead of the runner-up: its score at most
+/// [`CLEAR_MARGIN`] times the runner-up's, both beyond `noise` (0, or [`NOISE_GAP`] where only
+/// a concentrated feature makes the gap significant).
+fn clear(ranked: &[Ranked], noise: f64) -> bool {
     match ranked {
-        [b, r, ..] => b.score <= CLEAR_MARGIN * r.score,
+        [b, r, ..] => b.score - noise <= CLEAR_MARGIN * (r.score - noise),
         _ => true,
     }
 }
@@ -632,19 +644,29 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
         breadth_of(&base_cv.per_recording, &b.per_recording)
     });
     let concentrated = concentrated(&base_cv);
+    // Where only a concentrated feature makes the gap significant, shares and margins are of
+    // the gap beyond noise (1): a whole gap of 1.3 cannot fall by more than 23 % of itself.
+    let noise = if gap_before >= SIGNIFICANT_GAP {
+        0.0
+    } else {
+        NOISE_GAP
+    };
+    let share = |e1: f64| (gap_before - e1) / (gap_before - noise).max(0.1 * gap_before);
     let (verdict, partial) = if !(gap_before >= SIGNIFICANT_GAP) && concentrated.is_none() {
         (Verdict::NoSignificantGap, false)
     } else {
         match ranking.first() {
             Some(b)
-                if breadth >= MIN_BREADTH && clear(&ranking) && b.reduction >= MIN_REDUCTION =>
+                if breadth >= MIN_BREADTH
+                    && clear(&ranking, noise)
+                    && share(b.gap_after) >= MIN_REDUCTION =>
             {
                 (Verdict::Effect, false)
             }
             Some(b)
                 if breadth >= MIN_BREADTH
                     && clearly_more(&ranking)
-                    && b.reduction >= MIN_PARTIAL =>
+                    && share(b.gap_after) >= MIN_PARTIAL =>
             {
                 (Verdict::Effect, true)
             }
@@ -703,7 +725,7 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
             if let Some(s2) = second.first()
                 && s2.reduction >= MIN_SECOND
                 && breadth_of(&first_cv.per_recording, &s2.per_recording) >= MIN_BREADTH
-                && clear(&second)
+                && clear(&second, 0.0)
             {
                 effects.push(s2.effect);
                 gap_after = s2.gap_after;
@@ -712,7 +734,7 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
         }
     }
     // Partial: the named effects together still leave more than MIN_REDUCTION of the gap.
-    let partial = partial && (gap_before - gap_after) / gap_before < MIN_REDUCTION;
+    let partial = partial && share(gap_after) < MIN_REDUCTION;
     // Where the gap lies: the base model over all recordings; the gap left by the named effects.
     let top_model = ranking.first().map(|b| b.fit.model.clone());
     let location = locate(c, &all, &fold, &checked, &base.model, top_model.as_ref());
@@ -729,6 +751,8 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
     Ok(Diagnosis {
         verdict,
         concentrated,
+        reduction_beyond_noise: (noise > 0.0 && verdict != Verdict::NoSignificantGap)
+            .then(|| share(gap_after)),
         best_effect: effects.first().copied(),
         partial,
         effects,

@@ -52,6 +52,7 @@ pub fn json(c: &Campaign, d: &Diagnosis) -> serde_json::Value {
         "gap_after": num(d.gap_after),
         "gap_after_spread": num(d.gap_after_spread),
         "reduction": num(d.reduction),
+        "reduction_beyond_noise": d.reduction_beyond_noise.map(num),
         "breadth": num(d.breadth),
         "remaining": d.remaining,
         "cross_validation": {
@@ -240,7 +241,7 @@ pub fn summary(c: &Campaign, d: &Diagnosis) -> String {
     let names: Vec<&str> = d.effects.iter().map(|k| k.name()).collect();
     let verdict = match d.best_effect {
         Some(_) => format!(
-            "verdict: {} {} the gap: held-out gap {:.2} -> {:.2} ({:.0} % smaller){}",
+            "verdict: {} {} the gap: held-out gap {:.2} -> {:.2} ({:.0} % smaller{}){}",
             names.join(" + "),
             if d.partial {
                 "explains part of"
@@ -252,6 +253,10 @@ pub fn summary(c: &Campaign, d: &Diagnosis) -> String {
             d.gap_before,
             d.gap_after,
             100.0 * d.reduction,
+            d.reduction_beyond_noise.map_or(String::new(), |x| format!(
+                "; {:.0} % of the gap beyond noise (1)",
+                100.0 * x
+            )),
             if d.remaining.is_empty() {
                 String::new()
             } else {
