@@ -57,8 +57,10 @@ pub const SIGNIFICANT_GAP: f64 = 2.0;
 /// from which the base model's gap counts as significant even where the whole gap is under
 /// [`SIGNIFICANT_GAP`], when at least two checked recordings reach it in that feature: an
 /// effect that leaves its trace in one feature (a load cell's attenuation of the ripple at
-/// `f`) is diluted by the sixteen others that it leaves alone. Effect-free campaigns of the
-/// independent rig keep every feature's held-out gap under 2.
+/// `f`) is diluted by the sixteen others that it leaves alone. Two recordings: one alone (a
+/// run on the edge of elimination, or the phase of a harmonic barely out of the noise, as the
+/// `F_phase_2f` of a single recording of the independent rig's effect-free factorial
+/// campaign, 9.3) is not a gap of the model.
 pub const FEATURE_GAP: f64 = 3.0;
 /// The gap of a model that matches the data within noise and floors. Where the whole gap
 /// `E0` is under [`SIGNIFICANT_GAP`] and only a concentrated feature ([`FEATURE_GAP`]) makes

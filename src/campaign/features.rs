@@ -143,16 +143,6 @@ impl Feature {
         )
     }
 
-    /// The amplitude feature of a phase feature (None for the others).
-    pub fn amplitude_of(self) -> Option<Feature> {
-        match self {
-            Feature::ForcePhase1 => Some(Feature::ForceAmp1),
-            Feature::ForcePhase2 => Some(Feature::ForceAmp2),
-            Feature::BodyPhase1 => Some(Feature::BodyAmp1),
-            _ => None,
-        }
-    }
-
     /// Unit.
     pub fn unit(self) -> &'static str {
         match self {

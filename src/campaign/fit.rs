@@ -357,21 +357,7 @@ pub fn zscore(m: &FeatureSet, p: &FeatureSet, f: Feature) -> Option<f64> {
         // Angles: the difference wrapped to (−π, π].
         let tau = std::f64::consts::TAU;
         let w = (pv - mv).rem_euclid(tau);
-        let w = if w > 0.5 * tau { w - tau } else { w };
-        // The phase difference counts as the part of the two phasors' difference across the
-        // measured one: scaled by the model's amplitude where that is the smaller. A harmonic
-        // the model hardly produces has a phase that means nothing; its amplitude carries the
-        // difference (a 2f ripple measured at 3 standard errors against a model's 1 % of it
-        // would otherwise count a z of 9 for the phase of nothing).
-        let scale = f.amplitude_of().map_or(1.0, |a| {
-            let (am, ap) = (m.value[a as usize], p.value[a as usize]);
-            if am > 0.0 && ap.is_finite() {
-                (ap.abs() / am).min(1.0)
-            } else {
-                1.0
-            }
-        });
-        w * scale
+        if w > 0.5 * tau { w - tau } else { w }
     } else {
         pv - mv
     };
@@ -961,42 +947,3 @@ fn ripple_from_drive(recs: &[&Recording]) -> Option<(f64, f64)> {
     Some((power[best].1, lambdas[best]))
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn harmonic(amp: f64, amp_se: f64, phase: f64, phase_se: f64) -> FeatureSet {
-        let mut fs = FeatureSet::nan();
-        fs.value[Feature::ForceAmp2 as usize] = amp;
-        fs.stderr[Feature::ForceAmp2 as usize] = amp_se;
-        fs.value[Feature::ForcePhase2 as usize] = phase;
-        fs.stderr[Feature::ForcePhase2 as usize] = phase_se;
-        fs
-    }
-
-    /// A phase is compared across the measured phasor: where the model's harmonic has the
-    /// measured amplitude, the whole wrapped difference counts; where the model hardly has the
-    /// harmonic (1 % of a ripple measured at 3 standard errors, as on the independent rig's
-    /// effect-free factorial campaign), its phase counts by that share, and the amplitude
-    /// carries the difference.
-    #[test]
-    fn phase_of_a_vanishing_harmonic_counts_by_its_amplitude() {
-        let m = harmonic(5.7e-4, 1.8e-4, -1.433, 0.32);
-        let sigma = (0.32f64.powi(2) + 0.05f64.powi(2)).sqrt();
-        // Wrapped: 1.85 − (−1.433) = 3.283 → 3.283 − 2π.
-        let full = (3.283 - std::f64::consts::TAU) / sigma;
-        let same = harmonic(5.7e-4, 0.0, 1.85, 0.0);
-        let z = zscore(&m, &same, Feature::ForcePhase2).unwrap();
-        assert!((z - full).abs() < 1e-9, "{z} against {full}");
-        // A model with more of the harmonic than measured: the measured phase's error rules.
-        let more = harmonic(2e-3, 0.0, 1.85, 0.0);
-        let z = zscore(&m, &more, Feature::ForcePhase2).unwrap();
-        assert!((z - full).abs() < 1e-9, "{z} against {full}");
-        let tiny = harmonic(5.7e-6, 0.0, 1.85, 0.0);
-        let z = zscore(&m, &tiny, Feature::ForcePhase2).unwrap();
-        assert!((z - 0.01 * full).abs() < 1e-9 && z.abs() < 0.1, "{z}");
-        // The amplitude still tells the two apart: (5.7e-6 − 5.7e-4) over its error and floor.
-        let za = zscore(&m, &tiny, Feature::ForceAmp2).unwrap();
-        assert!(za < -2.5, "{za}");
-    }
-}
