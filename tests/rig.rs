@@ -162,7 +162,7 @@ fn rig_sensor_and_slip_law_ageing() {
 
 /// The whole panel: at least 10 of 12 right.
 #[test]
-#[ignore = "the whole panel takes about an hour on 2 cores; .ci/run runs three rig_* tests"]
+#[ignore = "the whole panel takes about an hour on 2 cores; .ci/run runs four rig_* tests"]
 fn independent_rig_panel() {
     let (ok, rows) = run(&PANEL);
     eprintln!(
