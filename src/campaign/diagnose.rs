@@ -409,26 +409,23 @@ fn cross_validate(
             }
         }
         let z = z.unwrap_or_else(|| fr.z.clone());
+        // One pass over the held-out rows: each feature's and each recording's squares.
         let mut fz = vec![];
-        for (j, (&r, &f)) in row_rec.iter().zip(&row_feat).enumerate() {
-            if fold[r] == k && checked[r] && j < z.len() {
+        let mut rec_z: Vec<Vec<f64>> = vec![vec![]; n];
+        for ((&r, &f), &v) in row_rec.iter().zip(&row_feat).zip(&z) {
+            if fold[r] == k && checked[r] {
                 let f = f as usize;
-                feat_sum[f] += z[j] * z[j];
+                feat_sum[f] += v * v;
                 feat_n[f] += 1;
-                if z[j].abs() >= FEATURE_GAP && !feat_far[f].contains(&r) {
+                if v.abs() >= FEATURE_GAP && !feat_far[f].contains(&r) {
                     feat_far[f].push(r);
                 }
+                rec_z[r].push(v);
             }
         }
         for i in (0..n).filter(|&i| fold[i] == k && checked[i]) {
-            let zi: Vec<f64> = z
-                .iter()
-                .zip(&row_rec)
-                .filter(|(_, r)| **r == i)
-                .map(|(v, _)| *v)
-                .collect();
-            per_recording[i] = fit::gap(&zi);
-            fz.extend(zi);
+            per_recording[i] = fit::gap(&rec_z[i]);
+            fz.append(&mut rec_z[i]);
         }
         fold_gaps.push(fit::gap(&fz));
         pooled.extend(fz);

@@ -946,4 +946,3 @@ fn ripple_from_drive(recs: &[&Recording]) -> Option<(f64, f64)> {
     let best = (0..n_l).max_by(|&a, &b| power[a].0.total_cmp(&power[b].0))?;
     Some((power[best].1, lambdas[best]))
 }
-
