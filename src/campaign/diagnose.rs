@@ -522,7 +522,18 @@ fn try_candidate(
     let start = fit::starts(all, from, k);
     let mut effects = with.to_vec();
     effects.push(k);
-    let f = fit::fit(all, &start, &effects, opts);
+    // The fresh Jacobian at the optimum (p more evaluations) only for a fit that passes the
+    // bar below: it gives the uncertainties and the folds' refits, which a candidate ranked
+    // with the model it extends does not use.
+    let f = fit::fit(
+        all,
+        &start,
+        &effects,
+        FitOptions {
+            final_jacobian: false,
+            ..opts
+        },
+    );
     // Never worse on the calibration data than the model it extends: at its neutral value the
     // candidate is that model, so a fit that ends worse reports that model's results.
     let extra = f.effect_params - from.effect_params;
@@ -540,6 +551,7 @@ fn try_candidate(
             wall_time: clock.elapsed().as_secs_f64(),
         };
     }
+    let f = fit::with_fresh_jacobian(all, f);
     let cv = cross_validate(all, &f, &start, fold, k_folds, checked);
     Ranked {
         effect: k,

@@ -457,6 +457,8 @@ pub struct FitResult {
     /// Their Jacobian in the fitted coordinates (fresh by finite differences when
     /// [`FitOptions::final_jacobian`], else Broyden-updated).
     pub jacobian: Mat<f64>,
+    /// Whether [`FitResult::jacobian`] was differenced at the optimum (else Broyden-updated).
+    pub jacobian_fresh: bool,
     /// The fitted effects.
     pub effects: Vec<EffectKind>,
 }
@@ -479,39 +481,11 @@ pub fn fit(target: &Target, start: &Model, effects: &[EffectKind], opts: FitOpti
     }
     let p = cs.len();
     let mut theta: Vec<f64> = cs.iter().map(|c| c.get(&model)).collect();
-    let build = |th: &[f64]| {
-        let mut m = model.clone();
-        for (c, &t) in cs.iter().zip(th) {
-            c.set(&mut m, t);
-        }
-        m
-    };
+    let build = |th: &[f64]| build_model(&model, &cs, th);
     let (mut cost, mut z) = cost_of(target, &build(&theta));
     let mut evaluations = 1;
     let mut lambda = 1e-2;
-    let fd_jacobian = |theta: &[f64], z: &[f64]| -> Mat<f64> {
-        // Forward differences: all p perturbed models in one parallel batch.
-        let cols: Vec<Vec<f64>> = (0..p)
-            .into_par_iter()
-            .map(|j| {
-                let mut th = theta.to_vec();
-                let c = &cs[j];
-                // Step inward at an upper bound.
-                let h = if th[j] + c.step > c.hi {
-                    -c.step
-                } else {
-                    c.step
-                };
-                th[j] += h;
-                let (_, zj) = cost_of(target, &build(&th));
-                if zj.len() != z.len() {
-                    return vec![0.0; z.len()];
-                }
-                zj.iter().zip(z).map(|(a, b)| (a - b) / h).collect()
-            })
-            .collect();
-        Mat::from_fn(z.len(), p, |i, j| cols[j][i])
-    };
+    let fd_jacobian = |theta: &[f64], z: &[f64]| fd_jacobian(target, &model, &cs, theta, z);
     let mut jac = Mat::<f64>::zeros(z.len(), p);
     // Whether `jac` is a fresh finite-difference Jacobian (else a Broyden update of one).
     let mut fresh = false;
@@ -601,12 +575,94 @@ pub fn fit(target: &Target, start: &Model, effects: &[EffectKind], opts: FitOpti
     if opts.final_jacobian && !fresh && !z.is_empty() && cost.is_finite() {
         jac = fd_jacobian(&theta, &z);
         evaluations += p;
+        fresh = true;
     }
     let model = build(&theta);
-    // Uncertainties from the last Jacobian.
-    let m = z.len();
+    FitResult {
+        estimates: estimates(&cs, &theta, cost, &jac),
+        model,
+        gap: gap(&z),
+        residuals: z.len(),
+        evaluations,
+        effect_params: cs.iter().filter(|c| c.target.is_ok()).count(),
+        iterations: iter,
+        converged,
+        theta,
+        z,
+        jacobian: jac,
+        jacobian_fresh: fresh,
+        effects: effects.to_vec(),
+    }
+}
+
+/// `fr` with a finite-difference Jacobian at its optimum, and the uncertainties from it, where
+/// its Jacobian is a Broyden update (`p` model evaluations, counted in `evaluations`); `fr`
+/// itself where it is fresh already. Gives what [`fit`] with [`FitOptions::final_jacobian`]
+/// gives, so a fit whose uncertainties may not be needed can defer the cost.
+pub fn with_fresh_jacobian(target: &Target, mut fr: FitResult) -> FitResult {
+    if fr.jacobian_fresh || fr.z.is_empty() || !fr.gap.is_finite() {
+        return fr;
+    }
+    let cs = coords(&fr.effects);
+    let mut template = fr.model.clone();
+    for &k in &fr.effects {
+        template.effects.enable(k);
+    }
+    fr.jacobian = fd_jacobian(target, &template, &cs, &fr.theta, &fr.z);
+    fr.evaluations += cs.len();
+    fr.jacobian_fresh = true;
+    let cost: f64 = fr.z.iter().map(|v| v * v).sum();
+    fr.estimates = estimates(&cs, &fr.theta, cost, &fr.jacobian);
+    fr
+}
+
+/// `template` with the coordinates `cs` set to `theta`.
+fn build_model(template: &Model, cs: &[Coord], theta: &[f64]) -> Model {
+    let mut m = template.clone();
+    for (c, &t) in cs.iter().zip(theta) {
+        c.set(&mut m, t);
+    }
+    m
+}
+
+/// Forward-difference Jacobian of the residuals `z` (at `theta`) in the coordinates `cs`: the
+/// `p` perturbed models in one parallel batch, each step taken inward at an upper bound.
+fn fd_jacobian(
+    target: &Target,
+    template: &Model,
+    cs: &[Coord],
+    theta: &[f64],
+    z: &[f64],
+) -> Mat<f64> {
+    let p = cs.len();
+    let cols: Vec<Vec<f64>> = (0..p)
+        .into_par_iter()
+        .map(|j| {
+            let mut th = theta.to_vec();
+            let c = &cs[j];
+            let h = if th[j] + c.step > c.hi {
+                -c.step
+            } else {
+                c.step
+            };
+            th[j] += h;
+            let (_, zj) = cost_of(target, &build_model(template, cs, &th));
+            if zj.len() != z.len() {
+                return vec![0.0; z.len()];
+            }
+            zj.iter().zip(z).map(|(a, b)| (a - b) / h).collect()
+        })
+        .collect();
+    Mat::from_fn(z.len(), p, |i, j| cols[j][i])
+}
+
+/// The fitted parameters at `theta`, with standard uncertainties from `(JᵀJ)⁻¹ s²`,
+/// `s² = cost/(m − p)`, where the `m` residuals outnumber the `p` coordinates.
+fn estimates(cs: &[Coord], theta: &[f64], cost: f64, jac: &Mat<f64>) -> Vec<Estimate> {
+    let p = cs.len();
+    let m = jac.nrows();
     let mut stderr = vec![f64::NAN; p];
-    if m > p && jac.nrows() == m {
+    if m > p && jac.ncols() == p {
         let jtj = Mat::from_fn(p, p, |a, b| {
             (0..m).map(|i| jac[(i, a)] * jac[(i, b)]).sum::<f64>()
         });
@@ -619,9 +675,8 @@ pub fn fit(target: &Target, start: &Model, effects: &[EffectKind], opts: FitOpti
             }
         }
     }
-    let estimates = cs
-        .iter()
-        .zip(&theta)
+    cs.iter()
+        .zip(theta)
         .zip(&stderr)
         .map(|((c, &t), &s)| {
             let th = t.clamp(c.lo, c.hi);
@@ -633,21 +688,7 @@ pub fn fit(target: &Target, start: &Model, effects: &[EffectKind], opts: FitOpti
                 stderr: if c.log { value * s } else { s },
             }
         })
-        .collect();
-    FitResult {
-        model,
-        estimates,
-        gap: gap(&z),
-        residuals: m,
-        evaluations,
-        effect_params: cs.iter().filter(|c| c.target.is_ok()).count(),
-        iterations: iter,
-        converged,
-        theta,
-        z,
-        jacobian: jac,
-        effects: effects.to_vec(),
-    }
+        .collect()
 }
 
 /// The fit of `fr` refitted to a subset of its residuals (`keep`, one flag per row): one

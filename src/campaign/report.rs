@@ -90,9 +90,9 @@ pub fn json(c: &Campaign, d: &Diagnosis) -> serde_json::Value {
             "score": num(r.score),
             "params": estimates_json(&r.fit.estimates),
         })).collect::<Vec<_>>(),
-        "ranking": d.ranking.iter().enumerate().map(|(i, r)| json!({
+        "ranking": d.ranking.iter().map(|r| json!({
             "effect": r.effect.name(),
-            "stderr_from": if i == 0 {
+            "stderr_from": if r.fit.jacobian_fresh {
                 "finite-difference Jacobian at the optimum"
             } else {
                 "Broyden-updated Jacobian at the optimum (approximate)"
