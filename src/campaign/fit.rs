@@ -890,30 +890,30 @@ pub const SCAN_RECORDINGS: usize = 8;
 /// conditions (a sensor at the lowest forcing frequencies) is invisible on recordings chosen
 /// by name, and the scan would start its fit where it cannot find them.
 fn scan_subset<'a>(target: &Target<'a>, z: &[f64]) -> Target<'a> {
+    subset(target, z, SCAN_RECORDINGS)
+}
+
+/// At most `most` recordings of `target` (with their references) chosen as for
+/// [`SCAN_RECORDINGS`]: half where the model whose residuals are `z` misses most, the rest
+/// evenly by name.
+pub fn subset<'a>(target: &Target<'a>, z: &[f64], most: usize) -> Target<'a> {
     let n = target.recs.len();
-    if n <= SCAN_RECORDINGS {
+    if n <= most {
         return Target::new(target.recs.clone());
     }
     let rows = target.row_recordings();
-    let mut pick: Vec<usize> = vec![];
-    if rows.len() == z.len() {
+    let gaps: Option<Vec<f64>> = (rows.len() == z.len()).then(|| {
         let mut sum = vec![(0.0, 0usize); n];
         for (&r, v) in rows.iter().zip(z) {
             sum[r].0 += v * v;
             sum[r].1 += 1;
         }
-        let gaps: Vec<f64> = sum
-            .iter()
+        sum.iter()
             .map(|&(s, c)| if c == 0 { 0.0 } else { s / c as f64 })
-            .collect();
-        let mut order: Vec<usize> = (0..n).collect();
-        order.sort_by(|&a, &b| gaps[b].total_cmp(&gaps[a]).then(a.cmp(&b)));
-        pick.extend(order.into_iter().take(SCAN_RECORDINGS / 2));
-    }
-    let rest: Vec<usize> = (0..n).filter(|i| !pick.contains(i)).collect();
-    let k_rest = SCAN_RECORDINGS - pick.len();
-    pick.extend((0..k_rest).map(|k| rest[k * rest.len() / k_rest]));
-    for k in 0..SCAN_RECORDINGS {
+            .collect()
+    });
+    let mut pick = choose(n, gaps.as_deref(), most);
+    for k in 0..most {
         let i = pick[k];
         for u in target.units_of(i) {
             if let Some(r) = target.reference[u] {
@@ -926,6 +926,22 @@ fn scan_subset<'a>(target: &Target<'a>, z: &[f64]) -> Target<'a> {
     }
     pick.sort_unstable();
     Target::new(pick.into_iter().map(|i| target.recs[i]).collect())
+}
+
+/// `most` of `n` recordings (`most < n`): the `most/2` with the largest mean squared residual
+/// `gaps` (ties to the lower index; none where `gaps` is unknown), then the rest spread evenly
+/// by index over the others, by index arithmetic.
+fn choose(n: usize, gaps: Option<&[f64]>, most: usize) -> Vec<usize> {
+    let mut pick: Vec<usize> = vec![];
+    if let Some(gaps) = gaps {
+        let mut order: Vec<usize> = (0..n).collect();
+        order.sort_by(|&a, &b| gaps[b].total_cmp(&gaps[a]).then(a.cmp(&b)));
+        pick.extend(order.into_iter().take(most / 2));
+    }
+    let rest: Vec<usize> = (0..n).filter(|i| !pick.contains(i)).collect();
+    let k_rest = most - pick.len();
+    pick.extend((0..k_rest).map(|k| rest[k * rest.len() / k_rest]));
+    pick
 }
 
 /// Amplitude and wavelength of a sinusoidal drive error, from the recorded drive position:
@@ -986,4 +1002,32 @@ fn ripple_from_drive(recs: &[&Recording]) -> Option<(f64, f64)> {
         .collect();
     let best = (0..n_l).max_by(|&a, &b| power[a].0.total_cmp(&power[b].0))?;
     Some((power[best].1, lambdas[best]))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The worst half is taken by gap, the rest evenly over the others, without repeats.
+    #[test]
+    fn subsets_hold_the_worst_recordings_and_spread_the_rest() {
+        let mut gaps = vec![1.0; 30];
+        for (i, g) in [(17, 9.0), (3, 7.0), (29, 5.0), (12, 4.0), (20, 3.0)] {
+            gaps[i] = g;
+        }
+        let pick = choose(30, Some(&gaps), 16);
+        assert_eq!(&pick[..8], &[17, 3, 29, 12, 20, 0, 1, 2]);
+        let mut sorted = pick.clone();
+        sorted.sort_unstable();
+        sorted.dedup();
+        assert_eq!(sorted.len(), 16, "{pick:?}");
+        // The eight others: every third or so of the 22 left, from the first on.
+        let rest: Vec<usize> = (0..30).filter(|i| !pick[..8].contains(i)).collect();
+        assert_eq!(rest.len(), 22);
+        let expect: Vec<usize> = (0..8).map(|k| rest[k * 22 / 8]).collect();
+        assert_eq!(&pick[8..], &expect[..]);
+        assert_eq!(&pick[8..], &[4, 6, 9, 13, 16, 19, 23, 26]);
+        // Without residuals: evenly over all.
+        assert_eq!(choose(30, None, 4), vec![0, 7, 15, 22]);
+    }
 }
