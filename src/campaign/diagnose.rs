@@ -14,7 +14,8 @@
 //! report names them ([`Diagnosis::not_checked`]).
 //!
 //! **Fits shared across folds.** Each model (the base, every candidate) is fitted once on all
-//! recordings, with a fresh finite-difference Jacobian at its optimum; each fold's model is
+//! recordings (in a campaign of more than [`SCREEN_RECORDINGS`], a candidate only after a
+//! screening fit on that many), with a fresh finite-difference Jacobian at its optimum; each fold's model is
 //! that fit refitted to the fold's calibration residuals by one damped Gauss–Newton step on the
 //! same Jacobian's rows ([`fit::refit_rows`]; halved where it raises the fold's calibration
 //! cost), and simulated once. A held-out gap is `√(mean z²)` over every held-out unit of every
