@@ -551,8 +551,9 @@ fn try_candidate(
         ..opts
     };
     let fit_from = match screen {
-        // Screened first on the subset, by the same bar; only a candidate that passes it there
-        // is fitted on every recording, from the subset's optimum.
+        // Screened first on the subset against the extended model refitted to it; only a
+        // candidate that removes SCREEN_BAR of that gap is fitted on every recording, from
+        // the subset's optimum.
         Some((sub, from_gap)) => {
             let s = fit::fit(
                 sub,
