@@ -15,8 +15,8 @@
 //!
 //! **Fits shared across folds.** Each model (the base, every candidate) is fitted once on all
 //! recordings (in a campaign of more than [`SCREEN_RECORDINGS`], a candidate only after a
-//! screening fit on that many), with a fresh finite-difference Jacobian at its optimum; each fold's model is
-//! that fit refitted to the fold's calibration residuals by one damped Gauss–Newton step on the
+//! screening fit on that many), with a fresh finite-difference Jacobian at its optimum; each
+//! fold's model is that fit refitted to the fold's calibration residuals by one damped Gauss–Newton step on the
 //! same Jacobian's rows ([`fit::refit_rows`]; halved where it raises the fold's calibration
 //! cost), and simulated once. A held-out gap is `√(mean z²)` over every held-out unit of every
 //! fold (each recording held out once); its spread is the standard deviation of the folds'
@@ -524,11 +524,7 @@ fn try_candidate(
     let start = fit::starts(all, from, k);
     let mut effects = with.to_vec();
     effects.push(k);
-    let extra: usize = effects
-        .iter()
-        .map(|e| e.info().params.iter().filter(|p| p.fitted).count())
-        .sum::<usize>()
-        - from.effect_params;
+    let extra = fit::effect_params(&effects) - from.effect_params;
     // Never worse on the calibration data than the model it extends: at its neutral value the
     // candidate is that model, so a fit that ends worse reports that model's results; and a
     // fit that moves the gap by less than UNCHANGED is that model to within the held-out

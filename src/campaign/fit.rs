@@ -454,8 +454,7 @@ pub struct FitResult {
     pub theta: Vec<f64>,
     /// The residuals at the optimum.
     pub z: Vec<f64>,
-    /// Their Jacobian in the fitted coordinates (fresh by finite differences when
-    /// [`FitOptions::final_jacobian`], else Broyden-updated).
+    /// Their Jacobian in the fitted coordinates (see [`FitResult::jacobian_fresh`]).
     pub jacobian: Mat<f64>,
     /// Whether [`FitResult::jacobian`] was differenced at the optimum (else Broyden-updated).
     pub jacobian_fresh: bool,
@@ -584,7 +583,7 @@ pub fn fit(target: &Target, start: &Model, effects: &[EffectKind], opts: FitOpti
         gap: gap(&z),
         residuals: z.len(),
         evaluations,
-        effect_params: cs.iter().filter(|c| c.target.is_ok()).count(),
+        effect_params: effect_params(effects),
         iterations: iter,
         converged,
         theta,
@@ -604,16 +603,18 @@ pub fn with_fresh_jacobian(target: &Target, mut fr: FitResult) -> FitResult {
         return fr;
     }
     let cs = coords(&fr.effects);
-    let mut template = fr.model.clone();
-    for &k in &fr.effects {
-        template.effects.enable(k);
-    }
-    fr.jacobian = fd_jacobian(target, &template, &cs, &fr.theta, &fr.z);
+    // The fitted model holds every coordinate, and its effects enabled: the template.
+    fr.jacobian = fd_jacobian(target, &fr.model, &cs, &fr.theta, &fr.z);
     fr.evaluations += cs.len();
     fr.jacobian_fresh = true;
     let cost: f64 = fr.z.iter().map(|v| v * v).sum();
     fr.estimates = estimates(&cs, &fr.theta, cost, &fr.jacobian);
     fr
+}
+
+/// Number of fitted coordinates that belong to `effects` (beside the four base parameters).
+pub fn effect_params(effects: &[EffectKind]) -> usize {
+    coords(effects).iter().filter(|c| c.target.is_ok()).count()
 }
 
 /// `template` with the coordinates `cs` set to `theta`.
