@@ -144,6 +144,10 @@ pub struct DiagnoseArgs {
     /// Levenberg-Marquardt iterations at most per fit (1 to 100).
     #[arg(long, default_value_t = 12)]
     pub max_iter: usize,
+    /// Fit and rank the candidates even where the held-out gap is within noise (verdict
+    /// no_significant_gap); by default none is fitted there and the ranking is empty.
+    #[arg(long)]
+    pub rank_always: bool,
     /// Skip the plots.
     #[arg(long)]
     pub no_plots: bool,
@@ -277,6 +281,7 @@ impl DiagnoseArgs {
             }
         }
         o.fit.max_iter = self.max_iter;
+        o.rank_always = self.rank_always;
         Ok(o)
     }
 }

@@ -114,6 +114,17 @@ fn effect_free_data_has_no_significant_gap() {
     eprintln!("effect-free\n{}", show(&d));
     assert_eq!(d.verdict, Verdict::NoSignificantGap, "{}", show(&d));
     assert_eq!(d.best_effect, None);
+    // Nothing to explain: no candidate is fitted unless asked, and asking changes no verdict.
+    assert!(d.ranking.is_empty(), "{}", show(&d));
+    let asked = DiagnoseOptions {
+        candidates: vec![EffectKind::Viscous],
+        rank_always: true,
+        ..DiagnoseOptions::default()
+    };
+    let d2 = diagnose(&c, &asked).unwrap();
+    assert_eq!(d2.ranking.len(), 1, "{}", show(&d2));
+    assert_eq!(d2.verdict, Verdict::NoSignificantGap, "{}", show(&d2));
+    assert_eq!(d2.gap_before, d.gap_before);
     // The calibration recovers the injected base parameters.
     let get = |n: &str| {
         d.base

@@ -101,6 +101,11 @@ pub struct DiagnoseOptions {
     pub candidates: Vec<EffectKind>,
     /// Fit options.
     pub fit: FitOptions,
+    /// Fit and rank the candidates also where the verdict is `no_significant_gap` before any
+    /// is fitted (held-out gap below [`SIGNIFICANT_GAP`], no feature's gap concentrated):
+    /// nothing is left to explain there, and by default no candidate is fitted (an empty
+    /// ranking; most of a diagnosis's time is its candidates). Default false.
+    pub rank_always: bool,
 }
 
 impl Default for DiagnoseOptions {
@@ -108,6 +113,7 @@ impl Default for DiagnoseOptions {
         DiagnoseOptions {
             candidates: EffectKind::candidates(),
             fit: FitOptions::default(),
+            rank_always: false,
         }
     }
 }
@@ -229,7 +235,8 @@ pub struct Diagnosis {
     pub breadth: f64,
     /// The base calibration on all recordings.
     pub base: FitResult,
-    /// Candidates, best first.
+    /// Candidates, best first; empty where the verdict is `no_significant_gap` (unless
+    /// [`DiagnoseOptions::rank_always`]).
     pub ranking: Vec<Ranked>,
     /// Second effects tried with the first named one, best first.
     pub second: Vec<Ranked>,
@@ -687,11 +694,20 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
     let base = fit::fit(&all, &Model::default(), &[], fo);
     let base_cv = cross_validate(&all, &base, &Model::default(), &fold, k_folds, &checked);
     let gap_before = base_cv.gap;
-    let screen = screen_of(&all, &base, fo);
+    let concentrated = concentrated(&base_cv);
+    // The verdict `no_significant_gap` needs no candidate: fit them only on request.
+    let no_gap = !(gap_before >= SIGNIFICANT_GAP) && concentrated.is_none();
+    let fitted: &[EffectKind] = if no_gap && !opts.rank_always {
+        &[]
+    } else {
+        &opts.candidates
+    };
+    let screen = (!fitted.is_empty())
+        .then(|| screen_of(&all, &base, fo))
+        .flatten();
     // Candidates in parallel (each fit's simulations too): they are independent and
     // deterministic, so the ranking does not depend on the thread count.
-    let mut ranking: Vec<Ranked> = opts
-        .candidates
+    let mut ranking: Vec<Ranked> = fitted
         .par_iter()
         .map(|&k| {
             try_candidate(
@@ -713,7 +729,6 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
     let breadth = ranking.first().map_or(0.0, |b| {
         breadth_of(&base_cv.per_recording, &b.per_recording)
     });
-    let concentrated = concentrated(&base_cv);
     // Where only a concentrated feature makes the gap significant, shares and margins are of
     // the gap beyond noise (1): a whole gap of 1.3 cannot fall by more than 23 % of itself.
     let noise = if gap_before >= SIGNIFICANT_GAP {
@@ -722,7 +737,7 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
         NOISE_GAP
     };
     let share = |e1: f64| (gap_before - e1) / (gap_before - noise).max(0.1 * gap_before);
-    let (verdict, partial) = if !(gap_before >= SIGNIFICANT_GAP) && concentrated.is_none() {
+    let (verdict, partial) = if no_gap {
         (Verdict::NoSignificantGap, false)
     } else {
         match ranking.first() {
@@ -748,10 +763,10 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
     let mut effects = vec![];
     let (mut gap_after, mut gap_after_spread) = (gap_before, base_cv.spread);
     if verdict == Verdict::Effect {
-        // The first effect's fit, polished further from its optimum: a second effect is
-        // credited only with what the first cannot reach by itself.
+        // The first effect's fit, polished further from its optimum (on its Jacobian there):
+        // a second effect is credited only with what the first cannot reach by itself.
         let first = &ranking[0];
-        let polished = fit::fit(&all, &first.fit.model, &[first.effect], fo);
+        let polished = fit::refine(&all, &first.fit, fo);
         let (first_fit, first_cv) = if polished.gap < first.fit.gap {
             let cv = cross_validate(&all, &polished, &first.fit.model, &fold, k_folds, &checked);
             (polished, cv)

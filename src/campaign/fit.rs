@@ -478,21 +478,68 @@ pub fn fit(target: &Target, start: &Model, effects: &[EffectKind], opts: FitOpti
     for &k in effects {
         model.effects.enable(k);
     }
+    let theta: Vec<f64> = cs.iter().map(|c| c.get(&model)).collect();
+    let (cost, z) = cost_of(target, &build_model(&model, &cs, &theta));
     let p = cs.len();
-    let mut theta: Vec<f64> = cs.iter().map(|c| c.get(&model)).collect();
+    let jac = Mat::<f64>::zeros(z.len(), p);
+    levenberg_marquardt(
+        target,
+        model,
+        effects,
+        cs,
+        theta,
+        (cost, z),
+        (jac, false),
+        1,
+        opts,
+    )
+}
+
+/// Continues the fit `fr` on the same recordings from its optimum: more Levenberg–Marquardt
+/// iterations that start on its Jacobian where that is fresh (no evaluation spent on it)
+/// instead of differencing it again, as [`fit`] from `fr.model` would.
+pub fn refine(target: &Target, fr: &FitResult, opts: FitOptions) -> FitResult {
+    let cs = coords(&fr.effects);
+    let cost = fr.z.iter().map(|v| v * v).sum();
+    levenberg_marquardt(
+        target,
+        fr.model.clone(),
+        &fr.effects,
+        cs,
+        fr.theta.clone(),
+        (cost, fr.z.clone()),
+        (fr.jacobian.clone(), fr.jacobian_fresh),
+        0,
+        opts,
+    )
+}
+
+/// The iterations of [`fit`] from `theta` (cost and residuals `at`, already evaluated and
+/// counted in `evaluations`), on `jac` where it is fresh, else on a new one.
+#[allow(clippy::too_many_arguments)]
+fn levenberg_marquardt(
+    target: &Target,
+    model: Model,
+    effects: &[EffectKind],
+    cs: Vec<Coord>,
+    mut theta: Vec<f64>,
+    at: (f64, Vec<f64>),
+    jac0: (Mat<f64>, bool),
+    mut evaluations: usize,
+    opts: FitOptions,
+) -> FitResult {
+    let p = cs.len();
+    let (mut cost, mut z) = at;
     let build = |th: &[f64]| build_model(&model, &cs, th);
-    let (mut cost, mut z) = cost_of(target, &build(&theta));
-    let mut evaluations = 1;
     let mut lambda = 1e-2;
     let fd_jacobian = |theta: &[f64], z: &[f64]| fd_jacobian(target, &model, &cs, theta, z);
-    let mut jac = Mat::<f64>::zeros(z.len(), p);
     // Whether `jac` is a fresh finite-difference Jacobian (else a Broyden update of one).
-    let mut fresh = false;
+    let (mut jac, mut fresh) = jac0;
     let mut iter = 0;
     let mut converged = false;
     while iter < opts.max_iter && cost.is_finite() && !z.is_empty() {
         iter += 1;
-        if iter == 1 {
+        if iter == 1 && !fresh {
             jac = fd_jacobian(&theta, &z);
             evaluations += p;
             fresh = true;

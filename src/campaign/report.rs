@@ -211,6 +211,12 @@ pub fn summary(c: &Campaign, d: &Diagnosis) -> String {
             n
         );
     }
+    if d.ranking.is_empty() && d.verdict == super::diagnose::Verdict::NoSignificantGap {
+        let _ = writeln!(
+            s,
+            "  none fitted: the gap is within noise, nothing to explain (--rank-always fits them)"
+        );
+    }
     for r in &d.ranking {
         let ps: Vec<String> = r
             .fit
