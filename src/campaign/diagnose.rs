@@ -28,7 +28,8 @@
 //! **Decision.** With `E0`, `E1` the held-out gaps of the calibrated base model and of the best
 //! candidate (ranked by `E1 (1 + 0.05 k)` with `k` the effect's fitted parameters):
 //! - `no_significant_gap` when `E0 <` [`SIGNIFICANT_GAP`] and no single feature's held-out
-//!   gap reaches [`FEATURE_GAP`] on two recordings or more;
+//!   gap reaches [`FEATURE_GAP`] on two recordings or more (decided before any candidate is
+//!   fitted: then none is, unless [`DiagnoseOptions::rank_always`]);
 //! - where only a concentrated feature makes the gap significant (`E0 <` [`SIGNIFICANT_GAP`]),
 //!   the shares and margins below are of the gap beyond noise, `E − 1` ([`NOISE_GAP`]);
 //! - `effect` when the best candidate cuts the gap by at least [`MIN_REDUCTION`], lowers the gap
@@ -41,7 +42,8 @@
 //!   remains;
 //! - `unexplained` otherwise.
 //!
-//! After a named effect, its fit is polished further from its optimum, and every other candidate
+//! After a named effect, its fit is polished further from its optimum ([`fit::refine`], on its
+//! Jacobian there), and every other candidate
 //! is fitted together with it (forward selection); a second effect is named when it cuts the
 //! held-out gap the polished first leaves by at least [`MIN_SECOND`], lowers the gap of
 //! [`MIN_BREADTH`] of the recordings, and beats the other seconds by [`CLEAR_MARGIN`].
