@@ -16,9 +16,9 @@
 //! **Fits shared across folds.** Each model (the base, every candidate) is fitted once on all
 //! recordings (in a campaign of more than [`SCREEN_RECORDINGS`], a candidate only after a
 //! screening fit on that many), with a fresh finite-difference Jacobian at its optimum; each
-//! fold's model is that fit refitted to the fold's calibration residuals by one damped Gauss–Newton step on the
-//! same Jacobian's rows ([`fit::refit_rows`]; halved where it raises the fold's calibration
-//! cost), and simulated once. A held-out gap is `√(mean z²)` over every held-out unit of every
+//! fold's model is that fit refitted to the fold's calibration residuals by one damped
+//! Gauss–Newton step on the same Jacobian's rows ([`fit::refit_rows`]; halved where it raises
+//! the fold's calibration cost), and simulated once. A held-out gap is `√(mean z²)` over every held-out unit of every
 //! fold (each recording held out once); its spread is the standard deviation of the folds'
 //! own gaps.
 //!
@@ -43,10 +43,10 @@
 //! - `unexplained` otherwise.
 //!
 //! After a named effect, its fit is polished further from its optimum ([`fit::refine`], on its
-//! Jacobian there), and every other candidate
-//! is fitted together with it (forward selection); a second effect is named when it cuts the
-//! held-out gap the polished first leaves by at least [`MIN_SECOND`], lowers the gap of
-//! [`MIN_BREADTH`] of the recordings, and beats the other seconds by [`CLEAR_MARGIN`].
+//! Jacobian there), and every other candidate is fitted together with it (forward selection);
+//! a second effect is named when it cuts the held-out gap the polished first leaves by at least
+//! [`MIN_SECOND`], lowers the gap of [`MIN_BREADTH`] of the recordings, and beats the other
+//! seconds by [`CLEAR_MARGIN`].
 
 use super::features::{FEATURES, Feature, N_FEATURES, PHASES};
 use super::fit::{self, FitOptions, FitResult, Model, Target};

@@ -479,20 +479,8 @@ pub fn fit(target: &Target, start: &Model, effects: &[EffectKind], opts: FitOpti
         model.effects.enable(k);
     }
     let theta: Vec<f64> = cs.iter().map(|c| c.get(&model)).collect();
-    let (cost, z) = cost_of(target, &build_model(&model, &cs, &theta));
-    let p = cs.len();
-    let jac = Mat::<f64>::zeros(z.len(), p);
-    levenberg_marquardt(
-        target,
-        model,
-        effects,
-        cs,
-        theta,
-        (cost, z),
-        (jac, false),
-        1,
-        opts,
-    )
+    let at = cost_of(target, &build_model(&model, &cs, &theta));
+    levenberg_marquardt(target, model, effects, cs, theta, at, None, 1, opts)
 }
 
 /// Continues the fit `fr` on the same recordings from its optimum: more Levenberg–Marquardt
@@ -508,14 +496,15 @@ pub fn refine(target: &Target, fr: &FitResult, opts: FitOptions) -> FitResult {
         cs,
         fr.theta.clone(),
         (cost, fr.z.clone()),
-        (fr.jacobian.clone(), fr.jacobian_fresh),
+        fr.jacobian_fresh.then(|| fr.jacobian.clone()),
         0,
         opts,
     )
 }
 
 /// The iterations of [`fit`] from `theta` (cost and residuals `at`, already evaluated and
-/// counted in `evaluations`), on `jac` where it is fresh, else on a new one.
+/// counted in `evaluations`), on `fresh_jac` (a finite-difference Jacobian there) where
+/// given, else on a new one.
 #[allow(clippy::too_many_arguments)]
 fn levenberg_marquardt(
     target: &Target,
@@ -524,7 +513,7 @@ fn levenberg_marquardt(
     cs: Vec<Coord>,
     mut theta: Vec<f64>,
     at: (f64, Vec<f64>),
-    jac0: (Mat<f64>, bool),
+    fresh_jac: Option<Mat<f64>>,
     mut evaluations: usize,
     opts: FitOptions,
 ) -> FitResult {
@@ -534,7 +523,8 @@ fn levenberg_marquardt(
     let mut lambda = 1e-2;
     let fd_jacobian = |theta: &[f64], z: &[f64]| fd_jacobian(target, &model, &cs, theta, z);
     // Whether `jac` is a fresh finite-difference Jacobian (else a Broyden update of one).
-    let (mut jac, mut fresh) = jac0;
+    let mut fresh = fresh_jac.is_some();
+    let mut jac = fresh_jac.unwrap_or_else(|| Mat::zeros(z.len(), p));
     let mut iter = 0;
     let mut converged = false;
     while iter < opts.max_iter && cost.is_finite() && !z.is_empty() {
