@@ -18,6 +18,7 @@
 
 use super::features::{FEATURES, Feature, FeatureSet, Stage, stage_features, stages};
 use super::{Recording, Solvers, simulate_grid};
+use crate::model::effects::actuator_gain;
 use crate::model::{EffectKind, Effects, Params};
 use faer::Mat;
 use faer::linalg::solvers::{Solve, SolveLstsq};
@@ -827,10 +828,10 @@ fn fit_range(kind: EffectKind, param: &str) -> Option<(f64, f64)> {
 }
 
 /// The values the global scan of [`starts`] tries for one fitted effect parameter, over its
-/// plausible range: resonances (actuator and sensor) at ten frequencies from 200 Hz to 20 kHz
-/// (the sensor's from 20 Hz: a load cell carrying the frame rings at tens of hertz), each at a
-/// light, a moderate and a critical-like damping (0.05, 0.3, 0.7); the others at four or five
-/// points of their range.
+/// plausible range: the sensor's resonance at ten frequencies from 20 Hz to 20 kHz (a load cell
+/// carrying the frame rings at tens of hertz), each at a light, a moderate and a
+/// critical-like damping (0.05, 0.3, 0.7); the others at four or five points of their range.
+/// The actuator's resonance has a scan of its own ([`actuator_scan`]).
 fn scan_values(kind: EffectKind, param: &str) -> Vec<f64> {
     use EffectKind as K;
     let logspace = |lo: f64, hi: f64, n: usize| -> Vec<f64> {
@@ -840,9 +841,8 @@ fn scan_values(kind: EffectKind, param: &str) -> Vec<f64> {
     };
     match (kind, param) {
         (K::Aging, "b") => vec![0.02, 0.05, 0.1, 0.2],
-        (K::ActuatorResponse, "f_r") => logspace(200.0, 2e4, 10),
         (K::SensorDynamics, "f_n") => logspace(20.0, 2e4, 10),
-        (K::ActuatorResponse, "zeta") | (K::SensorDynamics, "zeta") => vec![0.05, 0.3, 0.7],
+        (K::SensorDynamics, "zeta") => vec![0.05, 0.3, 0.7],
         (K::NormalCoupling, "k_n") => logspace(1e6, 1e8, 5),
         (K::Viscous, "h_v") => vec![20.0, 50.0, 100.0, 200.0],
         (K::StribeckShape, "delta") => vec![0.5, 1.0, 1.5, 3.0],
@@ -853,8 +853,9 @@ fn scan_values(kind: EffectKind, param: &str) -> Vec<f64> {
 }
 
 /// Starting values for an effect's fitted parameters, from a global scan over their plausible
-/// ranges (every combination: resonances at ten frequencies from 200 Hz to 20 kHz, a sensor's
-/// from 20 Hz, each at three dampings; the others at three to five values) on the calibrated
+/// ranges (every combination: a sensor's resonance at ten frequencies from 20 Hz to 20 kHz, each
+/// at three dampings; the others at three to five values; the actuator's resonance from the
+/// gain scan of [`actuator_scan`], 100 Hz to 100 kHz in steps of 1 %) on the calibrated
 /// parameters of `base`, scored on up to [`SCAN_RECORDINGS`] recordings (half of them those
 /// `base` misses most), with
 /// the neutral start ([`neutral`]) among them; for the drive ripple, the wavelength and
@@ -878,6 +879,13 @@ pub fn starts(target: &Target, base: &FitResult, kind: EffectKind) -> Model {
         let _ = m.effects.set(kind, "a", a.clamp(0.0, 1e-3));
         let _ = m.effects.set(kind, "wavelength", lambda.clamp(1e-6, 0.1));
         candidates.push(m);
+    }
+    // The scan only chooses a start: score the starts on a subset of the recordings.
+    let sub = scan_subset(target, &base.z);
+    if kind == EffectKind::ActuatorResponse {
+        if let Some(m) = actuator_scan(&sub, &m0) {
+            candidates.push(m);
+        }
     }
     let mut grid: Vec<Vec<(&str, f64)>> = vec![vec![]];
     for p in kind.info().params.iter().filter(|p| p.fitted) {
@@ -908,13 +916,154 @@ pub fn starts(target: &Target, base: &FitResult, kind: EffectKind) -> Model {
     if candidates.len() == 1 {
         return m0;
     }
-    // The scan only chooses a start: score the starts on a subset of the recordings.
-    let sub = scan_subset(target, &base.z);
     let costs: Vec<f64> = candidates.par_iter().map(|m| evaluate(&sub, m)).collect();
     let best = (0..costs.len())
         .min_by(|&a, &b| costs[a].total_cmp(&costs[b]))
         .unwrap();
     candidates.swap_remove(best)
+}
+
+/// Gains the actuator scan ([`actuator_scan`]) tabulates at each forcing frequency, evenly in
+/// `ln A` from [`ACTUATOR_GAIN_MIN`] to [`ACTUATOR_GAIN_MAX`] (steps of 20 %), with the neutral
+/// gain 1 besides.
+pub const ACTUATOR_GAINS: usize = 34;
+/// Smallest gain of the actuator scan: the substrate moving at a twentieth of its nominal
+/// amplitude, as good as no vibration for the features.
+pub const ACTUATOR_GAIN_MIN: f64 = 0.05;
+/// Largest gain of the actuator scan: twenty times the nominal amplitude turns every tested
+/// `v_a/v_d` of 0.05 or more into elimination.
+pub const ACTUATOR_GAIN_MAX: f64 = 20.0;
+
+/// The start of `actuator_response` from a scan of the gain at each forcing frequency.
+///
+/// The effect changes a recording only through its gain `A(f)` at the recording's own
+/// frequency ([`actuator_gain`]), so the scan's cost is a sum over the forcing frequencies of
+/// the subset `sub`, each term a function of one gain. Each term is tabulated at
+/// [`ACTUATOR_GAINS`] gains from 0.05 to 20 (each realised by a resonance next to that
+/// frequency; the recordings at that frequency with their references), interpolated linearly
+/// in `ln A`, and the sum minimised over a fine grid of `(f_r, ζ)`: `f_r` from 100 Hz to
+/// 100 kHz in steps of 1 %, `ζ` at 15 values from 0.01 to 2. A resonance as sharp as a
+/// saddle's (`ζ` of a few hundredths, within 5 % of a tested frequency) is then found wherever
+/// it lies, where a grid of the resonance itself would need hundreds of simulated starts.
+/// `None` where the subset does not vibrate.
+fn actuator_scan(sub: &Target, m0: &Model) -> Option<Model> {
+    let kind = EffectKind::ActuatorResponse;
+    let mut freqs: Vec<f64> = sub
+        .units
+        .iter()
+        .map(|u| u.1.freq)
+        .filter(|&f| f > 0.0)
+        .collect();
+    freqs.sort_by(f64::total_cmp);
+    freqs.dedup();
+    if freqs.is_empty() {
+        return None;
+    }
+    // Per frequency: its vibrated recordings with the recordings of their references.
+    let groups: Vec<Target> = freqs
+        .iter()
+        .map(|&f| {
+            let mut pick: Vec<usize> = vec![];
+            for (u, &(i, st)) in sub.units.iter().enumerate() {
+                if st.freq == f {
+                    pick.push(i);
+                    if let Some(r) = sub.reference[u] {
+                        pick.push(sub.units[r].0);
+                    }
+                }
+            }
+            pick.sort_unstable();
+            pick.dedup();
+            Target::new(pick.into_iter().map(|i| sub.recs[i]).collect())
+        })
+        .collect();
+    let (f_lo, f_hi) = (100.0, 1e5);
+    // A resonance that gives gain `g` at `f`: below `f` for g < 1 (`(f/f_r)² = 1 + 1/g`), above
+    // it for g > 1 (`(f/f_r)² = 1 − 1/g`), lightly damped; the neutral values for 1. The gain
+    // tabulated is the one realised (the bounds of `f_r` may cut it).
+    let realise = |f: f64, g: f64| -> (f64, f64) {
+        let zeta = 0.01;
+        if (g - 1.0).abs() < 1e-12 {
+            return (1e5, 0.7);
+        }
+        let q2 = if g < 1.0 {
+            1.0 + 1.0 / g
+        } else {
+            1.0 - 1.0 / g
+        };
+        ((f / q2.sqrt()).clamp(f_lo, f_hi), zeta)
+    };
+    let (g_lo, g_hi) = (ACTUATOR_GAIN_MIN, ACTUATOR_GAIN_MAX);
+    let mut gains: Vec<f64> = (0..ACTUATOR_GAINS)
+        .map(|k| {
+            (g_lo.ln() + (g_hi.ln() - g_lo.ln()) * k as f64 / (ACTUATOR_GAINS - 1) as f64).exp()
+        })
+        .collect();
+    gains.push(1.0);
+    let jobs: Vec<(usize, f64)> = (0..freqs.len())
+        .flat_map(|i| gains.iter().map(move |&g| (i, g)))
+        .collect();
+    let costs: Vec<(usize, f64, f64)> = jobs
+        .par_iter()
+        .map(|&(i, g)| {
+            let (f_r, zeta) = realise(freqs[i], g);
+            let mut m = m0.clone();
+            let _ = m.effects.set(kind, "f_r", f_r);
+            let _ = m.effects.set(kind, "zeta", zeta);
+            let (ssq, _) = cost_of(&groups[i], &m);
+            let ssq = if ssq.is_finite() { ssq } else { f64::INFINITY };
+            (i, actuator_gain(freqs[i], f_r, zeta).ln(), ssq)
+        })
+        .collect();
+    // Per frequency, the table (ln A, cost) sorted by ln A, one entry per realised gain.
+    let tables: Vec<Vec<(f64, f64)>> = (0..freqs.len())
+        .map(|i| {
+            let mut t: Vec<(f64, f64)> = costs
+                .iter()
+                .filter(|c| c.0 == i)
+                .map(|c| (c.1, c.2))
+                .collect();
+            t.sort_by(|a, b| a.0.total_cmp(&b.0));
+            t.dedup_by(|a, b| (a.0 - b.0).abs() < 1e-9);
+            t
+        })
+        .collect();
+    let at = |t: &[(f64, f64)], x: f64| -> f64 {
+        let k = t.partition_point(|p| p.0 < x);
+        if k == 0 {
+            return t[0].1;
+        }
+        if k == t.len() {
+            return t[t.len() - 1].1;
+        }
+        let (a, b) = (t[k - 1], t[k]);
+        if !(a.1.is_finite() && b.1.is_finite()) {
+            return f64::INFINITY;
+        }
+        a.1 + (b.1 - a.1) * (x - a.0) / (b.0 - a.0)
+    };
+    const ZETAS: [f64; 15] = [
+        0.01, 0.015, 0.02, 0.03, 0.05, 0.07, 0.1, 0.15, 0.2, 0.3, 0.5, 0.7, 1.0, 1.5, 2.0,
+    ];
+    let n_f = ((f_hi / f_lo).ln() / 1.01f64.ln()).ceil() as usize;
+    let mut best = (f64::INFINITY, 1e5, 0.7);
+    for k in 0..=n_f {
+        let f_r = (f_lo.ln() + (f_hi.ln() - f_lo.ln()) * k as f64 / n_f as f64).exp();
+        for &zeta in &ZETAS {
+            let c: f64 = freqs
+                .iter()
+                .zip(&tables)
+                .map(|(&f, t)| at(t, actuator_gain(f, f_r, zeta).ln()))
+                .sum();
+            if c < best.0 {
+                best = (c, f_r, zeta);
+            }
+        }
+    }
+    let mut m = m0.clone();
+    let _ = m.effects.set(kind, "f_r", best.1);
+    let _ = m.effects.set(kind, "zeta", best.2);
+    Some(m)
 }
 
 /// Most recordings [`starts`] scores its starts on.

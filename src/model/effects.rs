@@ -592,6 +592,13 @@ fn check(info: &EffectInfo, p: &EffectParam, v: f64) -> Result<(), EffectError> 
     Ok(())
 }
 
+/// Gain of the `actuator_response` resonance at the forcing frequency `f` \[Hz\] (module
+/// docs): `A = 1 / √((1 − (f/f_r)²)² + (2 ζ f/f_r)²)`, 1 at `f = 0`, `1/(2ζ)` at `f = f_r`.
+pub fn actuator_gain(f: f64, f_r: f64, zeta: f64) -> f64 {
+    let q = f / f_r;
+    1.0 / ((1.0 - q * q).powi(2) + (2.0 * zeta * q).powi(2)).sqrt()
+}
+
 /// The effects resolved into the numbers the right-hand side uses, with the positions of the
 /// extra state components.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -655,10 +662,7 @@ impl Resolved {
                     r.aging = Some((v[0], v[1], v[2], r.dim));
                     r.dim += 1;
                 }
-                EffectKind::ActuatorResponse => {
-                    let q = f / v[0];
-                    r.gain = 1.0 / ((1.0 - q * q).powi(2) + (2.0 * v[1] * q).powi(2)).sqrt();
-                }
+                EffectKind::ActuatorResponse => r.gain = actuator_gain(f, v[0], v[1]),
                 EffectKind::NormalCoupling => r.normal = Some((v[0] / f_n, v[1].to_radians())),
                 EffectKind::SensorDynamics => {
                     r.sensor = Some((tau * v[0], v[1], r.dim));
