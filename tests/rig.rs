@@ -12,7 +12,7 @@
 //!
 //! `.ci/run` runs four campaigns (effect-free on a small unbalanced design, friction along the
 //! track, which no candidate stands for, an out-of-library load modulation, screw error with its
-//! harmonic); two effects at once (`rig_sensor_and_slip_law_ageing`,
+//! harmonic) and the actuator scan on the in-band two-mass actuator; two effects at once (`rig_sensor_and_slip_law_ageing`,
 //! `--ignored`) and the whole panel of twelve are
 //! `cargo test --release --test rig -- --ignored --nocapture` (README, "Measured data").
 
@@ -160,14 +160,49 @@ fn rig_sensor_and_slip_law_ageing() {
     right_on("sensor+aging");
 }
 
-/// The whole panel: at least 10 of 12 right.
+/// The whole panel: at least 11 of 12 right (12 at the last run).
 #[test]
-#[ignore = "the whole panel takes about an hour on 2 cores; .ci/run runs four rig_* tests"]
+#[ignore = "the whole panel takes about 40 minutes on 2 cores; .ci/run runs five rig_* tests"]
 fn independent_rig_panel() {
     let (ok, rows) = run(&PANEL);
     eprintln!(
         "| campaign | truth | verdict | effects | held-out gap | right | time |\n|---|---|---|---|---|---|---|\n{}",
         rows.join("\n")
     );
-    assert!(ok >= 10, "{ok} of 12 right\n{}", rows.join("\n"));
+    assert!(ok >= 11, "{ok} of 12 right\n{}", rows.join("\n"));
+}
+
+/// The actuator's scan finds a saddle resonance inside the tested band. The rig's two-mass
+/// actuator of `actuator-inband` (9 kHz piezo, 1.1 kHz saddle, mass ratio 0.3) moves the
+/// substrate at 4.58, 1.17 and 0.47 times the commanded amplitude at the campaign's 1000, 1500
+/// and 2000 Hz (its closed-form transfer function); the library's one resonance matches these
+/// gains only for `f_r` just above 1 kHz (1.05 to 1.2 kHz), a band narrower than one step of a
+/// ten-point grid from 200 Hz to 20 kHz. The start must lie there and already lower the gap.
+#[test]
+fn rig_in_band_actuator_resonance_is_found_by_its_scan() {
+    use stickslip::campaign::fit::{self, FitOptions, Model, Target};
+    use stickslip::model::EffectKind;
+    let dir = tempfile::tempdir().unwrap();
+    let (c, _) = make("actuator-inband", dir.path());
+    let all = Target::new(c.recordings.iter().collect());
+    let opts = FitOptions {
+        final_jacobian: false,
+        ..FitOptions::default()
+    };
+    let base = fit::fit(&all, &Model::default(), &[], opts);
+    let k = EffectKind::ActuatorResponse;
+    let start = fit::starts(&all, &base, k);
+    let f_r = start.effects.get(k, "f_r").unwrap();
+    let zeta = start.effects.get(k, "zeta").unwrap();
+    let gap = fit::evaluate(&all, &start);
+    eprintln!(
+        "base gap {:.2}; start f_r {f_r:.0} Hz, zeta {zeta:.3}: gap {gap:.2}",
+        base.gap
+    );
+    assert!((1050.0..1200.0).contains(&f_r), "f_r {f_r} Hz");
+    assert!(
+        gap < 0.8 * base.gap,
+        "start gap {gap} against base {}",
+        base.gap
+    );
 }
