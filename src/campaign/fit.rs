@@ -882,10 +882,10 @@ pub fn starts(target: &Target, base: &FitResult, kind: EffectKind) -> Model {
     }
     // The scan only chooses a start: score the starts on a subset of the recordings.
     let sub = scan_subset(target, &base.z);
-    if kind == EffectKind::ActuatorResponse {
-        if let Some(m) = actuator_scan(&sub, &m0) {
-            candidates.push(m);
-        }
+    if kind == EffectKind::ActuatorResponse
+        && let Some(m) = actuator_scan(&sub, &m0)
+    {
+        candidates.push(m);
     }
     let mut grid: Vec<Vec<(&str, f64)>> = vec![vec![]];
     for p in kind.info().params.iter().filter(|p| p.fitted) {
@@ -946,7 +946,7 @@ pub const ACTUATOR_GAIN_MAX: f64 = 20.0;
 /// saddle's (`ζ` of a few hundredths, within 5 % of a tested frequency) is then found wherever
 /// it lies, where a grid of the resonance itself would need hundreds of simulated starts.
 /// `None` where the subset does not vibrate.
-fn actuator_scan(sub: &Target, m0: &Model) -> Option<Model> {
+pub fn actuator_scan(sub: &Target, m0: &Model) -> Option<Model> {
     let kind = EffectKind::ActuatorResponse;
     let mut freqs: Vec<f64> = sub
         .units
