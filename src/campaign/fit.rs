@@ -977,28 +977,32 @@ pub fn actuator_scan(sub: &Target, m0: &Model) -> Option<Model> {
             Target::new(pick.into_iter().map(|i| sub.recs[i]).collect())
         })
         .collect();
-    let (f_lo, f_hi) = (100.0, 1e5);
-    // A resonance that gives gain `g` at `f`: below `f` for g < 1 (`(f/f_r)² = 1 + 1/g`), above
-    // it for g > 1 (`(f/f_r)² = 1 − 1/g`), lightly damped; the neutral values for 1. The gain
-    // tabulated is the one realised (the bounds of `f_r` may cut it).
-    let realise = |f: f64, g: f64| -> (f64, f64) {
-        let zeta = 0.01;
-        if (g - 1.0).abs() < 1e-12 {
-            return (1e5, 0.7);
-        }
-        let q2 = if g < 1.0 {
-            1.0 + 1.0 / g
-        } else {
-            1.0 - 1.0 / g
-        };
-        ((f / q2.sqrt()).clamp(f_lo, f_hi), zeta)
+    let bound = |name: &str| {
+        let p = kind.info().params.iter().find(|p| p.name == name);
+        p.map(|p| (p.min, p.max))
+            .expect("actuator_response has f_r")
     };
-    let (g_lo, g_hi) = (ACTUATOR_GAIN_MIN, ACTUATOR_GAIN_MAX);
-    let mut gains: Vec<f64> = (0..ACTUATOR_GAINS)
-        .map(|k| {
-            (g_lo.ln() + (g_hi.ln() - g_lo.ln()) * k as f64 / (ACTUATOR_GAINS - 1) as f64).exp()
-        })
-        .collect();
+    let (f_lo, f_hi) = bound("f_r");
+    // A resonance that gives gain `g` at `f`: below `f` for g < 1 (`(f/f_r)² = 1 + 1/g`), above
+    // it for g > 1 (`(f/f_r)² = 1 − 1/g`), lightly damped; the neutral start `m0` for 1. The
+    // gain tabulated is the one realised (the bounds of `f_r` may cut it).
+    let realise = |f: f64, g: f64| -> Model {
+        let mut m = m0.clone();
+        if g != 1.0 {
+            let q2 = if g < 1.0 {
+                1.0 + 1.0 / g
+            } else {
+                1.0 - 1.0 / g
+            };
+            let _ = m
+                .effects
+                .set(kind, "f_r", (f / q2.sqrt()).clamp(f_lo, f_hi));
+            let _ = m.effects.set(kind, "zeta", 0.01);
+        }
+        m
+    };
+    let mut gains =
+        crate::sweep::spec::logspace(ACTUATOR_GAIN_MIN, ACTUATOR_GAIN_MAX, ACTUATOR_GAINS);
     gains.push(1.0);
     let jobs: Vec<(usize, f64)> = (0..freqs.len())
         .flat_map(|i| gains.iter().map(move |&g| (i, g)))
@@ -1006,13 +1010,12 @@ pub fn actuator_scan(sub: &Target, m0: &Model) -> Option<Model> {
     let costs: Vec<(usize, f64, f64)> = jobs
         .par_iter()
         .map(|&(i, g)| {
-            let (f_r, zeta) = realise(freqs[i], g);
-            let mut m = m0.clone();
-            let _ = m.effects.set(kind, "f_r", f_r);
-            let _ = m.effects.set(kind, "zeta", zeta);
+            let m = realise(freqs[i], g);
+            let (f_r, zeta) = (m.effects.get(kind, "f_r"), m.effects.get(kind, "zeta"));
+            let gain = actuator_gain(freqs[i], f_r.unwrap_or(f_hi), zeta.unwrap_or(1.0));
             let (ssq, _) = cost_of(&groups[i], &m);
             let ssq = if ssq.is_finite() { ssq } else { f64::INFINITY };
-            (i, actuator_gain(freqs[i], f_r, zeta).ln(), ssq)
+            (i, gain.ln(), ssq)
         })
         .collect();
     // Per frequency, the table (ln A, cost) sorted by ln A, one entry per realised gain.
@@ -1045,10 +1048,10 @@ pub fn actuator_scan(sub: &Target, m0: &Model) -> Option<Model> {
     const ZETAS: [f64; 15] = [
         0.01, 0.015, 0.02, 0.03, 0.05, 0.07, 0.1, 0.15, 0.2, 0.3, 0.5, 0.7, 1.0, 1.5, 2.0,
     ];
+    // `f_r` in steps of at most 1 %.
     let n_f = ((f_hi / f_lo).ln() / 1.01f64.ln()).ceil() as usize;
-    let mut best = (f64::INFINITY, 1e5, 0.7);
-    for k in 0..=n_f {
-        let f_r = (f_lo.ln() + (f_hi.ln() - f_lo.ln()) * k as f64 / n_f as f64).exp();
+    let mut best = (f64::INFINITY, f_hi, 1.0);
+    for f_r in crate::sweep::spec::logspace(f_lo, f_hi, n_f + 1) {
         for &zeta in &ZETAS {
             let c: f64 = freqs
                 .iter()
