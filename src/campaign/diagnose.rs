@@ -572,11 +572,20 @@ fn try_candidate(
             if !(s.gap <= (1.0 - SCREEN_BAR) * from_gap) {
                 return as_from();
             }
-            s.model
+            // A resonance's narrow valley next to the screen's optimum (fit::line_search).
+            fit::line_search(sub, &s).unwrap_or(s.model)
         }
         None => start.clone(),
     };
-    let f = fit::fit(all, &fit_from, &effects, opts);
+    let mut f = fit::fit(all, &fit_from, &effects, opts);
+    if screen.is_none()
+        && let Some(m) = fit::line_search(all, &f)
+    {
+        let again = fit::fit(all, &m, &effects, opts);
+        if again.gap < f.gap {
+            f = again;
+        }
+    }
     if !(f.gap <= (1.0 - UNCHANGED) * from.gap) {
         return as_from();
     }

@@ -1069,6 +1069,55 @@ pub fn actuator_scan(sub: &Target, m0: &Model) -> Option<Model> {
     Some(m)
 }
 
+/// Points of [`line_search`]: a resonance frequency from half to twice its fitted value in
+/// steps of 4 %.
+pub const LINE_POINTS: usize = 36;
+
+/// The resonance frequencies [`line_search`] scans: the sensor's `f_n`. A lightly damped
+/// sensor's cost along `f_n` is a narrow valley (about ±6 % wide) between a cliff below and a
+/// slope above, so a local fit started outside it slides down the slope, away from it.
+fn line_param(kind: EffectKind) -> Option<&'static str> {
+    (kind == EffectKind::SensorDynamics).then_some("f_n")
+}
+
+/// A dense scan of each fitted resonance frequency of `fr` ([`line_param`]) about its optimum,
+/// the other parameters held at the fit's values: [`LINE_POINTS`] values from half to twice it
+/// (within [`fit_range`]), scored on `target`, the fit's own recordings. Returns the best point
+/// where it lies below the fit's gap (a start for a new fit), else `None`. Where the global
+/// scan of [`starts`] (steps of a factor 2.15) put the start on the slope next to a narrow
+/// valley, the local fit stays on the slope; this finds the valley within a factor 2 of the
+/// fit.
+pub fn line_search(target: &Target, fr: &FitResult) -> Option<Model> {
+    let mut best: Option<(f64, Model)> = None;
+    for &kind in &fr.effects {
+        let Some(name) = line_param(kind) else {
+            continue;
+        };
+        let Some(v0) = fr.model.effects.get(kind, name) else {
+            continue;
+        };
+        let (lo, hi) = fit_range(kind, name).unwrap_or((0.0, f64::INFINITY));
+        let values: Vec<f64> = crate::sweep::spec::logspace(0.5 * v0, 2.0 * v0, LINE_POINTS)
+            .into_iter()
+            .filter(|v| (lo..=hi).contains(v))
+            .collect();
+        let gaps: Vec<(f64, Model)> = values
+            .par_iter()
+            .map(|&v| {
+                let mut m = fr.model.clone();
+                let _ = m.effects.set(kind, name, v);
+                (evaluate(target, &m), m)
+            })
+            .collect();
+        for (g, m) in gaps {
+            if g < fr.gap && best.as_ref().is_none_or(|b| g < b.0) {
+                best = Some((g, m));
+            }
+        }
+    }
+    best.map(|b| b.1)
+}
+
 /// Most recordings [`starts`] scores its starts on.
 pub const SCAN_RECORDINGS: usize = 8;
 
