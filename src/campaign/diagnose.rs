@@ -573,17 +573,23 @@ fn try_candidate(
                 return as_from();
             }
             // A resonance's narrow valley next to the screen's optimum (fit::line_search).
-            fit::line_search(sub, &s).unwrap_or(s.model)
+            fit::line_search(sub, &s).0.unwrap_or(s.model)
         }
         None => start.clone(),
     };
     let mut f = fit::fit(all, &fit_from, &effects, opts);
-    if screen.is_none()
-        && let Some(m) = fit::line_search(all, &f)
-    {
-        let again = fit::fit(all, &m, &effects, opts);
-        if again.gap < f.gap {
-            f = again;
+    if screen.is_none() {
+        // The line's evaluations and both fits' count as the candidate's fit.
+        let (better, n) = fit::line_search(all, &f);
+        f.evaluations += n;
+        if let Some(m) = better {
+            let mut again = fit::fit(all, &m, &effects, opts);
+            if again.gap < f.gap {
+                again.evaluations += f.evaluations;
+                f = again;
+            } else {
+                f.evaluations += again.evaluations;
+            }
         }
     }
     if !(f.gap <= (1.0 - UNCHANGED) * from.gap) {

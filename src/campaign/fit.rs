@@ -860,7 +860,8 @@ fn scan_values(kind: EffectKind, param: &str) -> Vec<f64> {
 /// `base` misses most), with
 /// the neutral start ([`neutral`]) among them; for the drive ripple, the wavelength and
 /// amplitude read off the recorded drive position, where recorded. The scan's best start is
-/// refined locally by [`fit`]. As the scan holds the neutral start, its best is not worse than
+/// refined locally by [`fit`], and a sensor's resonance then scanned densely about the fit's
+/// optimum ([`line_search`]). As the scan holds the neutral start, its best is not worse than
 /// the base model on the scored recordings; `diagnose` reports the base model for a candidate
 /// whose fit still ends worse on all of them.
 pub fn starts(target: &Target, base: &FitResult, kind: EffectKind) -> Model {
@@ -1083,12 +1084,14 @@ fn line_param(kind: EffectKind) -> Option<&'static str> {
 /// A dense scan of each fitted resonance frequency of `fr` ([`line_param`]) about its optimum,
 /// the other parameters held at the fit's values: [`LINE_POINTS`] values from half to twice it
 /// (within [`fit_range`]), scored on `target`, the fit's own recordings. Returns the best point
-/// where it lies below the fit's gap (a start for a new fit), else `None`. Where the global
+/// where it lies below the fit's gap (a start for a new fit), else `None`, and the number of
+/// models evaluated (each a simulation of every recording of `target`). Where the global
 /// scan of [`starts`] (steps of a factor 2.15) put the start on the slope next to a narrow
 /// valley, the local fit stays on the slope; this finds the valley within a factor 2 of the
 /// fit.
-pub fn line_search(target: &Target, fr: &FitResult) -> Option<Model> {
+pub fn line_search(target: &Target, fr: &FitResult) -> (Option<Model>, usize) {
     let mut best: Option<(f64, Model)> = None;
+    let mut evaluations = 0;
     for &kind in &fr.effects {
         let Some(name) = line_param(kind) else {
             continue;
@@ -1109,13 +1112,14 @@ pub fn line_search(target: &Target, fr: &FitResult) -> Option<Model> {
                 (evaluate(target, &m), m)
             })
             .collect();
+        evaluations += gaps.len();
         for (g, m) in gaps {
             if g < fr.gap && best.as_ref().is_none_or(|b| g < b.0) {
                 best = Some((g, m));
             }
         }
     }
-    best.map(|b| b.1)
+    (best.map(|b| b.1), evaluations)
 }
 
 /// Most recordings [`starts`] scores its starts on.
