@@ -15,12 +15,14 @@
 //!
 //! **Fits shared across folds.** Each model (the base, every candidate) is fitted once on all
 //! recordings (in a campaign of more than [`SCREEN_RECORDINGS`], a candidate only after a
-//! screening fit on that many), with a fresh finite-difference Jacobian at its optimum; each
-//! fold's model is that fit refitted to the fold's calibration residuals by one damped
-//! Gauss–Newton step on the same Jacobian's rows ([`fit::refit_rows`]; halved where it raises
-//! the fold's calibration cost), and simulated once. A held-out gap is `√(mean z²)` over every held-out unit of every
-//! fold (each recording held out once); its spread is the standard deviation of the folds'
-//! own gaps.
+//! screening fit on that many), from the global scan of its starts ([`fit::starts`]; a
+//! sensor's resonance is scanned again densely about the screen's or the fit's optimum,
+//! [`fit::line_search`]), with a fresh finite-difference Jacobian at its optimum; each fold's
+//! model is that fit refitted to the fold's calibration residuals by one damped Gauss–Newton
+//! step on the same Jacobian's rows ([`fit::refit_rows`]; halved where it raises the fold's
+//! calibration cost), and simulated once. A held-out gap is `√(mean z²)` over every held-out
+//! unit of every fold (each recording held out once); its spread is the standard deviation of
+//! the folds' own gaps.
 //!
 //! **Gap.** `E = √(mean z²)` over the standardised feature differences ([`super::fit`]); 1 means
 //! "within noise and floors".
