@@ -1081,9 +1081,10 @@ fn line_param(kind: EffectKind) -> Option<&'static str> {
     (kind == EffectKind::SensorDynamics).then_some("f_n")
 }
 
-/// A dense scan of each fitted resonance frequency of `fr` ([`line_param`]) about its optimum,
-/// the other parameters held at the fit's values: [`LINE_POINTS`] values from half to twice it
-/// (within [`fit_range`]), scored on `target`, the fit's own recordings. Returns the best point
+/// A dense scan of each fitted resonance frequency of `fr` (the sensor's `f_n`; the actuator's
+/// resonance has [`actuator_scan`]) about its optimum, the other parameters held at the fit's
+/// values: [`LINE_POINTS`] values from half to twice it (within the range a fit allows, 10 Hz
+/// to 20 kHz), scored on `target`, the fit's own recordings. Returns the best point
 /// where it lies below the fit's gap (a start for a new fit), else `None`, and the number of
 /// models evaluated (each a simulation of every recording of `target`). Where the global
 /// scan of [`starts`] (steps of a factor 2.15) put the start on the slope next to a narrow
