@@ -575,14 +575,15 @@ fn try_candidate(
                 return as_from();
             }
             // A resonance's narrow valley next to the screen's optimum (fit::line_search).
-            fit::line_search(sub, &s).0.unwrap_or(s.model)
+            fit::line_search(sub, &s, k).0.unwrap_or(s.model)
         }
         None => start.clone(),
     };
     let mut f = fit::fit(all, &fit_from, &effects, opts);
     if screen.is_none() {
-        // The line's evaluations and both fits' count as the candidate's fit.
-        let (better, n) = fit::line_search(all, &f);
+        // The candidate's own resonance only (the first effect's was scanned when it was
+        // fitted alone). The line's evaluations and both fits' count as the candidate's fit.
+        let (better, n) = fit::line_search(all, &f, k);
         f.evaluations += n;
         if let Some(m) = better {
             let mut again = fit::fit(all, &m, &effects, opts);

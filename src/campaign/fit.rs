@@ -1081,8 +1081,9 @@ fn line_param(kind: EffectKind) -> Option<&'static str> {
     (kind == EffectKind::SensorDynamics).then_some("f_n")
 }
 
-/// A dense scan of each fitted resonance frequency of `fr` (the sensor's `f_n`; the actuator's
-/// resonance has [`actuator_scan`]) about its optimum, the other parameters held at the fit's
+/// A dense scan of the resonance frequency of effect `kind` in the fit `fr` (the sensor's `f_n`;
+/// nothing for the other effects, the actuator's resonance has [`actuator_scan`]) about its
+/// optimum, the other parameters held at the fit's
 /// values: [`LINE_POINTS`] values from half to twice it (within the range a fit allows, 10 Hz
 /// to 20 kHz), scored on `target`, the fit's own recordings. Returns the best point
 /// where it lies below the fit's gap (a start for a new fit), else `None`, and the number of
@@ -1090,36 +1091,32 @@ fn line_param(kind: EffectKind) -> Option<&'static str> {
 /// scan of [`starts`] (steps of a factor 2.15) put the start on the slope next to a narrow
 /// valley, the local fit stays on the slope; this finds the valley within a factor 2 of the
 /// fit.
-pub fn line_search(target: &Target, fr: &FitResult) -> (Option<Model>, usize) {
-    let mut best: Option<(f64, Model)> = None;
-    let mut evaluations = 0;
-    for &kind in &fr.effects {
-        let Some(name) = line_param(kind) else {
-            continue;
-        };
-        let Some(v0) = fr.model.effects.get(kind, name) else {
-            continue;
-        };
-        let (lo, hi) = fit_range(kind, name).unwrap_or((0.0, f64::INFINITY));
-        let values: Vec<f64> = crate::sweep::spec::logspace(0.5 * v0, 2.0 * v0, LINE_POINTS)
-            .into_iter()
-            .filter(|v| (lo..=hi).contains(v))
-            .collect();
-        let gaps: Vec<(f64, Model)> = values
-            .par_iter()
-            .map(|&v| {
-                let mut m = fr.model.clone();
-                let _ = m.effects.set(kind, name, v);
-                (evaluate(target, &m), m)
-            })
-            .collect();
-        evaluations += gaps.len();
-        for (g, m) in gaps {
-            if g < fr.gap && best.as_ref().is_none_or(|b| g < b.0) {
-                best = Some((g, m));
-            }
-        }
-    }
+pub fn line_search(target: &Target, fr: &FitResult, kind: EffectKind) -> (Option<Model>, usize) {
+    let Some(name) = line_param(kind) else {
+        return (None, 0);
+    };
+    let Some(v0) = fr.model.effects.get(kind, name) else {
+        return (None, 0);
+    };
+    let (lo, hi) = fit_range(kind, name).unwrap_or((0.0, f64::INFINITY));
+    let values: Vec<f64> = crate::sweep::spec::logspace(0.5 * v0, 2.0 * v0, LINE_POINTS)
+        .into_iter()
+        .filter(|v| (lo..=hi).contains(v))
+        .collect();
+    let gaps: Vec<(f64, Model)> = values
+        .par_iter()
+        .map(|&v| {
+            let mut m = fr.model.clone();
+            let _ = m.effects.set(kind, name, v);
+            (evaluate(target, &m), m)
+        })
+        .collect();
+    let evaluations = gaps.len();
+    // The lowest below the fit's gap; the first of equals (values in increasing order).
+    let best = gaps
+        .into_iter()
+        .filter(|(g, _)| *g < fr.gap)
+        .reduce(|a, b| if b.0 < a.0 { b } else { a });
     (best.map(|b| b.1), evaluations)
 }
 
