@@ -1083,14 +1083,13 @@ fn line_param(kind: EffectKind) -> Option<&'static str> {
 
 /// A dense scan of the resonance frequency of effect `kind` in the fit `fr` (the sensor's `f_n`;
 /// nothing for the other effects, the actuator's resonance has [`actuator_scan`]) about its
-/// optimum, the other parameters held at the fit's
-/// values: [`LINE_POINTS`] values from half to twice it (within the range a fit allows, 10 Hz
-/// to 20 kHz), scored on `target`, the fit's own recordings. Returns the best point
-/// where it lies below the fit's gap (a start for a new fit), else `None`, and the number of
-/// models evaluated (each a simulation of every recording of `target`). Where the global
-/// scan of [`starts`] (steps of a factor 2.15) put the start on the slope next to a narrow
-/// valley, the local fit stays on the slope; this finds the valley within a factor 2 of the
-/// fit.
+/// optimum, the other parameters held at the fit's values: [`LINE_POINTS`] values from half to
+/// twice it (within the range a fit allows, 10 Hz to 20 kHz), scored on `target`, the fit's own
+/// recordings. Returns the best point where it lies below the fit's gap (a start for a new
+/// fit), else `None`, and the number of models evaluated (each a simulation of every recording
+/// of `target`). Where the global scan of [`starts`] (steps of a factor 2.15) put the start on
+/// the slope next to a narrow valley, the local fit stays on the slope; this finds the valley
+/// within a factor 2 of the fit.
 pub fn line_search(target: &Target, fr: &FitResult, kind: EffectKind) -> (Option<Model>, usize) {
     let Some(name) = line_param(kind) else {
         return (None, 0);
