@@ -14,9 +14,9 @@
 //! report names them ([`Diagnosis::not_checked`]).
 //!
 //! **Fits shared across folds.** Each model (the base, every candidate) is fitted once on all
-//! recordings (in a campaign of more than [`SCREEN_RECORDINGS`], a candidate only after a
-//! screening fit on that many), from the global scan of its starts ([`fit::starts`]; a
-//! sensor's resonance is scanned again densely about the screen's or the fit's optimum,
+//! recordings, a candidate only after a screening fit (on [`SCREEN_RECORDINGS`] of them in a
+//! larger campaign, else on all) from the global scan of its starts ([`fit::starts`]; a
+//! sensor's resonance is scanned again densely about the screen's optimum,
 //! [`fit::line_search`]), with a fresh finite-difference Jacobian at its optimum; each fold's
 //! model is that fit refitted to the fold's calibration residuals by one damped Gauss–Newton
 //! step on the same Jacobian's rows ([`fit::refit_rows`]; halved where it raises the fold's
@@ -520,7 +520,7 @@ pub fn spearman(x: &[f64], y: &[f64]) -> f64 {
 #[allow(clippy::too_many_arguments)]
 fn try_candidate(
     all: &Target,
-    screen: Option<&(Target, f64)>,
+    screen: &(Target, f64),
     from: &FitResult,
     from_cv: &CrossValidated,
     with: &[EffectKind],
@@ -557,43 +557,28 @@ fn try_candidate(
         final_jacobian: false,
         ..opts
     };
-    let fit_from = match screen {
-        // Screened first on the subset against the extended model refitted to it; only a
-        // candidate that removes SCREEN_BAR of that gap is fitted on every recording, from
-        // the subset's optimum.
-        Some((sub, from_gap)) => {
-            let s = fit::fit(
-                sub,
-                &start,
-                &effects,
-                FitOptions {
-                    max_iter: opts.max_iter.min(SCREEN_ITERATIONS),
-                    ..opts
-                },
-            );
-            if !(s.gap <= (1.0 - SCREEN_BAR) * from_gap) {
-                return as_from();
-            }
-            // A resonance's narrow valley next to the screen's optimum (fit::line_search).
-            fit::line_search(sub, &s, k).0.unwrap_or(s.model)
-        }
-        None => start.clone(),
-    };
-    let mut f = fit::fit(all, &fit_from, &effects, opts);
-    if screen.is_none() {
-        // The candidate's own resonance only (the first effect's was scanned when it was
-        // fitted alone). The line's evaluations and both fits' count as the candidate's fit.
-        let (better, n) = fit::line_search(all, &f, k);
-        f.evaluations += n;
-        if let Some(m) = better {
-            let mut again = fit::fit(all, &m, &effects, opts);
-            if again.gap < f.gap {
-                again.evaluations += f.evaluations;
-                f = again;
-            } else {
-                f.evaluations += again.evaluations;
-            }
-        }
+    // Screened first against the extended model (refitted to the subset where the subset is
+    // not every recording); only a candidate that removes SCREEN_BAR of that gap is fitted
+    // further, on every recording, from the screen's optimum.
+    let (sub, from_gap) = screen;
+    let s = fit::fit(
+        sub,
+        &start,
+        &effects,
+        FitOptions {
+            max_iter: opts.max_iter.min(SCREEN_ITERATIONS),
+            ..opts
+        },
+    );
+    if !(s.gap <= (1.0 - SCREEN_BAR) * from_gap) {
+        return as_from();
+    }
+    // A resonance's narrow valley next to the screen's optimum (fit::line_search).
+    let (line, n) = fit::line_search(sub, &s, k);
+    let mut f = fit::fit(all, line.as_ref().unwrap_or(&s.model), &effects, opts);
+    if sub.recs.len() == all.recs.len() {
+        // The same recordings: the screen's and the line's evaluations are the fit's.
+        f.evaluations += s.evaluations + n;
     }
     if !(f.gap <= (1.0 - UNCHANGED) * from.gap) {
         return as_from();
@@ -612,14 +597,14 @@ fn try_candidate(
     }
 }
 
-/// Most recordings a candidate is first fitted on. In a larger campaign each candidate is
-/// screened on this many ([`fit::subset`]: half where the model it extends misses most, the
-/// rest evenly by name), by a fit of at most [`SCREEN_ITERATIONS`] iterations, and fitted on
-/// every recording, from the subset's optimum, only where it lowers the subset's gap by
-/// [`SCREEN_BAR`] or more below that of the model it extends, itself refitted to the subset
-/// (else the candidate would be credited with what any refit of the base parameters to fewer
-/// recordings gains). The others are ranked as that model, as a candidate that moves the gap
-/// by less than [`UNCHANGED`] is.
+/// Most recordings a candidate is first fitted on. Each candidate is screened, by a fit of at
+/// most [`SCREEN_ITERATIONS`] iterations, on every recording of a campaign of this many or
+/// fewer, else on this many ([`fit::subset`]: half where the model it extends misses most, the
+/// rest evenly by name), and fitted further on every recording, from the screen's optimum,
+/// only where it lowers the screen's gap by [`SCREEN_BAR`] or more below that of the model it
+/// extends (on a subset, that model refitted to it: else the candidate would be credited with
+/// what any refit of the base parameters to fewer recordings gains). The others are ranked as
+/// that model, as a candidate that moves the gap by less than [`UNCHANGED`] is.
 pub const SCREEN_RECORDINGS: usize = 16;
 
 /// Share of the subset's gap a candidate must remove in its screening to be fitted on every
@@ -631,22 +616,19 @@ pub const SCREEN_BAR: f64 = 0.1;
 /// global scan, so an effect that explains a clear share of the gap shows it within a few.
 pub const SCREEN_ITERATIONS: usize = 5;
 
-/// The screening subset for candidates extending `from`, in a campaign larger than
-/// [`SCREEN_RECORDINGS`], with the gap of `from` refitted to it.
-fn screen_of<'a>(
-    all: &Target<'a>,
-    from: &FitResult,
-    opts: FitOptions,
-) -> Option<(Target<'a>, f64)> {
-    (all.recs.len() > SCREEN_RECORDINGS).then(|| {
-        let sub = fit::subset(all, &from.z, SCREEN_RECORDINGS);
-        let opts = FitOptions {
-            final_jacobian: false,
-            ..opts
-        };
-        let gap = fit::fit(&sub, &from.model, &from.effects, opts).gap;
-        (sub, gap)
-    })
+/// The screening recordings for candidates extending `from` (all of them in a campaign of
+/// [`SCREEN_RECORDINGS`] or fewer), with the gap of `from` on them (refitted to a subset).
+fn screen_of<'a>(all: &Target<'a>, from: &FitResult, opts: FitOptions) -> (Target<'a>, f64) {
+    if all.recs.len() <= SCREEN_RECORDINGS {
+        return (Target::new(all.recs.clone()), from.gap);
+    }
+    let sub = fit::subset(all, &from.z, SCREEN_RECORDINGS);
+    let opts = FitOptions {
+        final_jacobian: false,
+        ..opts
+    };
+    let gap = fit::fit(&sub, &from.model, &from.effects, opts).gap;
+    (sub, gap)
 }
 
 /// Held-out gap of a recording from which it counts as carrying a gap for the breadth rule.
@@ -722,17 +704,15 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
     } else {
         &opts.candidates
     };
-    let screen = (!fitted.is_empty())
-        .then(|| screen_of(&all, &base, fo))
-        .flatten();
     // Candidates in parallel (each fit's simulations too): they are independent and
     // deterministic, so the ranking does not depend on the thread count.
+    let screen = (!fitted.is_empty()).then(|| screen_of(&all, &base, fo));
     let mut ranking: Vec<Ranked> = fitted
         .par_iter()
-        .map(|&k| {
-            try_candidate(
+        .filter_map(|&k| {
+            Some(try_candidate(
                 &all,
-                screen.as_ref(),
+                screen.as_ref()?,
                 &base,
                 &base_cv,
                 &[],
@@ -742,7 +722,7 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
                 k_folds,
                 &checked,
                 fo,
-            )
+            ))
         })
         .collect();
     ranking.sort_by(|a, b| a.score.total_cmp(&b.score));
@@ -815,7 +795,7 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
                 .map(|&k| {
                     try_candidate(
                         &all,
-                        second_screen.as_ref(),
+                        &second_screen,
                         &first_fit,
                         &first_cv,
                         &[first.effect],
