@@ -833,12 +833,8 @@ fn fit_range(kind: EffectKind, param: &str) -> Option<(f64, f64)> {
 /// critical-like damping (0.05, 0.3, 0.7); the others at four or five points of their range.
 /// The actuator's resonance has a scan of its own ([`actuator_scan`]).
 fn scan_values(kind: EffectKind, param: &str) -> Vec<f64> {
+    use crate::sweep::spec::logspace;
     use EffectKind as K;
-    let logspace = |lo: f64, hi: f64, n: usize| -> Vec<f64> {
-        (0..n)
-            .map(|i| (lo.ln() + (hi.ln() - lo.ln()) * i as f64 / (n - 1) as f64).exp())
-            .collect()
-    };
     match (kind, param) {
         (K::Aging, "b") => vec![0.02, 0.05, 0.1, 0.2],
         (K::SensorDynamics, "f_n") => logspace(20.0, 2e4, 10),
