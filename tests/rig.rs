@@ -162,7 +162,7 @@ fn rig_sensor_and_slip_law_ageing() {
 
 /// The whole panel: at least 11 of 12 right (12 at the last run).
 #[test]
-#[ignore = "the whole panel takes about 40 minutes on 2 cores; .ci/run runs five rig_* tests"]
+#[ignore = "the whole panel takes about 25 minutes on 2 cores; .ci/run runs five rig_* tests"]
 fn independent_rig_panel() {
     let (ok, rows) = run(&PANEL);
     eprintln!(
