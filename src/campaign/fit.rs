@@ -857,9 +857,10 @@ fn scan_values(kind: EffectKind, param: &str) -> Vec<f64> {
 /// the neutral start ([`neutral`]) among them; for the drive ripple, the wavelength and
 /// amplitude read off the recorded drive position, where recorded. The scan's best start is
 /// refined locally by [`fit`] (in `diagnose`, first by a screening fit, about whose optimum a
-/// sensor's resonance is then scanned densely: [`line_search`]). As the scan holds the neutral start, its best is not worse than
-/// the base model on the scored recordings; `diagnose` reports the base model for a candidate
-/// whose fit still ends worse on all of them.
+/// sensor's resonance is then scanned densely: [`line_search`]). As the scan holds the
+/// neutral start, its best is not worse than the base model on the scored recordings;
+/// `diagnose` reports the base model for a candidate whose fit still ends worse on all of
+/// them.
 pub fn starts(target: &Target, base: &FitResult, kind: EffectKind) -> Model {
     let mut m0 = base.model.clone();
     m0.effects.enable(kind);
