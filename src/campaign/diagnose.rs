@@ -520,7 +520,7 @@ pub fn spearman(x: &[f64], y: &[f64]) -> f64 {
 #[allow(clippy::too_many_arguments)]
 fn try_candidate(
     all: &Target,
-    screen: &(Target, f64),
+    screen: &Screen,
     from: &FitResult,
     from_cv: &CrossValidated,
     with: &[EffectKind],
@@ -560,7 +560,7 @@ fn try_candidate(
     // Screened first against the extended model (refitted to the subset where the subset is
     // not every recording); only a candidate that removes SCREEN_BAR of that gap is fitted
     // further, on every recording, from the screen's optimum.
-    let (sub, from_gap) = screen;
+    let (sub, from_gap) = (screen.recordings(all), screen.gap);
     let s = fit::fit(
         sub,
         &start,
@@ -576,7 +576,7 @@ fn try_candidate(
     // A resonance's narrow valley next to the screen's optimum (fit::line_search).
     let (line, n) = fit::line_search(sub, &s, k);
     let mut f = fit::fit(all, line.as_ref().unwrap_or(&s.model), &effects, opts);
-    if sub.recs.len() == all.recs.len() {
+    if screen.subset.is_none() {
         // The same recordings: the screen's and the line's evaluations are the fit's.
         f.evaluations += s.evaluations + n;
     }
@@ -616,19 +616,39 @@ pub const SCREEN_BAR: f64 = 0.1;
 /// global scan, so an effect that explains a clear share of the gap shows it within a few.
 pub const SCREEN_ITERATIONS: usize = 5;
 
-/// The screening recordings for candidates extending `from` (all of them in a campaign of
-/// [`SCREEN_RECORDINGS`] or fewer), with the gap of `from` on them (refitted to a subset).
-fn screen_of<'a>(all: &Target<'a>, from: &FitResult, opts: FitOptions) -> (Target<'a>, f64) {
-    if all.recs.len() <= SCREEN_RECORDINGS {
-        return (Target::new(all.recs.clone()), from.gap);
+/// The recordings candidates extending a model are screened on, with that model's gap there.
+struct Screen<'a> {
+    /// The subset, in a campaign of more than [`SCREEN_RECORDINGS`]; `None`: every recording.
+    subset: Option<Target<'a>>,
+    /// Gap of the extended model on the screen's recordings (refitted to a subset).
+    gap: f64,
+}
+
+impl<'a> Screen<'a> {
+    /// The screen for candidates extending `from`, fitted on every recording of `all`.
+    fn of(all: &Target<'a>, from: &FitResult, opts: FitOptions) -> Self {
+        if all.recs.len() <= SCREEN_RECORDINGS {
+            return Screen {
+                subset: None,
+                gap: from.gap,
+            };
+        }
+        let sub = fit::subset(all, &from.z, SCREEN_RECORDINGS);
+        let opts = FitOptions {
+            final_jacobian: false,
+            ..opts
+        };
+        let gap = fit::fit(&sub, &from.model, &from.effects, opts).gap;
+        Screen {
+            subset: Some(sub),
+            gap,
+        }
     }
-    let sub = fit::subset(all, &from.z, SCREEN_RECORDINGS);
-    let opts = FitOptions {
-        final_jacobian: false,
-        ..opts
-    };
-    let gap = fit::fit(&sub, &from.model, &from.effects, opts).gap;
-    (sub, gap)
+
+    /// The screen's recordings: the subset, or `all`.
+    fn recordings<'s>(&'s self, all: &'s Target<'a>) -> &'s Target<'a> {
+        self.subset.as_ref().unwrap_or(all)
+    }
 }
 
 /// Held-out gap of a recording from which it counts as carrying a gap for the breadth rule.
@@ -706,25 +726,29 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
     };
     // Candidates in parallel (each fit's simulations too): they are independent and
     // deterministic, so the ranking does not depend on the thread count.
-    let screen = (!fitted.is_empty()).then(|| screen_of(&all, &base, fo));
-    let mut ranking: Vec<Ranked> = fitted
-        .par_iter()
-        .filter_map(|&k| {
-            Some(try_candidate(
-                &all,
-                screen.as_ref()?,
-                &base,
-                &base_cv,
-                &[],
-                k,
-                gap_before,
-                &fold,
-                k_folds,
-                &checked,
-                fo,
-            ))
-        })
-        .collect();
+    let mut ranking: Vec<Ranked> = if fitted.is_empty() {
+        vec![]
+    } else {
+        let screen = Screen::of(&all, &base, fo);
+        fitted
+            .par_iter()
+            .map(|&k| {
+                try_candidate(
+                    &all,
+                    &screen,
+                    &base,
+                    &base_cv,
+                    &[],
+                    k,
+                    gap_before,
+                    &fold,
+                    k_folds,
+                    &checked,
+                    fo,
+                )
+            })
+            .collect()
+    };
     ranking.sort_by(|a, b| a.score.total_cmp(&b.score));
     let breadth = ranking.first().map_or(0.0, |b| {
         breadth_of(&base_cv.per_recording, &b.per_recording)
@@ -787,7 +811,7 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
             first.gap_spread
         };
         if first_cv.gap >= SIGNIFICANT_GAP {
-            let second_screen = screen_of(&all, &first_fit, fo);
+            let second_screen = Screen::of(&all, &first_fit, fo);
             second = opts
                 .candidates
                 .par_iter()

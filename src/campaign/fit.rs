@@ -20,6 +20,7 @@ use super::features::{FEATURES, Feature, FeatureSet, Stage, stage_features, stag
 use super::{Recording, Solvers, simulate_grid};
 use crate::model::effects::actuator_gain;
 use crate::model::{EffectKind, Effects, Params};
+use crate::sweep::spec::logspace;
 use faer::Mat;
 use faer::linalg::solvers::{Solve, SolveLstsq};
 use rayon::prelude::*;
@@ -833,7 +834,6 @@ fn fit_range(kind: EffectKind, param: &str) -> Option<(f64, f64)> {
 /// critical-like damping (0.05, 0.3, 0.7); the others at four or five points of their range.
 /// The actuator's resonance has a scan of its own ([`actuator_scan`]).
 fn scan_values(kind: EffectKind, param: &str) -> Vec<f64> {
-    use crate::sweep::spec::logspace;
     use EffectKind as K;
     match (kind, param) {
         (K::Aging, "b") => vec![0.02, 0.05, 0.1, 0.2],
@@ -999,8 +999,7 @@ pub fn actuator_scan(sub: &Target, m0: &Model) -> Option<Model> {
         }
         m
     };
-    let mut gains =
-        crate::sweep::spec::logspace(ACTUATOR_GAIN_MIN, ACTUATOR_GAIN_MAX, ACTUATOR_GAINS);
+    let mut gains = logspace(ACTUATOR_GAIN_MIN, ACTUATOR_GAIN_MAX, ACTUATOR_GAINS);
     gains.push(1.0);
     let jobs: Vec<(usize, f64)> = (0..freqs.len())
         .flat_map(|i| gains.iter().map(move |&g| (i, g)))
@@ -1049,7 +1048,7 @@ pub fn actuator_scan(sub: &Target, m0: &Model) -> Option<Model> {
     // `f_r` in steps of at most 1 %.
     let n_f = ((f_hi / f_lo).ln() / 1.01f64.ln()).ceil() as usize;
     let mut best = (f64::INFINITY, f_hi, 1.0);
-    for f_r in crate::sweep::spec::logspace(f_lo, f_hi, n_f + 1) {
+    for f_r in logspace(f_lo, f_hi, n_f + 1) {
         for &zeta in &ZETAS {
             let c: f64 = freqs
                 .iter()
@@ -1095,7 +1094,7 @@ pub fn line_search(target: &Target, fr: &FitResult, kind: EffectKind) -> (Option
         return (None, 0);
     };
     let (lo, hi) = fit_range(kind, name).unwrap_or((0.0, f64::INFINITY));
-    let values: Vec<f64> = crate::sweep::spec::logspace(0.5 * v0, 2.0 * v0, LINE_POINTS)
+    let values: Vec<f64> = logspace(0.5 * v0, 2.0 * v0, LINE_POINTS)
         .into_iter()
         .filter(|v| (lo..=hi).contains(v))
         .collect();
