@@ -515,8 +515,12 @@ pub fn spearman(x: &[f64], y: &[f64]) -> f64 {
     }
 }
 
-/// Fits one candidate (or a candidate added to `with`) from the scan of its starts on `from`,
-/// cross-validates it and ranks it against the held-out gap `e0`.
+/// Fits one candidate (or a candidate added to `with`) from the scan of its starts on `from`
+/// as fitted to the screen's recordings, cross-validates it and ranks it against the held-out
+/// gap `e0`. The scan, the screen and its start share one set of recordings and one fit of
+/// `from` to them: from `from` fitted to every recording, the screen's few iterations would go
+/// to moving `from`'s own parameters to the subset's optimum, which the screen's refit of
+/// `from` has already found.
 #[allow(clippy::too_many_arguments)]
 fn try_candidate(
     all: &Target,
@@ -532,7 +536,7 @@ fn try_candidate(
     opts: FitOptions,
 ) -> Ranked {
     let clock = std::time::Instant::now();
-    let start = fit::starts(all, from, k);
+    let start = fit::starts(screen.recordings(all), screen.fitted(from), k);
     let mut effects = with.to_vec();
     effects.push(k);
     let extra = fit::effect_params(&effects) - from.effect_params;
@@ -561,9 +565,18 @@ fn try_candidate(
     // not every recording); only a candidate that removes SCREEN_BAR of that gap is fitted
     // further, on every recording, from the screen's optimum.
     let (sub, from_gap) = (screen.recordings(all), screen.gap);
+    // The scan scores its starts on fewer recordings than the screen's: where its best start
+    // misses the screen's recordings by more than the extended model does, the screen starts
+    // from the neutral values instead (that model itself), never from worse.
+    let start_gap = fit::evaluate(sub, &start);
+    let screen_start = if start_gap <= from_gap {
+        start.clone()
+    } else {
+        fit::neutral_start(&screen.fitted(from).model, k)
+    };
     let s = fit::fit(
         sub,
-        &start,
+        &screen_start,
         &effects,
         FitOptions {
             max_iter: opts.max_iter.min(SCREEN_ITERATIONS),
@@ -622,6 +635,8 @@ struct Screen<'a> {
     subset: Option<Target<'a>>,
     /// Gap of the extended model on the screen's recordings (refitted to a subset).
     gap: f64,
+    /// The extended model refitted to the subset; `None`: every recording.
+    refit: Option<FitResult>,
 }
 
 impl<'a> Screen<'a> {
@@ -631,6 +646,7 @@ impl<'a> Screen<'a> {
             return Screen {
                 subset: None,
                 gap: from.gap,
+                refit: None,
             };
         }
         let sub = fit::subset(all, &from.z, SCREEN_RECORDINGS);
@@ -638,11 +654,18 @@ impl<'a> Screen<'a> {
             final_jacobian: false,
             ..opts
         };
-        let gap = fit::fit(&sub, &from.model, &from.effects, opts).gap;
+        let refit = fit::fit(&sub, &from.model, &from.effects, opts);
         Screen {
             subset: Some(sub),
-            gap,
+            gap: refit.gap,
+            refit: Some(refit),
         }
+    }
+
+    /// The extended model as fitted to the screen's recordings: its refit to the subset, or
+    /// `from` itself.
+    fn fitted<'s>(&'s self, from: &'s FitResult) -> &'s FitResult {
+        self.refit.as_ref().unwrap_or(from)
     }
 
     /// The screen's recordings: the subset, or `all`.

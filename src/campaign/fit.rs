@@ -848,6 +848,19 @@ fn scan_values(kind: EffectKind, param: &str) -> Vec<f64> {
     }
 }
 
+/// `base` with `kind` switched on at its neutral values ([`neutral`]): the base model, or
+/// nearly so.
+pub fn neutral_start(base: &Model, kind: EffectKind) -> Model {
+    let mut m0 = base.clone();
+    m0.effects.enable(kind);
+    for p in kind.info().params {
+        if let Some(v) = neutral(kind, p.name) {
+            let _ = m0.effects.set(kind, p.name, v);
+        }
+    }
+    m0
+}
+
 /// Starting values for an effect's fitted parameters, from a global scan over their plausible
 /// ranges (every combination: a sensor's resonance at ten frequencies from 20 Hz to 20 kHz, each
 /// at three dampings; the others at three to five values; the actuator's resonance from the
@@ -862,13 +875,7 @@ fn scan_values(kind: EffectKind, param: &str) -> Vec<f64> {
 /// `diagnose` reports the base model for a candidate whose fit still ends worse on all of
 /// them.
 pub fn starts(target: &Target, base: &FitResult, kind: EffectKind) -> Model {
-    let mut m0 = base.model.clone();
-    m0.effects.enable(kind);
-    for p in kind.info().params {
-        if let Some(v) = neutral(kind, p.name) {
-            let _ = m0.effects.set(kind, p.name, v);
-        }
-    }
+    let m0 = neutral_start(&base.model, kind);
     let mut candidates: Vec<Model> = vec![m0.clone()];
     if kind == EffectKind::DriveRipple
         && let Some((a, lambda)) = ripple_from_drive(&target.recs)
