@@ -515,12 +515,12 @@ pub fn spearman(x: &[f64], y: &[f64]) -> f64 {
     }
 }
 
-/// Fits one candidate (or a candidate added to `with`) from the scan of its starts on `from`
-/// as fitted to the screen's recordings, cross-validates it and ranks it against the held-out
-/// gap `e0`. The scan, the screen and its start share one set of recordings and one fit of
-/// `from` to them: from `from` fitted to every recording, the screen's few iterations would go
-/// to moving `from`'s own parameters to the subset's optimum, which the screen's refit of
-/// `from` has already found.
+/// Fits one candidate (or a candidate added to `with`) from the scan of its starts on `from`,
+/// cross-validates it and ranks it against the held-out gap `e0`. The screening fit starts
+/// from the scan's parameters of the candidate on `from` as fitted to the screen's recordings
+/// ([`Screen::start`]): from `from` fitted to every recording, the screen's few iterations
+/// would go to moving `from`'s own parameters to the subset's optimum, which the screen's
+/// refit of `from` has already found.
 #[allow(clippy::too_many_arguments)]
 fn try_candidate(
     all: &Target,
@@ -536,7 +536,7 @@ fn try_candidate(
     opts: FitOptions,
 ) -> Ranked {
     let clock = std::time::Instant::now();
-    let start = fit::starts(screen.recordings(all), screen.fitted(from), k);
+    let start = fit::starts(all, from, k);
     let mut effects = with.to_vec();
     effects.push(k);
     let extra = fit::effect_params(&effects) - from.effect_params;
@@ -565,21 +565,13 @@ fn try_candidate(
     // not every recording); only a candidate that removes SCREEN_BAR of that gap is fitted
     // further, on every recording, from the screen's optimum.
     let (sub, from_gap) = (screen.recordings(all), screen.gap);
-    // The scan scores its starts on fewer recordings than the screen's: where its best start
-    // misses the screen's recordings by more than the extended model does, the screen starts
-    // from the neutral values instead (that model itself), never from worse.
-    let start_gap = fit::evaluate(sub, &start);
-    let screen_start = if start_gap <= from_gap {
-        start.clone()
-    } else {
-        fit::neutral_start(&screen.fitted(from).model, k)
-    };
     let s = fit::fit(
         sub,
-        &screen_start,
+        &screen.start(all, &start, k),
         &effects,
         FitOptions {
             max_iter: opts.max_iter.min(SCREEN_ITERATIONS),
+            rel_tol: SCREEN_REL_TOL,
             ..opts
         },
     );
@@ -625,6 +617,12 @@ pub const SCREEN_RECORDINGS: usize = 16;
 /// and a runner-up below 10 % leaves every margin of the verdict rules as it is.
 pub const SCREEN_BAR: f64 = 0.1;
 
+/// Relative fall of the cost below which a screening fit's step on a fresh Jacobian ends it
+/// (the fits' [`FitOptions::rel_tol`] is 1e-3): a step that lowers the gap by less than 0.5 %
+/// does not lead to the [`SCREEN_BAR`] of 10 % in the few iterations left, where small steps
+/// through a rough cost would spend them all.
+pub const SCREEN_REL_TOL: f64 = 0.01;
+
 /// Levenberg–Marquardt iterations of a screening fit: its start comes from the candidate's
 /// global scan, so an effect that explains a clear share of the gap shows it within a few.
 pub const SCREEN_ITERATIONS: usize = 5;
@@ -662,10 +660,26 @@ impl<'a> Screen<'a> {
         }
     }
 
-    /// The extended model as fitted to the screen's recordings: its refit to the subset, or
-    /// `from` itself.
-    fn fitted<'s>(&'s self, from: &'s FitResult) -> &'s FitResult {
-        self.refit.as_ref().unwrap_or(from)
+    /// The screening fit's start for candidate `k` from its scan's best start `scanned`:
+    /// `k`'s parameters from the scan on the extended model as fitted to the screen's
+    /// recordings (refitted to a subset), or, where that misses them by more than the extended
+    /// model does (the scan scores half as many recordings, and on the model fitted to all),
+    /// `k` at its neutral values there ([`fit::neutral_start`]).
+    fn start(&self, all: &Target, scanned: &Model, k: EffectKind) -> Model {
+        let mut m = match &self.refit {
+            Some(r) => r.model.clone(),
+            None => scanned.clone(),
+        };
+        if let Some((_, v)) = scanned.effects.list.iter().find(|(e, _)| *e == k) {
+            *m.effects.enable(k) = v.clone();
+        }
+        if fit::evaluate(self.recordings(all), &m) <= self.gap {
+            m
+        } else {
+            let mut base = m;
+            base.effects.list.retain(|(e, _)| *e != k);
+            fit::neutral_start(&base, k)
+        }
     }
 
     /// The screen's recordings: the subset, or `all`.
