@@ -582,8 +582,9 @@ fn try_candidate(
     let (line, n) = fit::line_search(sub, &s, k);
     let mut f = fit::fit(all, line.as_ref().unwrap_or(&s.model), &effects, opts);
     if screen.subset.is_none() {
-        // The same recordings: the screen's and the line's evaluations are the fit's.
-        f.evaluations += s.evaluations + n;
+        // The same recordings: the screen's (with its start's check) and the line's
+        // evaluations are the fit's.
+        f.evaluations += 1 + s.evaluations + n;
     }
     if !(f.gap <= (1.0 - UNCHANGED) * from.gap) {
         return as_from();
@@ -664,7 +665,8 @@ impl<'a> Screen<'a> {
     /// `k`'s parameters from the scan on the extended model as fitted to the screen's
     /// recordings (refitted to a subset), or, where that misses them by more than the extended
     /// model does (the scan scores half as many recordings, and on the model fitted to all),
-    /// `k` at its neutral values there ([`fit::neutral_start`]).
+    /// `k` at its neutral values there ([`fit::neutral_start`]). One evaluation on the
+    /// screen's recordings.
     fn start(&self, all: &Target, scanned: &Model, k: EffectKind) -> Model {
         let mut m = match &self.refit {
             Some(r) => r.model.clone(),
