@@ -630,12 +630,11 @@ pub const SCREEN_ITERATIONS: usize = 5;
 
 /// The recordings candidates extending a model are screened on, with that model's gap there.
 struct Screen<'a> {
-    /// The subset, in a campaign of more than [`SCREEN_RECORDINGS`]; `None`: every recording.
-    subset: Option<Target<'a>>,
+    /// The subset, with the extended model refitted to it, in a campaign of more than
+    /// [`SCREEN_RECORDINGS`]; `None`: every recording, and the model as fitted to them.
+    subset: Option<(Target<'a>, FitResult)>,
     /// Gap of the extended model on the screen's recordings (refitted to a subset).
     gap: f64,
-    /// The extended model refitted to the subset; `None`: every recording.
-    refit: Option<FitResult>,
 }
 
 impl<'a> Screen<'a> {
@@ -645,7 +644,6 @@ impl<'a> Screen<'a> {
             return Screen {
                 subset: None,
                 gap: from.gap,
-                refit: None,
             };
         }
         let sub = fit::subset(all, &from.z, SCREEN_RECORDINGS);
@@ -655,9 +653,8 @@ impl<'a> Screen<'a> {
         };
         let refit = fit::fit(&sub, &from.model, &from.effects, opts);
         Screen {
-            subset: Some(sub),
             gap: refit.gap,
-            refit: Some(refit),
+            subset: Some((sub, refit)),
         }
     }
 
@@ -668,13 +665,16 @@ impl<'a> Screen<'a> {
     /// `k` at its neutral values there ([`fit::neutral_start`]). One evaluation on the
     /// screen's recordings.
     fn start(&self, all: &Target, scanned: &Model, k: EffectKind) -> Model {
-        let mut m = match &self.refit {
-            Some(r) => r.model.clone(),
+        let m = match &self.subset {
+            Some((_, refit)) => {
+                let mut m = refit.model.clone();
+                if let Some((_, v)) = scanned.effects.list.iter().find(|(e, _)| *e == k) {
+                    *m.effects.enable(k) = v.clone();
+                }
+                m
+            }
             None => scanned.clone(),
         };
-        if let Some((_, v)) = scanned.effects.list.iter().find(|(e, _)| *e == k) {
-            *m.effects.enable(k) = v.clone();
-        }
         if fit::evaluate(self.recordings(all), &m) <= self.gap {
             m
         } else {
@@ -686,7 +686,7 @@ impl<'a> Screen<'a> {
 
     /// The screen's recordings: the subset, or `all`.
     fn recordings<'s>(&'s self, all: &'s Target<'a>) -> &'s Target<'a> {
-        self.subset.as_ref().unwrap_or(all)
+        self.subset.as_ref().map_or(all, |(sub, _)| sub)
     }
 }
 
