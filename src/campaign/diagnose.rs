@@ -54,6 +54,7 @@ use super::features::{FEATURES, Feature, N_FEATURES, PHASES};
 use super::fit::{self, FitOptions, FitResult, Model, Target};
 use super::{Campaign, CampaignError};
 use crate::model::EffectKind;
+use faer::Mat;
 use rayon::prelude::*;
 
 /// Held-out gap below which the base model counts as matching the data.
@@ -565,26 +566,33 @@ fn try_candidate(
     // not every recording); only a candidate that removes SCREEN_BAR of that gap is fitted
     // further, on every recording, from the screen's optimum.
     let (sub, from_gap) = (screen.recordings(all), screen.gap);
-    let s = fit::fit(
-        sub,
-        &screen.start(all, &start, k),
-        &effects,
-        FitOptions {
-            max_iter: opts.max_iter.min(SCREEN_ITERATIONS),
-            rel_tol: SCREEN_REL_TOL,
-            ..opts
-        },
-    );
+    let (first, checks) = screen.start(all, &start, &effects);
+    let screen_opts = FitOptions {
+        max_iter: opts.max_iter.min(SCREEN_ITERATIONS),
+        rel_tol: SCREEN_REL_TOL,
+        reach: (1.0 - SCREEN_BAR) * from_gap,
+        ..opts
+    };
+    // The extended model's columns of the first Jacobian from its own fit on these recordings:
+    // only the candidate's are differenced.
+    let s = match &screen.jacobian {
+        Some(known) => fit::fit_extending(sub, first, known, screen_opts),
+        None => fit::fit_from(sub, first, screen_opts),
+    };
     if !(s.gap <= (1.0 - SCREEN_BAR) * from_gap) {
         return as_from();
     }
     // A resonance's narrow valley next to the screen's optimum (fit::line_search).
     let (line, n) = fit::line_search(sub, &s, k);
-    let mut f = fit::fit(all, line.as_ref().unwrap_or(&s.model), &effects, opts);
+    let rank_opts = FitOptions {
+        rel_tol: opts.rel_tol.max(RANK_REL_TOL),
+        ..opts
+    };
+    let mut f = fit::fit(all, line.as_ref().unwrap_or(&s.model), &effects, rank_opts);
     if screen.subset.is_none() {
-        // The same recordings: the screen's (with its start's check) and the line's
+        // The same recordings: the screen's (with its starts' checks) and the line's
         // evaluations are the fit's.
-        f.evaluations += 1 + s.evaluations + n;
+        f.evaluations += checks + s.evaluations + n;
     }
     if !(f.gap <= (1.0 - UNCHANGED) * from.gap) {
         return as_from();
@@ -624,8 +632,21 @@ pub const SCREEN_BAR: f64 = 0.1;
 /// through a rough cost would spend them all.
 pub const SCREEN_REL_TOL: f64 = 0.01;
 
+/// Relative fall of the cost below which a step on a fresh Jacobian ends a candidate's fit on
+/// every recording (where its screen passed): the candidates are ranked on fits converged to
+/// 1 % of their cost, and the named effect's fit is then polished to the fits' own
+/// [`FitOptions::rel_tol`] ([`fit::refine`]). Why: the cost is rough at the level of a few
+/// tenths of a percent (each feature counts stick-slip events, a step in the parameters moves
+/// one across a recording's end), so a fit to 1e-3 spends most of its steps on that roughness,
+/// on every candidate that passes its screen, the runners-up included.
+pub const RANK_REL_TOL: f64 = 0.01;
+
 /// Levenberg–Marquardt iterations of a screening fit: its start comes from the candidate's
 /// global scan, so an effect that explains a clear share of the gap shows it within a few.
+/// A screen also ends as soon as its linearised residuals cannot reach the bar
+/// ([`FitOptions::reach`] at [`SCREEN_BAR`] below the gap of the model it extends): a
+/// candidate that explains nothing then costs its start and one Jacobian, not five iterations
+/// of steps tried and refused.
 pub const SCREEN_ITERATIONS: usize = 5;
 
 /// The recordings candidates extending a model are screened on, with that model's gap there.
@@ -635,36 +656,44 @@ struct Screen<'a> {
     subset: Option<(Target<'a>, FitResult)>,
     /// Gap of the extended model on the screen's recordings (refitted to a subset).
     gap: f64,
+    /// The extended model's Jacobian there, differenced at its optimum, where it is: the
+    /// columns of its coordinates in the screening fits' first Jacobian.
+    jacobian: Option<Mat<f64>>,
 }
 
 impl<'a> Screen<'a> {
     /// The screen for candidates extending `from`, fitted on every recording of `all`.
     fn of(all: &Target<'a>, from: &FitResult, opts: FitOptions) -> Self {
+        let fresh = |f: &FitResult| f.jacobian_fresh.then(|| f.jacobian.clone());
         if all.recs.len() <= SCREEN_RECORDINGS {
             return Screen {
                 subset: None,
                 gap: from.gap,
+                jacobian: fresh(from),
             };
         }
         let sub = fit::subset(all, &from.z, SCREEN_RECORDINGS);
         let opts = FitOptions {
-            final_jacobian: false,
+            final_jacobian: true,
             ..opts
         };
         let refit = fit::fit(&sub, &from.model, &from.effects, opts);
         Screen {
             gap: refit.gap,
+            jacobian: fresh(&refit),
             subset: Some((sub, refit)),
         }
     }
 
-    /// The screening fit's start for candidate `k` from its scan's best start `scanned`:
-    /// `k`'s parameters from the scan on the extended model as fitted to the screen's
-    /// recordings (refitted to a subset), or, where that misses them by more than the extended
-    /// model does (the scan scores half as many recordings, and on the model fitted to all),
-    /// `k` at its neutral values there ([`fit::neutral_start`]). One evaluation on the
-    /// screen's recordings.
-    fn start(&self, all: &Target, scanned: &Model, k: EffectKind) -> Model {
+    /// The screening fit's start for the candidate `effects` (the extended model's and the
+    /// candidate `k`, last) from its scan's best start `scanned`: `k`'s parameters from the
+    /// scan on the extended model as fitted to the screen's recordings (refitted to a subset),
+    /// or, where that misses them by more than the extended model does (the scan scores half
+    /// as many recordings, and on the model fitted to all), `k` at its neutral values there
+    /// ([`fit::neutral_start`]). Evaluated on the screen's recordings, with the number of
+    /// evaluations beside the one the screening fit counts (0, or 1 for the neutral start).
+    fn start(&self, all: &Target, scanned: &Model, effects: &[EffectKind]) -> (fit::Start, usize) {
+        let k = *effects.last().expect("a candidate");
         let m = match &self.subset {
             Some((_, refit)) => {
                 let mut m = refit.model.clone();
@@ -675,12 +704,14 @@ impl<'a> Screen<'a> {
             }
             None => scanned.clone(),
         };
-        if fit::evaluate(self.recordings(all), &m) <= self.gap {
-            m
+        let sub = self.recordings(all);
+        let first = fit::prepare(sub, &m, effects);
+        if first.gap() <= self.gap {
+            (first, 0)
         } else {
             let mut base = m;
             base.effects.list.retain(|(e, _)| *e != k);
-            fit::neutral_start(&base, k)
+            (fit::prepare(sub, &fit::neutral_start(&base, k), effects), 1)
         }
     }
 

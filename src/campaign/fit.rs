@@ -406,6 +406,13 @@ pub struct FitOptions {
     /// Difference the Jacobian afresh at the optimum for the uncertainties (otherwise they
     /// come from the Broyden-updated one). Default true.
     pub final_jacobian: bool,
+    /// Gap (RMS z-score, [`gap`]) the fit has to be able to reach: where, at the start of an
+    /// iteration, the least-squares minimum of the residuals linearised on the iteration's
+    /// Jacobian (differenced, or Broyden-updated along the last step) lies above it, the fit
+    /// stops there, not converged, without trying a step. Positive; default infinity (never).
+    /// A screen that only asks whether a candidate can lower the gap to a bar sets it to that
+    /// bar: once the gap is below it, the check always passes.
+    pub reach: f64,
 }
 
 impl Default for FitOptions {
@@ -414,6 +421,7 @@ impl Default for FitOptions {
             max_iter: 12,
             rel_tol: 1e-3,
             final_jacobian: true,
+            reach: f64::INFINITY,
         }
     }
 }
@@ -475,6 +483,36 @@ fn cost_of(target: &Target, model: &Model) -> (f64, Vec<f64>) {
 /// Fits the base parameters, and the fitted parameters of `effects`, starting from `start`
 /// (whose effects give the starting values; missing ones start at their defaults).
 pub fn fit(target: &Target, start: &Model, effects: &[EffectKind], opts: FitOptions) -> FitResult {
+    fit_from(target, prepare(target, start, effects), opts)
+}
+
+/// A fit's start evaluated on the fit's recordings ([`prepare`]), so that a caller choosing
+/// between starts by their gap does not evaluate the chosen one twice ([`fit_from`]).
+pub struct Start {
+    /// The start with `effects` enabled: the template the coordinates are set in.
+    model: Model,
+    effects: Vec<EffectKind>,
+    cs: Vec<Coord>,
+    theta: Vec<f64>,
+    /// Cost and residuals at `theta` (no residuals: a failed simulation).
+    at: (f64, Vec<f64>),
+}
+
+impl Start {
+    /// The start's gap on the recordings it was evaluated on; infinity where a simulation
+    /// failed.
+    pub fn gap(&self) -> f64 {
+        if self.at.1.is_empty() {
+            f64::INFINITY
+        } else {
+            gap(&self.at.1)
+        }
+    }
+}
+
+/// The start of a fit of `effects` from `start` (as [`fit`]), evaluated on `target`: one
+/// evaluation, counted in the fit [`fit_from`] makes from it.
+pub fn prepare(target: &Target, start: &Model, effects: &[EffectKind]) -> Start {
     let cs = coords(effects);
     let mut model = start.clone();
     for &k in effects {
@@ -482,7 +520,53 @@ pub fn fit(target: &Target, start: &Model, effects: &[EffectKind], opts: FitOpti
     }
     let theta: Vec<f64> = cs.iter().map(|c| c.get(&model)).collect();
     let at = cost_of(target, &build_model(&model, &cs, &theta));
-    levenberg_marquardt(target, model, effects, cs, theta, at, None, 1, opts)
+    Start {
+        model,
+        effects: effects.to_vec(),
+        cs,
+        theta,
+        at,
+    }
+}
+
+/// [`fit`] from a start [`prepare`]d on the same recordings `target`.
+pub fn fit_from(target: &Target, s: Start, opts: FitOptions) -> FitResult {
+    levenberg_marquardt(
+        target, s.model, &s.effects, s.cs, s.theta, s.at, None, 1, opts,
+    )
+}
+
+/// [`fit_from`] the start `s` of a model that extends another by effects, on a first Jacobian
+/// that takes the columns of the extended model's coordinates (a prefix of the start's) from
+/// `known`, that model's Jacobian on the same recordings at its own optimum, and differences
+/// only the added effects' columns at the start: `k` evaluations for `k` added coordinates
+/// instead of all `p`. The first Jacobian counts as an updated one, not a fresh one: where no
+/// step on it lowers the cost, the fit differences every column afresh. Where `known` does not
+/// fit (other rows, more columns than the start has), as [`fit_from`].
+pub fn fit_extending(target: &Target, s: Start, known: &Mat<f64>, opts: FitOptions) -> FitResult {
+    let (m, p, k0) = (s.at.1.len(), s.cs.len(), known.ncols());
+    if known.nrows() != m || k0 > p || m == 0 || !s.at.0.is_finite() {
+        return fit_from(target, s, opts);
+    }
+    let added = fd_jacobian(target, &s.model, &s.cs, &s.theta, &s.at.1, k0);
+    let jac = Mat::from_fn(m, p, |i, j| {
+        if j < k0 {
+            known[(i, j)]
+        } else {
+            added[(i, j - k0)]
+        }
+    });
+    levenberg_marquardt(
+        target,
+        s.model,
+        &s.effects,
+        s.cs,
+        s.theta,
+        s.at,
+        Some((jac, false)),
+        1 + p - k0,
+        opts,
+    )
 }
 
 /// Continues the fit `fr` on the same recordings from its optimum: more Levenberg–Marquardt
@@ -498,15 +582,15 @@ pub fn refine(target: &Target, fr: &FitResult, opts: FitOptions) -> FitResult {
         cs,
         fr.theta.clone(),
         (cost, fr.z.clone()),
-        fr.jacobian_fresh.then(|| fr.jacobian.clone()),
+        fr.jacobian_fresh.then(|| (fr.jacobian.clone(), true)),
         0,
         opts,
     )
 }
 
 /// The iterations of [`fit`] from `theta` (cost and residuals `at`, already evaluated and
-/// counted in `evaluations`), on `fresh_jac` (a finite-difference Jacobian there) where
-/// given, else on a new one.
+/// counted in `evaluations`), on the first Jacobian `jac0` where given (with whether it is a
+/// fresh finite-difference Jacobian there), else on a new one.
 #[allow(clippy::too_many_arguments)]
 fn levenberg_marquardt(
     target: &Target,
@@ -515,7 +599,7 @@ fn levenberg_marquardt(
     cs: Vec<Coord>,
     mut theta: Vec<f64>,
     at: (f64, Vec<f64>),
-    fresh_jac: Option<Mat<f64>>,
+    jac0: Option<(Mat<f64>, bool)>,
     mut evaluations: usize,
     opts: FitOptions,
 ) -> FitResult {
@@ -523,15 +607,15 @@ fn levenberg_marquardt(
     let (mut cost, mut z) = at;
     let build = |th: &[f64]| build_model(&model, &cs, th);
     let mut lambda = 1e-2;
-    let fd_jacobian = |theta: &[f64], z: &[f64]| fd_jacobian(target, &model, &cs, theta, z);
+    let fd_jacobian = |theta: &[f64], z: &[f64]| fd_jacobian(target, &model, &cs, theta, z, 0);
+    let given = jac0.is_some();
     // Whether `jac` is a fresh finite-difference Jacobian (else a Broyden update of one).
-    let mut fresh = fresh_jac.is_some();
-    let mut jac = fresh_jac.unwrap_or_else(|| Mat::zeros(z.len(), p));
+    let (mut jac, mut fresh) = jac0.unwrap_or_else(|| (Mat::zeros(z.len(), p), false));
     let mut iter = 0;
     let mut converged = false;
     while iter < opts.max_iter && cost.is_finite() && !z.is_empty() {
         iter += 1;
-        if iter == 1 && !fresh {
+        if iter == 1 && !given {
             jac = fd_jacobian(&theta, &z);
             evaluations += p;
             fresh = true;
@@ -540,6 +624,9 @@ fn levenberg_marquardt(
         let diag: Vec<f64> = (0..p)
             .map(|j| (0..m).map(|i| jac[(i, j)].powi(2)).sum::<f64>().max(1e-12))
             .collect();
+        if opts.reach.is_finite() && linear_minimum(&jac, &z, &diag) > opts.reach {
+            break;
+        }
         let mut accepted = None;
         for _ in 0..4 {
             let a = Mat::from_fn(m + p, p, |i, j| {
@@ -633,6 +720,28 @@ fn levenberg_marquardt(
     }
 }
 
+/// The gap at the least-squares minimum of the residuals `z + J δ` linearised on `jac`
+/// (`δ` unbounded, a damping of 1e-10 of each column's square norm `diag` against rank
+/// deficiency): the lowest gap a Gauss–Newton step from here predicts.
+fn linear_minimum(jac: &Mat<f64>, z: &[f64], diag: &[f64]) -> f64 {
+    let (m, p) = (z.len(), diag.len());
+    let a = Mat::from_fn(m + p, p, |i, j| {
+        if i < m {
+            jac[(i, j)]
+        } else if i - m == j {
+            (1e-10 * diag[j]).sqrt()
+        } else {
+            0.0
+        }
+    });
+    let b = Mat::from_fn(m + p, 1, |i, _| if i < m { -z[i] } else { 0.0 });
+    let delta = a.col_piv_qr().solve_lstsq(&b);
+    let r: Vec<f64> = (0..m)
+        .map(|i| z[i] + (0..p).map(|j| jac[(i, j)] * delta[(j, 0)]).sum::<f64>())
+        .collect();
+    gap(&r)
+}
+
 /// `fr` with a finite-difference Jacobian at its optimum, and the uncertainties from it, where
 /// its Jacobian is a Broyden update (`p` model evaluations, counted in `evaluations`); `fr`
 /// itself where it is fresh already. Gives what [`fit`] with [`FitOptions::final_jacobian`]
@@ -643,7 +752,7 @@ pub fn with_fresh_jacobian(target: &Target, mut fr: FitResult) -> FitResult {
     }
     let cs = coords(&fr.effects);
     // The fitted model holds every coordinate, and its effects enabled: the template.
-    fr.jacobian = fd_jacobian(target, &fr.model, &cs, &fr.theta, &fr.z);
+    fr.jacobian = fd_jacobian(target, &fr.model, &cs, &fr.theta, &fr.z, 0);
     fr.evaluations += cs.len();
     fr.jacobian_fresh = true;
     let cost: f64 = fr.z.iter().map(|v| v * v).sum();
@@ -665,17 +774,19 @@ fn build_model(template: &Model, cs: &[Coord], theta: &[f64]) -> Model {
     m
 }
 
-/// Forward-difference Jacobian of the residuals `z` (at `theta`) in the coordinates `cs`: the
-/// `p` perturbed models in one parallel batch, each step taken inward at an upper bound.
+/// Forward-difference Jacobian of the residuals `z` (at `theta`) in the coordinates `cs`, its
+/// columns from the `from`-th on: the perturbed models in one parallel batch, each step taken
+/// inward at an upper bound.
 fn fd_jacobian(
     target: &Target,
     template: &Model,
     cs: &[Coord],
     theta: &[f64],
     z: &[f64],
+    from: usize,
 ) -> Mat<f64> {
     let p = cs.len();
-    let cols: Vec<Vec<f64>> = (0..p)
+    let cols: Vec<Vec<f64>> = (from..p)
         .into_par_iter()
         .map(|j| {
             let mut th = theta.to_vec();
@@ -693,7 +804,7 @@ fn fd_jacobian(
             zj.iter().zip(z).map(|(a, b)| (a - b) / h).collect()
         })
         .collect();
-    Mat::from_fn(z.len(), p, |i, j| cols[j][i])
+    Mat::from_fn(z.len(), p - from, |i, j| cols[j][i])
 }
 
 /// The fitted parameters at `theta`, with standard uncertainties from `(JᵀJ)⁻¹ s²`,
