@@ -145,6 +145,58 @@ fn effect_free_data_has_no_significant_gap() {
     }
 }
 
+/// A fit asked to reach a gap its linearised residuals cannot reach stops at its start after
+/// one Jacobian, without trying a step (`FitOptions::reach`, the screens' bar); a fit that
+/// extends a fitted model by an effect takes that model's Jacobian columns as given and
+/// differences only the effect's (`fit::fit_extending`): one run instead of five, and the
+/// column it differences is the one a full fit differences at the same start.
+#[test]
+fn screens_stop_out_of_reach_and_difference_only_the_added_columns() {
+    use stickslip::campaign::fit::{self, FitOptions, Model, Target};
+    let (_dir, c) = campaign(Effects::none(), 5);
+    let all = Target::new(c.recordings.iter().collect());
+    let base = fit::fit(&all, &Model::default(), &[], FitOptions::default());
+    assert!(base.jacobian_fresh && base.gap < 2.0, "{}", base.gap);
+    let k = EffectKind::Viscous;
+    let p = 4 + fit::effect_params(&[k]);
+    assert_eq!(p, 5);
+    let start = fit::neutral_start(&base.model, k);
+    let start_gap = fit::prepare(&all, &start, &[k]).gap();
+    // Viscous friction cannot halve the gap of effect-free data.
+    let bar = FitOptions {
+        reach: 0.5 * base.gap,
+        final_jacobian: false,
+        ..FitOptions::default()
+    };
+    let full = fit::fit(&all, &start, &[k], bar);
+    assert_eq!((full.iterations, full.converged), (1, false));
+    assert_eq!(full.evaluations, 1 + p, "the start and one Jacobian");
+    assert_eq!(full.gap, start_gap, "stopped at its start");
+    let ext = fit::fit_extending(&all, fit::prepare(&all, &start, &[k]), &base.jacobian, bar);
+    assert_eq!(ext.evaluations, 1 + 1, "the start and the added column");
+    assert_eq!(ext.gap, start_gap);
+    let rows = base.z.len();
+    assert_eq!((ext.jacobian.nrows(), ext.jacobian.ncols()), (rows, p));
+    for i in 0..rows {
+        for j in 0..4 {
+            assert_eq!(ext.jacobian[(i, j)], base.jacobian[(i, j)], "({i}, {j})");
+        }
+        assert_eq!(ext.jacobian[(i, 4)], full.jacobian[(i, 4)], "({i}, 4)");
+    }
+    // Without a bar the same fit tries steps: more runs, and never a higher gap.
+    let free = fit::fit(
+        &all,
+        &start,
+        &[k],
+        FitOptions {
+            final_jacobian: false,
+            ..FitOptions::default()
+        },
+    );
+    assert!(free.evaluations > 1 + p, "{}", free.evaluations);
+    assert!(free.gap <= start_gap, "{} > {start_gap}", free.gap);
+}
+
 #[test]
 fn friction_along_the_track_is_unexplained_but_located() {
     let mut rng = StdRng::seed_from_u64(31);

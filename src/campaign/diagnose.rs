@@ -573,8 +573,8 @@ fn try_candidate(
         reach: (1.0 - SCREEN_BAR) * from_gap,
         ..opts
     };
-    // The extended model's columns of the first Jacobian from its own fit on these recordings:
-    // only the candidate's are differenced.
+    // The bar checked first on the extended model's Jacobian columns from its own fit on
+    // these recordings and the candidate's differenced: a candidate out of reach costs those.
     let s = match &screen.jacobian {
         Some(known) => fit::fit_extending(sub, first, known, screen_opts),
         None => fit::fit_from(sub, first, screen_opts),
@@ -644,9 +644,10 @@ pub const RANK_REL_TOL: f64 = 0.01;
 /// Levenberg–Marquardt iterations of a screening fit: its start comes from the candidate's
 /// global scan, so an effect that explains a clear share of the gap shows it within a few.
 /// A screen also ends as soon as its linearised residuals cannot reach the bar
-/// ([`FitOptions::reach`] at [`SCREEN_BAR`] below the gap of the model it extends): a
-/// candidate that explains nothing then costs its start and one Jacobian, not five iterations
-/// of steps tried and refused.
+/// ([`FitOptions::reach`] at [`SCREEN_BAR`] below the gap of the model it extends), checked
+/// first on the extended model's Jacobian columns with the candidate's differenced
+/// ([`fit::fit_extending`]): a candidate that explains nothing then costs its start and its
+/// own columns, not a Jacobian and five iterations of steps tried and refused.
 pub const SCREEN_ITERATIONS: usize = 5;
 
 /// The recordings candidates extending a model are screened on, with that model's gap there.
@@ -657,7 +658,8 @@ struct Screen<'a> {
     /// Gap of the extended model on the screen's recordings (refitted to a subset).
     gap: f64,
     /// The extended model's Jacobian there, differenced at its optimum, where it is: the
-    /// columns of its coordinates in the screening fits' first Jacobian.
+    /// columns of its coordinates in the Jacobian a screen's bar is first checked on
+    /// ([`fit::fit_extending`]).
     jacobian: Option<Mat<f64>>,
 }
 

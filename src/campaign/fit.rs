@@ -536,16 +536,19 @@ pub fn fit_from(target: &Target, s: Start, opts: FitOptions) -> FitResult {
     )
 }
 
-/// [`fit_from`] the start `s` of a model that extends another by effects, on a first Jacobian
-/// that takes the columns of the extended model's coordinates (a prefix of the start's) from
-/// `known`, that model's Jacobian on the same recordings at its own optimum, and differences
-/// only the added effects' columns at the start: `k` evaluations for `k` added coordinates
-/// instead of all `p`. The first Jacobian counts as an updated one, not a fresh one: where no
-/// step on it lowers the cost, the fit differences every column afresh. Where `known` does not
-/// fit (other rows, more columns than the start has), as [`fit_from`].
+/// [`fit_from`] the start `s` of a model that extends another by effects, with a bar
+/// ([`FitOptions::reach`]) checked first on a Jacobian that borrows the columns of the
+/// extended model's coordinates (a prefix of the start's) from `known`, that model's Jacobian
+/// on the same recordings at its own optimum, and differences only the added effects' columns
+/// at the start: `k` evaluations for `k` added coordinates. Where the bar lies out of reach on
+/// it, the fit stops there (not converged, that Jacobian in the result, `1 + k` evaluations);
+/// else it is [`fit_from`] on a Jacobian differenced afresh (the borrowed columns are of
+/// another point: a step on them can lead a narrow valley's fit astray), the `k` counted
+/// besides. Where the bar is infinite or `known` does not fit (other rows, more columns than
+/// the start has), as [`fit_from`].
 pub fn fit_extending(target: &Target, s: Start, known: &Mat<f64>, opts: FitOptions) -> FitResult {
     let (m, p, k0) = (s.at.1.len(), s.cs.len(), known.ncols());
-    if known.nrows() != m || k0 > p || m == 0 || !s.at.0.is_finite() {
+    if !opts.reach.is_finite() || known.nrows() != m || k0 > p || m == 0 || !s.at.0.is_finite() {
         return fit_from(target, s, opts);
     }
     let added = fd_jacobian(target, &s.model, &s.cs, &s.theta, &s.at.1, k0);
@@ -556,6 +559,13 @@ pub fn fit_extending(target: &Target, s: Start, known: &Mat<f64>, opts: FitOptio
             added[(i, j - k0)]
         }
     });
+    let diag = column_norms(&jac);
+    if linear_minimum(&jac, &s.at.1, &diag) <= opts.reach {
+        let mut f = fit_from(target, s, opts);
+        f.evaluations += p - k0;
+        return f;
+    }
+    // Out of reach: the iterations stop at their first check, on this Jacobian.
     levenberg_marquardt(
         target,
         s.model,
@@ -621,9 +631,7 @@ fn levenberg_marquardt(
             fresh = true;
         }
         let m = z.len();
-        let diag: Vec<f64> = (0..p)
-            .map(|j| (0..m).map(|i| jac[(i, j)].powi(2)).sum::<f64>().max(1e-12))
-            .collect();
+        let diag = column_norms(&jac);
         if opts.reach.is_finite() && linear_minimum(&jac, &z, &diag) > opts.reach {
             break;
         }
@@ -718,6 +726,18 @@ fn levenberg_marquardt(
         jacobian_fresh: fresh,
         effects: effects.to_vec(),
     }
+}
+
+/// Each column's square norm (at least 1e-12): the Levenberg–Marquardt scaling.
+fn column_norms(jac: &Mat<f64>) -> Vec<f64> {
+    (0..jac.ncols())
+        .map(|j| {
+            (0..jac.nrows())
+                .map(|i| jac[(i, j)].powi(2))
+                .sum::<f64>()
+                .max(1e-12)
+        })
+        .collect()
 }
 
 /// The gap at the least-squares minimum of the residuals `z + J δ` linearised on `jac`
@@ -1361,6 +1381,29 @@ fn ripple_from_drive(recs: &[&Recording]) -> Option<(f64, f64)> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The linearised minimum is the part of `z` outside the span of the Jacobian's columns:
+    /// `z = (1, 2, 3)` against the first two unit vectors leaves `(0, 0, 3)`, gap `√3`; a
+    /// repeated column (a coordinate the residuals do not tell apart from another) changes
+    /// nothing, and a column along `z` leaves nothing.
+    #[test]
+    fn linear_minimum_is_the_residual_outside_the_columns() {
+        let z = [1.0, 2.0, 3.0];
+        let unit = |n: usize| Mat::from_fn(3, n, |i, j| if i == j.min(1) { 1.0 } else { 0.0 });
+        let diag = |j: &Mat<f64>| -> Vec<f64> {
+            (0..j.ncols())
+                .map(|c| (0..3).map(|r| j[(r, c)].powi(2)).sum())
+                .collect()
+        };
+        for n in [2, 3] {
+            let j = unit(n);
+            let g = linear_minimum(&j, &z, &diag(&j));
+            assert!((g - 3f64.sqrt()).abs() < 1e-6, "{n} columns: {g}");
+        }
+        let along = Mat::from_fn(3, 1, |i, _| z[i]);
+        let g = linear_minimum(&along, &z, &diag(&along));
+        assert!(g < 1e-6, "{g}");
+    }
 
     /// The worst half is taken by gap, the rest evenly over the others, without repeats.
     #[test]
