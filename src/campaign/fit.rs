@@ -637,17 +637,7 @@ fn levenberg_marquardt(
         }
         let mut accepted = None;
         for _ in 0..4 {
-            let a = Mat::from_fn(m + p, p, |i, j| {
-                if i < m {
-                    jac[(i, j)]
-                } else if i - m == j {
-                    (lambda * diag[j]).sqrt()
-                } else {
-                    0.0
-                }
-            });
-            let b = Mat::from_fn(m + p, 1, |i, _| if i < m { -z[i] } else { 0.0 });
-            let delta = a.col_piv_qr().solve_lstsq(&b);
+            let delta = damped_step(&jac, &z, &diag, lambda);
             let trial: Vec<f64> = (0..p)
                 .map(|j| (theta[j] + delta[(j, 0)]).clamp(cs[j].lo, cs[j].hi))
                 .collect();
@@ -740,22 +730,29 @@ fn column_norms(jac: &Mat<f64>) -> Vec<f64> {
         .collect()
 }
 
-/// The gap at the least-squares minimum of the residuals `z + J δ` linearised on `jac`
-/// (`δ` unbounded, a damping of 1e-10 of each column's square norm `diag` against rank
-/// deficiency): the lowest gap a Gauss–Newton step from here predicts.
-fn linear_minimum(jac: &Mat<f64>, z: &[f64], diag: &[f64]) -> f64 {
+/// The Levenberg–Marquardt step `δ` (a `p × 1` column) minimising `|z + J δ|² + λ Σ diag_j δ_j²`
+/// on `jac`, solved as the least-squares problem of `J` stacked on `√(λ diag)`.
+fn damped_step(jac: &Mat<f64>, z: &[f64], diag: &[f64], lambda: f64) -> Mat<f64> {
     let (m, p) = (z.len(), diag.len());
     let a = Mat::from_fn(m + p, p, |i, j| {
         if i < m {
             jac[(i, j)]
         } else if i - m == j {
-            (1e-10 * diag[j]).sqrt()
+            (lambda * diag[j]).sqrt()
         } else {
             0.0
         }
     });
     let b = Mat::from_fn(m + p, 1, |i, _| if i < m { -z[i] } else { 0.0 });
-    let delta = a.col_piv_qr().solve_lstsq(&b);
+    a.col_piv_qr().solve_lstsq(&b)
+}
+
+/// The gap at the least-squares minimum of the residuals `z + J δ` linearised on `jac`
+/// (`δ` unbounded, the step of [`damped_step`] with a damping of 1e-10 against rank
+/// deficiency): the lowest gap a Gauss–Newton step from here predicts.
+fn linear_minimum(jac: &Mat<f64>, z: &[f64], diag: &[f64]) -> f64 {
+    let (m, p) = (z.len(), diag.len());
+    let delta = damped_step(jac, z, diag, 1e-10);
     let r: Vec<f64> = (0..m)
         .map(|i| z[i] + (0..p).map(|j| jac[(i, j)] * delta[(j, 0)]).sum::<f64>())
         .collect();
