@@ -149,7 +149,8 @@ fn effect_free_data_has_no_significant_gap() {
 /// one Jacobian, without trying a step (`FitOptions::reach`, the screens' bar); a fit that
 /// extends a fitted model by an effect takes that model's Jacobian columns as given and
 /// differences only the effect's (`fit::fit_extending`): one run instead of five, and the
-/// column it differences is the one a full fit differences at the same start.
+/// column it differences is the one a full fit differences at the same start; within reach it
+/// is that full fit, the column not differenced twice.
 #[test]
 fn screens_stop_out_of_reach_and_difference_only_the_added_columns() {
     use stickslip::campaign::fit::{self, FitOptions, Model, Target};
@@ -183,6 +184,20 @@ fn screens_stop_out_of_reach_and_difference_only_the_added_columns() {
         }
         assert_eq!(ext.jacobian[(i, 4)], full.jacobian[(i, 4)], "({i}, 4)");
     }
+    // Within reach: the fit from a Jacobian differenced afresh at the start, the added
+    // column taken from the check instead of differenced twice.
+    let easy = FitOptions {
+        reach: 2.0 * start_gap,
+        final_jacobian: false,
+        ..FitOptions::default()
+    };
+    let a = fit::fit_extending(&all, fit::prepare(&all, &start, &[k]), &base.jacobian, easy);
+    let b = fit::fit(&all, &start, &[k], easy);
+    assert_eq!(
+        (&a.theta, a.gap, a.iterations),
+        (&b.theta, b.gap, b.iterations)
+    );
+    assert_eq!(a.evaluations, b.evaluations);
     // Without a bar the same fit tries steps: more runs, and never a higher gap.
     let free = fit::fit(
         &all,
@@ -195,6 +210,41 @@ fn screens_stop_out_of_reach_and_difference_only_the_added_columns() {
     );
     assert!(free.evaluations > 1 + p, "{}", free.evaluations);
     assert!(free.gap <= start_gap, "{} > {start_gap}", free.gap);
+}
+
+/// A fit that stalled (no step lowered the cost on a fresh Jacobian at its optimum) is a
+/// fixpoint of its own iterations: `fit::refine` returns it as it is, whatever its tolerance,
+/// without a run; one that has not stalled is continued.
+#[test]
+fn refining_a_stalled_fit_spends_nothing() {
+    use stickslip::campaign::fit::{self, FitOptions, Model, Target};
+    let (_dir, c) = campaign(Effects::none(), 5);
+    let all = Target::new(c.recordings.iter().collect());
+    // With no tolerance a fit ends only where it stalls (or at its iterations' end).
+    let endless = FitOptions {
+        rel_tol: 0.0,
+        max_iter: 40,
+        ..FitOptions::default()
+    };
+    let mut f = fit::fit(&all, &Model::default(), &[], endless);
+    assert!(
+        f.stalled && f.converged && f.jacobian_fresh,
+        "{} iterations",
+        f.iterations
+    );
+    assert!(f.iterations < 40);
+    let again = fit::refine(&all, &f, endless);
+    assert_eq!((again.evaluations, again.iterations), (0, 0));
+    assert_eq!((again.theta.clone(), again.gap), (f.theta.clone(), f.gap));
+    // Not stalled: continued (a Jacobian at least where its own is not fresh).
+    f.stalled = false;
+    let more = fit::refine(&all, &f, FitOptions::default());
+    assert!(
+        more.evaluations >= 1 && more.iterations >= 1,
+        "{}",
+        more.evaluations
+    );
+    assert!(more.gap <= f.gap);
 }
 
 #[test]

@@ -588,7 +588,13 @@ fn try_candidate(
         rel_tol: opts.rel_tol.max(RANK_REL_TOL),
         ..opts
     };
-    let mut f = fit::fit(all, line.as_ref().unwrap_or(&s.model), &effects, rank_opts);
+    let mut f = match (&screen.subset, line) {
+        // Screened on every recording: the screen's iterations go on from its optimum, on its
+        // Jacobian where that is fresh, instead of evaluating that point and differencing there
+        // again.
+        (None, None) => fit::refine(all, &s, rank_opts),
+        (_, line) => fit::fit(all, line.as_ref().unwrap_or(&s.model), &effects, rank_opts),
+    };
     if screen.subset.is_none() {
         // The same recordings: the screen's (with its starts' checks) and the line's
         // evaluations are the fit's.

@@ -411,7 +411,11 @@ pub struct FitOptions {
     /// Jacobian (differenced, or Broyden-updated along the last step) lies above it, the fit
     /// stops there, not converged, without trying a step. Positive; default infinity (never).
     /// A screen that only asks whether a candidate can lower the gap to a bar sets it to that
-    /// bar: once the gap is below it, the check always passes.
+    /// bar: once the gap is below it, the check always passes. The fit also stops, not
+    /// converged, where the steps so far do not lead there in the iterations left: where the
+    /// cost less the largest fall of the cost one iteration has made so far, once for every
+    /// iteration left, stays above the bar's cost (steps through a rough cost that gain a
+    /// percent each do not close a gap of ten).
     pub reach: f64,
 }
 
@@ -460,6 +464,10 @@ pub struct FitResult {
     /// than [`FitOptions::rel_tol`] (or no step lowered it), rather than running out of
     /// iterations.
     pub converged: bool,
+    /// Whether the fit ended because no step lowered the cost on a fresh Jacobian at its
+    /// optimum (a local minimum at the resolution of the cost's roughness), whatever its
+    /// [`FitOptions::rel_tol`]: [`refine`] returns such a fit as it is.
+    pub stalled: bool,
     /// The fitted coordinates at the optimum (logarithms where fitted on a log scale).
     pub theta: Vec<f64>,
     /// The residuals at the optimum.
@@ -542,16 +550,16 @@ pub fn fit_from(target: &Target, s: Start, opts: FitOptions) -> FitResult {
 /// on the same recordings at its own optimum, and differences only the added effects' columns
 /// at the start: `k` evaluations for `k` added coordinates. Where the bar lies out of reach on
 /// it, the fit stops there (not converged, that Jacobian in the result, `1 + k` evaluations);
-/// else it is [`fit_from`] on a Jacobian differenced afresh (the borrowed columns are of
-/// another point: a step on them can lead a narrow valley's fit astray), the `k` counted
-/// besides. Where the bar is infinite or `known` does not fit (other rows, more columns than
+/// else it is [`fit_from`] on a Jacobian differenced afresh at the start (the borrowed columns
+/// are of another point: a step on them can lead a narrow valley's fit astray), whose added
+/// columns are the ones just differenced: the same fit, `k` evaluations fewer. Where the bar is infinite or `known` does not fit (other rows, more columns than
 /// the start has), as [`fit_from`].
 pub fn fit_extending(target: &Target, s: Start, known: &Mat<f64>, opts: FitOptions) -> FitResult {
     let (m, p, k0) = (s.at.1.len(), s.cs.len(), known.ncols());
     if !opts.reach.is_finite() || known.nrows() != m || k0 > p || m == 0 || !s.at.0.is_finite() {
         return fit_from(target, s, opts);
     }
-    let added = fd_jacobian(target, &s.model, &s.cs, &s.theta, &s.at.1, k0);
+    let added = fd_jacobian(target, &s.model, &s.cs, &s.theta, &s.at.1, k0..p);
     let jac = Mat::from_fn(m, p, |i, j| {
         if j < k0 {
             known[(i, j)]
@@ -561,9 +569,26 @@ pub fn fit_extending(target: &Target, s: Start, known: &Mat<f64>, opts: FitOptio
     });
     let diag = column_norms(&jac);
     if linear_minimum(&jac, &s.at.1, &diag) <= opts.reach {
-        let mut f = fit_from(target, s, opts);
-        f.evaluations += p - k0;
-        return f;
+        // The added columns are those a fresh Jacobian at the start has: difference the rest.
+        let own = fd_jacobian(target, &s.model, &s.cs, &s.theta, &s.at.1, 0..k0);
+        let fresh = Mat::from_fn(m, p, |i, j| {
+            if j < k0 {
+                own[(i, j)]
+            } else {
+                added[(i, j - k0)]
+            }
+        });
+        return levenberg_marquardt(
+            target,
+            s.model,
+            &s.effects,
+            s.cs,
+            s.theta,
+            s.at,
+            Some((fresh, true)),
+            1 + p,
+            opts,
+        );
     }
     // Out of reach: the iterations stop at their first check, on this Jacobian.
     levenberg_marquardt(
@@ -581,8 +606,18 @@ pub fn fit_extending(target: &Target, s: Start, known: &Mat<f64>, opts: FitOptio
 
 /// Continues the fit `fr` on the same recordings from its optimum: more Levenberg–Marquardt
 /// iterations that start on its Jacobian where that is fresh (no evaluation spent on it)
-/// instead of differencing it again, as [`fit`] from `fr.model` would.
+/// instead of differencing it again, as [`fit`] from `fr.model` would. A fit that
+/// [`stalled`](FitResult::stalled) is returned as it is (no evaluation, no iteration): its
+/// iterations ended on a fresh Jacobian along which no step lowered the cost, which a tighter
+/// [`FitOptions::rel_tol`] does not change.
 pub fn refine(target: &Target, fr: &FitResult, opts: FitOptions) -> FitResult {
+    if fr.stalled && fr.jacobian_fresh {
+        return FitResult {
+            evaluations: 0,
+            iterations: 0,
+            ..fr.clone()
+        };
+    }
     let cs = coords(&fr.effects);
     let cost = fr.z.iter().map(|v| v * v).sum();
     levenberg_marquardt(
@@ -617,12 +652,16 @@ fn levenberg_marquardt(
     let (mut cost, mut z) = at;
     let build = |th: &[f64]| build_model(&model, &cs, th);
     let mut lambda = 1e-2;
-    let fd_jacobian = |theta: &[f64], z: &[f64]| fd_jacobian(target, &model, &cs, theta, z, 0);
+    let fd_jacobian =
+        |theta: &[f64], z: &[f64]| fd_jacobian(target, &model, &cs, theta, z, 0..cs.len());
     let given = jac0.is_some();
     // Whether `jac` is a fresh finite-difference Jacobian (else a Broyden update of one).
     let (mut jac, mut fresh) = jac0.unwrap_or_else(|| (Mat::zeros(z.len(), p), false));
     let mut iter = 0;
     let mut converged = false;
+    let mut stalled = false;
+    // The largest fall of the cost an iteration has made so far (FitOptions::reach).
+    let mut best_gain = 0.0_f64;
     while iter < opts.max_iter && cost.is_finite() && !z.is_empty() {
         iter += 1;
         if iter == 1 && !given {
@@ -632,8 +671,16 @@ fn levenberg_marquardt(
         }
         let m = z.len();
         let diag = column_norms(&jac);
-        if opts.reach.is_finite() && linear_minimum(&jac, &z, &diag) > opts.reach {
-            break;
+        if opts.reach.is_finite() {
+            // Out of reach at the pace of the steps so far (after one accepted step), or on
+            // the residuals linearised on this Jacobian.
+            let bar = opts.reach * opts.reach * m as f64;
+            if out_of_pace(cost, best_gain, opts.max_iter - iter + 1, bar) {
+                break;
+            }
+            if linear_minimum(&jac, &z, &diag) > opts.reach {
+                break;
+            }
         }
         let mut accepted = None;
         for _ in 0..4 {
@@ -653,6 +700,7 @@ fn levenberg_marquardt(
         match accepted {
             Some((trial, c1, z1)) => {
                 let rel = (cost - c1) / cost;
+                best_gain = best_gain.max(cost - c1);
                 // Broyden's rank-one update: J += (Δz − J δ) δᵀ / δᵀδ, instead of p new runs.
                 let d: Vec<f64> = (0..p).map(|j| trial[j] - theta[j]).collect();
                 let dd: f64 = d.iter().map(|x| x * x).sum();
@@ -691,6 +739,7 @@ fn levenberg_marquardt(
             None => {
                 // No step lowers the cost on a fresh Jacobian: a (local) minimum.
                 converged = true;
+                stalled = true;
                 break;
             }
         }
@@ -710,12 +759,20 @@ fn levenberg_marquardt(
         effect_params: effect_params(effects),
         iterations: iter,
         converged,
+        stalled,
         theta,
         z,
         jacobian: jac,
         jacobian_fresh: fresh,
         effects: effects.to_vec(),
     }
+}
+
+/// Whether a fit at `cost` cannot reach the cost `bar` in the `left` iterations it has, at the
+/// pace of the largest fall of the cost one of its iterations has made so far (`best_gain`;
+/// none yet where it is 0): `cost − left · best_gain > bar` ([`FitOptions::reach`]).
+fn out_of_pace(cost: f64, best_gain: f64, left: usize, bar: f64) -> bool {
+    best_gain > 0.0 && cost - left as f64 * best_gain > bar
 }
 
 /// Each column's square norm (at least 1e-12): the Levenberg–Marquardt scaling.
@@ -769,7 +826,7 @@ pub fn with_fresh_jacobian(target: &Target, mut fr: FitResult) -> FitResult {
     }
     let cs = coords(&fr.effects);
     // The fitted model holds every coordinate, and its effects enabled: the template.
-    fr.jacobian = fd_jacobian(target, &fr.model, &cs, &fr.theta, &fr.z, 0);
+    fr.jacobian = fd_jacobian(target, &fr.model, &cs, &fr.theta, &fr.z, 0..cs.len());
     fr.evaluations += cs.len();
     fr.jacobian_fresh = true;
     let cost: f64 = fr.z.iter().map(|v| v * v).sum();
@@ -791,8 +848,8 @@ fn build_model(template: &Model, cs: &[Coord], theta: &[f64]) -> Model {
     m
 }
 
-/// Forward-difference Jacobian of the residuals `z` (at `theta`) in the coordinates `cs`, its
-/// columns from the `from`-th on: the perturbed models in one parallel batch, each step taken
+/// Forward-difference Jacobian of the residuals `z` (at `theta`) in the coordinates `cs`, the
+/// given columns of it: the perturbed models in one parallel batch, each step taken
 /// inward at an upper bound.
 fn fd_jacobian(
     target: &Target,
@@ -800,10 +857,10 @@ fn fd_jacobian(
     cs: &[Coord],
     theta: &[f64],
     z: &[f64],
-    from: usize,
+    columns: std::ops::Range<usize>,
 ) -> Mat<f64> {
-    let p = cs.len();
-    let cols: Vec<Vec<f64>> = (from..p)
+    let n = columns.len();
+    let cols: Vec<Vec<f64>> = columns
         .into_par_iter()
         .map(|j| {
             let mut th = theta.to_vec();
@@ -821,7 +878,7 @@ fn fd_jacobian(
             zj.iter().zip(z).map(|(a, b)| (a - b) / h).collect()
         })
         .collect();
-    Mat::from_fn(z.len(), p - from, |i, j| cols[j][i])
+    Mat::from_fn(z.len(), n, |i, j| cols[j][i])
 }
 
 /// The fitted parameters at `theta`, with standard uncertainties from `(JᵀJ)⁻¹ s²`,
@@ -1400,6 +1457,27 @@ mod tests {
         let along = Mat::from_fn(3, 1, |i, _| z[i]);
         let g = linear_minimum(&along, &z, &diag(&along));
         assert!(g < 1e-6, "{g}");
+    }
+
+    /// The pace rule of a screen ([`FitOptions::reach`]) on two screening fits of `diagnose`
+    /// (16 recordings, cost = 191 gap²-units per gap²): `sensor_dynamics` as a second effect
+    /// on the independent rig's `sensor+aging` campaign, at 682.17 after one step that lowered
+    /// the cost by 11.41, four iterations left, bar 590.50: out of pace (its five iterations
+    /// ended at 666.58). A start below the bar, as `sensor-factorial`'s sensor at 236.65 against
+    /// 274.5, is never out of pace, whatever its steps; nor a fit that has made no step yet.
+    #[test]
+    fn a_screen_out_of_pace_stops() {
+        assert!(out_of_pace(682.17, 11.41, 4, 590.50));
+        // With one more iteration's worth of that fall it could reach the bar: not yet.
+        assert!(!out_of_pace(682.17, 11.41, 9, 590.50));
+        assert!(!out_of_pace(682.17, 0.0, 4, 590.50));
+        for gain in [1e-9, 1.2, 5.2, 46.5] {
+            for left in 1..=5 {
+                assert!(!out_of_pace(236.65, gain, left, 274.5));
+            }
+        }
+        // The bound is the iterations left counted with the current one.
+        assert!(out_of_pace(600.0, 5.0, 1, 590.0) && !out_of_pace(600.0, 5.0, 2, 590.0));
     }
 
     /// The worst half is taken by gap, the rest evenly over the others, without repeats.
