@@ -88,22 +88,22 @@ macro_rules! identification_tests {
 // --include-ignored` (README); the independent rig (`tests/rig.rs`) names effects in CI on data
 // this crate did not make.
 identification_tests! {
-    #[ignore = "1 to 3 min each on 2 cores (11 min for the nine); run with --include-ignored"]
+    #[ignore = "1 to 3 min each on 2 cores (10 min for the nine); run with --include-ignored"]
     names_aging: EffectKind::Aging, 11;
-    #[ignore = "1 to 3 min each on 2 cores (11 min for the nine); run with --include-ignored"]
+    #[ignore = "1 to 3 min each on 2 cores (10 min for the nine); run with --include-ignored"]
     names_actuator_response: EffectKind::ActuatorResponse, 12;
-    #[ignore = "1 to 3 min each on 2 cores (11 min for the nine); run with --include-ignored"]
+    #[ignore = "1 to 3 min each on 2 cores (10 min for the nine); run with --include-ignored"]
     names_normal_coupling: EffectKind::NormalCoupling, 13;
     names_sensor_dynamics: EffectKind::SensorDynamics, 14;
-    #[ignore = "1 to 3 min each on 2 cores (11 min for the nine); run with --include-ignored"]
+    #[ignore = "1 to 3 min each on 2 cores (10 min for the nine); run with --include-ignored"]
     names_drive_ripple: EffectKind::DriveRipple, 15;
-    #[ignore = "1 to 3 min each on 2 cores (11 min for the nine); run with --include-ignored"]
+    #[ignore = "1 to 3 min each on 2 cores (10 min for the nine); run with --include-ignored"]
     names_viscous: EffectKind::Viscous, 16;
-    #[ignore = "1 to 3 min each on 2 cores (11 min for the nine); run with --include-ignored"]
+    #[ignore = "1 to 3 min each on 2 cores (10 min for the nine); run with --include-ignored"]
     names_stribeck_shape: EffectKind::StribeckShape, 17;
-    #[ignore = "1 to 3 min each on 2 cores (11 min for the nine); run with --include-ignored"]
+    #[ignore = "1 to 3 min each on 2 cores (10 min for the nine); run with --include-ignored"]
     names_presliding: EffectKind::Presliding, 18;
-    #[ignore = "1 to 3 min each on 2 cores (11 min for the nine); run with --include-ignored"]
+    #[ignore = "1 to 3 min each on 2 cores (10 min for the nine); run with --include-ignored"]
     names_frictional_lag: EffectKind::FrictionalLag, 19;
 }
 

@@ -180,7 +180,7 @@ fn rig_sensor_and_slip_law_ageing() {
 
 /// The whole panel: at least 11 of 12 right (12 at the last run).
 #[test]
-#[ignore = "the whole panel takes about 17 minutes on 2 cores (19 with the build); .ci/run runs six rig_* tests"]
+#[ignore = "the whole panel takes about 15 minutes on 2 cores (18 with the build); .ci/run runs six rig_* tests"]
 fn independent_rig_panel() {
     let (ok, rows) = run(&PANEL);
     eprintln!(
