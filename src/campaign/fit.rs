@@ -552,8 +552,9 @@ pub fn fit_from(target: &Target, s: Start, opts: FitOptions) -> FitResult {
 /// it, the fit stops there (not converged, that Jacobian in the result, `1 + k` evaluations);
 /// else it is [`fit_from`] on a Jacobian differenced afresh at the start (the borrowed columns
 /// are of another point: a step on them can lead a narrow valley's fit astray), whose added
-/// columns are the ones just differenced: the same fit, `k` evaluations fewer. Where the bar is infinite or `known` does not fit (other rows, more columns than
-/// the start has), as [`fit_from`].
+/// columns are the ones just differenced: the same fit, `k` evaluations fewer. Where the bar
+/// is infinite or `known` does not fit (other rows, more columns than the start has), as
+/// [`fit_from`].
 pub fn fit_extending(target: &Target, s: Start, known: &Mat<f64>, opts: FitOptions) -> FitResult {
     let (m, p, k0) = (s.at.1.len(), s.cs.len(), known.ncols());
     if !opts.reach.is_finite() || known.nrows() != m || k0 > p || m == 0 || !s.at.0.is_finite() {
@@ -1460,15 +1461,17 @@ mod tests {
     }
 
     /// The pace rule of a screen ([`FitOptions::reach`]) on two screening fits of `diagnose`
-    /// (16 recordings, cost = 191 gap²-units per gap²): `sensor_dynamics` as a second effect
+    /// (16 recordings, 191 residuals: a cost of 191 gap²): `sensor_dynamics` as a second effect
     /// on the independent rig's `sensor+aging` campaign, at 682.17 after one step that lowered
     /// the cost by 11.41, four iterations left, bar 590.50: out of pace (its five iterations
-    /// ended at 666.58). A start below the bar, as `sensor-factorial`'s sensor at 236.65 against
-    /// 274.5, is never out of pace, whatever its steps; nor a fit that has made no step yet.
+    /// ended at 666.58). A fit below the bar, as `sensor-factorial`'s sensor screen at 236.65
+    /// against 274.5 (its steps fell by 5.2, 1.2 and then 46.5), is never out of pace, whatever
+    /// its steps; nor a fit that has made no step yet.
     #[test]
     fn a_screen_out_of_pace_stops() {
         assert!(out_of_pace(682.17, 11.41, 4, 590.50));
-        // With one more iteration's worth of that fall it could reach the bar: not yet.
+        // Eight iterations left at that fall stay above the bar; nine reach below it.
+        assert!(out_of_pace(682.17, 11.41, 8, 590.50));
         assert!(!out_of_pace(682.17, 11.41, 9, 590.50));
         assert!(!out_of_pace(682.17, 0.0, 4, 590.50));
         for gain in [1e-9, 1.2, 5.2, 46.5] {
