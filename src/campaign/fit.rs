@@ -560,38 +560,28 @@ pub fn fit_extending(target: &Target, s: Start, known: &Mat<f64>, opts: FitOptio
     if !opts.reach.is_finite() || known.nrows() != m || k0 > p || m == 0 || !s.at.0.is_finite() {
         return fit_from(target, s, opts);
     }
-    let added = fd_jacobian(target, &s.model, &s.cs, &s.theta, &s.at.1, k0..p);
-    let jac = Mat::from_fn(m, p, |i, j| {
-        if j < k0 {
-            known[(i, j)]
-        } else {
-            added[(i, j - k0)]
-        }
-    });
-    let diag = column_norms(&jac);
-    if linear_minimum(&jac, &s.at.1, &diag) <= opts.reach {
-        // The added columns are those a fresh Jacobian at the start has: difference the rest.
-        let own = fd_jacobian(target, &s.model, &s.cs, &s.theta, &s.at.1, 0..k0);
-        let fresh = Mat::from_fn(m, p, |i, j| {
+    let difference = |cols| fd_jacobian(target, &s.model, &s.cs, &s.theta, &s.at.1, cols);
+    let added = difference(k0..p);
+    // The first `k0` columns from `left`, the added ones after them.
+    let join = |left: &Mat<f64>| {
+        Mat::from_fn(m, p, |i, j| {
             if j < k0 {
-                own[(i, j)]
+                left[(i, j)]
             } else {
                 added[(i, j - k0)]
             }
-        });
-        return levenberg_marquardt(
-            target,
-            s.model,
-            &s.effects,
-            s.cs,
-            s.theta,
-            s.at,
-            Some((fresh, true)),
-            1 + p,
-            opts,
-        );
-    }
-    // Out of reach: the iterations stop at their first check, on this Jacobian.
+        })
+    };
+    let borrowed = join(known);
+    let diag = column_norms(&borrowed);
+    let (jac, fresh, evaluations) = if linear_minimum(&borrowed, &s.at.1, &diag) <= opts.reach {
+        // Within reach: the added columns are those a fresh Jacobian at the start has;
+        // difference the rest.
+        (join(&difference(0..k0)), true, 1 + p)
+    } else {
+        // Out of reach: the iterations stop at their first check, on this Jacobian.
+        (borrowed, false, 1 + p - k0)
+    };
     levenberg_marquardt(
         target,
         s.model,
@@ -599,8 +589,8 @@ pub fn fit_extending(target: &Target, s: Start, known: &Mat<f64>, opts: FitOptio
         s.cs,
         s.theta,
         s.at,
-        Some((jac, false)),
-        1 + p - k0,
+        Some((jac, fresh)),
+        evaluations,
         opts,
     )
 }
