@@ -637,15 +637,9 @@ fn integrate(rig: &Rig, t_end: f64, opts: &RunOptions, solver: &mut Solver) -> R
         .filter(|_| p.vibrates() && !two_stage)
         .map(|tol| envelope_for(p, k, tol));
     let env = envelope.as_ref();
-    // The slopes of the envelope are differences of integrated states: integrate finer.
-    let ode = match env {
-        Some(e) => Options {
-            rtol: e.inner_tolerance(opts.ode.rtol),
-            atol: e.inner_tolerance(opts.ode.atol),
-            ..opts.ode.clone()
-        },
-        None => opts.ode.clone(),
-    };
+    // The solver integrates the periods that feed the envelope's slopes finer
+    // (`Envelope::inner_tolerance`), the rest at the run's own tolerance.
+    let ode = opts.ode.clone();
     // Without vibration the base model is autonomous: watch for its limit cycle.
     let cycle = (opts.periodic && !p.vibrates() && !rig.has_effects())
         .then(|| LimitCycle::new(rig, dt, &ode));
@@ -841,8 +835,9 @@ pub const ENVELOPE_LONG_JUMP: u64 = 400;
 /// about `M / L`, so jumps stay near `L / 0.785^S` periods (4 to 6 with `S = 1`). Twenty-four
 /// periods let it decay by a factor of 330.
 pub const ENVELOPE_LONG_SETTLE: u32 = 24;
-/// [`Envelope::inner`] where jumps may be long ([`ENVELOPE_LONG_JUMP`]): the periods are
-/// integrated at a ten-thousandth of the envelope's tolerance. The sampled velocity's
+/// [`Envelope::inner`] where jumps may be long ([`ENVELOPE_LONG_JUMP`]): the periods that feed a
+/// slope are integrated at a ten-thousandth of the envelope's tolerance (stretches where the
+/// envelope keeps refusing to jump, at the run's own: see [`Envelope`]). The sampled velocity's
 /// period-to-period noise is about a hundred times the integration tolerance (1.1e-4, 1.5e-5,
 /// 2.4e-6 and 1.5e-7 of its scale at rtol 1e-6 to 1e-9 in the case above), and a jump of `M`
 /// periods needs it below a few `tol / M`.

@@ -685,6 +685,112 @@ fn envelope_following_skips_periods_and_stays_on_the_closed_form() {
     }
 }
 
+/// An undamped oscillator forced off its own frequency: `y'' + w0² y = a sin(w t)`, with
+/// `w0 / w` the golden ratio's fraction, so its free oscillation, started by `y(0) = 1`, never
+/// locks to the forcing and the samples taken once per forcing period turn by 222.5° each
+/// (a quasi-periodic response, which envelope following cannot extrapolate).
+const DETUNED: (f64, f64, f64) = (
+    0.618_033_988_749_894_9,
+    1.0,
+    2.0 * std::f64::consts::PI * 1e3,
+);
+struct Detuned;
+impl OdeSystem for Detuned {
+    fn dim(&self) -> usize {
+        2
+    }
+    fn rhs(&self, t: f64, y: &[f64], dy: &mut [f64]) {
+        let (q, a, w) = DETUNED;
+        let w0 = q * w;
+        dy[0] = y[1];
+        dy[1] = a * (w * t).sin() - w0 * w0 * y[0];
+    }
+    fn jacobian(&self, _t: f64, _y: &[f64], j: &mut [f64]) {
+        let w0 = DETUNED.0 * DETUNED.2;
+        j.copy_from_slice(&[0.0, 1.0, -w0 * w0, 0.0]);
+    }
+}
+/// Closed form of [`Detuned`] from `y(0) = 1`, `y'(0) = 0`.
+fn detuned(t: f64) -> f64 {
+    let (q, a, w) = DETUNED;
+    let w0 = q * w;
+    let c = a / (w0 * w0 - w * w);
+    (w0 * t).cos() + c * ((w * t).sin() - w / w0 * (w0 * t).sin())
+}
+
+#[test]
+fn envelope_integrates_a_response_it_cannot_follow_at_the_runs_own_tolerance() {
+    use stickslip::ode::Envelope;
+    let (period, samples) = (1e-3, 16u64);
+    let grid = OutputGrid {
+        start: 0.0,
+        step: period / samples as f64,
+        count: 2000 * samples + 1,
+    };
+    let t1 = grid.time(grid.count - 1);
+    // Slopes are measured on periods integrated at inner · tol = 1e-7.
+    let env = Envelope {
+        tol: 1e-3,
+        baseline: 4,
+        settle: 4,
+        inner: 1e-4,
+        ..Envelope::new(samples)
+    };
+    let run = |rtol: f64, env: Option<&Envelope>| {
+        let mut y = vec![1.0, 0.0];
+        let mut worst = 0.0f64;
+        let rep = Solver::new(Method::Dopri5).solve_envelope(
+            &Detuned,
+            0.0,
+            t1,
+            &mut y,
+            &opts(rtol, rtol),
+            grid,
+            env,
+            |t, y| {
+                worst = worst.max((y[0] - detuned(t)).abs());
+                true
+            },
+        );
+        assert_eq!(rep.status, Status::Success);
+        (rep.stats, worst)
+    };
+    // Asked for 1e-7, every period is integrated at 1e-7, exactly as without the envelope.
+    let (tight, tight_err) = run(1e-7, Some(&env));
+    let (direct_tight, direct_tight_err) = run(1e-7, None);
+    assert_eq!(
+        tight.skipped_periods, 0,
+        "no jump in a quasi-periodic response"
+    );
+    assert_eq!(tight.rhs_evals, direct_tight.rhs_evals);
+    assert_eq!(tight_err, direct_tight_err);
+    // Asked for 1e-4, the envelope gives up after its first refusals and integrates at 1e-4,
+    // trying 1e-7 again between ever longer stretches: the work and the error of a run at 1e-4
+    // (Dopri5's steps grow as the tolerance's fifth root, 1000^(1/5) ≈ 4), a little more of both.
+    let (own, own_err) = run(1e-4, Some(&env));
+    let (direct_own, direct_own_err) = run(1e-4, None);
+    assert_eq!(
+        own.skipped_periods, 0,
+        "no jump in a quasi-periodic response"
+    );
+    assert!(
+        (own.rhs_evals as f64) < 0.5 * tight.rhs_evals as f64
+            && own.rhs_evals > direct_own.rhs_evals
+            && (own.rhs_evals as f64) < 1.5 * direct_own.rhs_evals as f64,
+        "right-hand sides: {} at the run's tolerance, {} at the inner one, {} without the envelope at 1e-4",
+        own.rhs_evals,
+        tight.rhs_evals,
+        direct_own.rhs_evals
+    );
+    // The undamped free oscillation's phase error grows over its 1236 cycles: the worst error
+    // is that of a run at the tolerance the periods were integrated with.
+    assert!(
+        own_err > 10.0 * tight_err && own_err < 1.5 * direct_own_err,
+        "worst errors: {own_err:.2e} at the run's tolerance, {tight_err:.2e} at the inner one, \
+         {direct_own_err:.2e} without the envelope at 1e-4"
+    );
+}
+
 #[test]
 fn envelope_options_are_validated_with_the_bound_quoted() {
     use stickslip::ode::Envelope;

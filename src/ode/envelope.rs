@@ -3,6 +3,11 @@
 
 use super::Envelope;
 
+/// The first stretch at the run's own tolerance, in refusal streaks (see [`Strobe::refuse`]).
+pub(crate) const LOOSE_FIRST: u64 = 2;
+/// The longest stretch at the run's own tolerance \[periods\].
+pub(crate) const LOOSE_LONGEST: u64 = 4096;
+
 /// Buffers of one run, sized once per dimension, period and baseline (no allocation while
 /// stepping).
 #[derive(Default)]
@@ -27,12 +32,35 @@ pub(crate) struct Strobe {
     /// slope it used.
     from_period: Option<u64>,
     slope: Vec<f64>,
+    /// Refusals (a jump shorter than 2 periods) in a row.
+    refused: u32,
+    /// Periods still to integrate at the run's own tolerance (0: at the inner tolerance).
+    loose_left: u64,
+    /// Length of the next stretch at the run's own tolerance \[periods\] (0: the first).
+    loose_span: u64,
+    /// The periods at the inner tolerance since the last loose stretch are a retry: one more
+    /// refusal loosens again at once.
+    retrying: bool,
+    /// Tolerance switch for the driver to make: `Some(true)` to the run's own, `Some(false)` to
+    /// the inner one.
+    change: Option<bool>,
+    /// The run's own tolerance is looser than the inner one, so refused stretches may be
+    /// integrated at it.
+    loosen: bool,
 }
 
 impl Strobe {
     /// Prepares for a run of an `n`-dimensional system with `ps` samples per period and slopes
-    /// measured over `baseline` periods.
-    pub fn reset(&mut self, n: usize, ps: u64, baseline: u32, scale: impl Fn(usize) -> f64) {
+    /// measured over `baseline` periods; `loosen` where the run's own tolerance is looser than
+    /// the one the periods are integrated with for their slopes.
+    pub fn reset(
+        &mut self,
+        n: usize,
+        ps: u64,
+        baseline: u32,
+        loosen: bool,
+        scale: impl Fn(usize) -> f64,
+    ) {
         let ring = 2 * baseline as usize + 1;
         if self.n != n || self.ps != ps || self.ring != ring {
             self.n = n;
@@ -50,6 +78,19 @@ impl Strobe {
         self.since = 0;
         self.from_period = None;
         self.last_jump = 0;
+        self.refused = 0;
+        self.loose_left = 0;
+        self.loose_span = 0;
+        self.retrying = false;
+        self.change = None;
+        self.loosen = loosen;
+    }
+
+    /// The tolerance switch [`Strobe::plan`] asked for, if any: `Some(true)` to integrate at the
+    /// run's own tolerance, `Some(false)` back at the inner one.
+    #[inline]
+    pub fn take_change(&mut self) -> Option<bool> {
+        self.change.take()
     }
 
     /// Stores a stroboscopic sample.
@@ -91,6 +132,18 @@ impl Strobe {
         let l = env.baseline;
         let lf = l as f64;
         let (lu, n) = (l as usize, self.n);
+        if self.loose_left > 0 {
+            self.loose_left -= 1;
+            if self.loose_left == 0 {
+                // Back at the inner tolerance: the next slope and its change come from periods
+                // integrated at it only, after `settle` periods for what the loose ones left.
+                self.change = Some(false);
+                self.since = 0;
+                self.from_period = None;
+                self.retrying = true;
+            }
+            return 0;
+        }
         // A slope needs a baseline of settled periods after the last jump target.
         if self.since < settle + l {
             return 0;
@@ -135,14 +188,40 @@ impl Strobe {
             m_tol as u64
         };
         if m < 2 {
+            self.refuse(settle + 2 * l);
             return 0;
         }
+        self.refused = 0;
+        self.retrying = false;
+        self.loose_span = 0;
         for i in 0..n {
             self.slope[i] = self.baseline_slope(i, lu);
         }
         self.from_period = Some(k);
         self.last_jump = m;
         m
+    }
+
+    /// Counts a refusal. After `streak` of them in a row (or one, right after a loose stretch)
+    /// the strobe no longer behaves like a drifting fixed point (a slip, or a response that is
+    /// not periodic with the forcing: subharmonic or quasi-periodic near the contact's pole), so
+    /// the periods are integrated at the run's own tolerance for a stretch of
+    /// [`LOOSE_FIRST`] times `streak` periods, doubled after every retry that is refused again
+    /// up to [`LOOSE_LONGEST`], then tried at the inner tolerance again.
+    fn refuse(&mut self, streak: u32) {
+        self.refused += 1;
+        if !self.loosen || !self.retrying && self.refused < streak {
+            return;
+        }
+        self.loose_span = if self.loose_span == 0 {
+            LOOSE_FIRST * streak as u64
+        } else {
+            (2 * self.loose_span).min(LOOSE_LONGEST)
+        };
+        self.loose_left = self.loose_span;
+        self.refused = 0;
+        self.retrying = false;
+        self.change = Some(true);
     }
 
     /// The sample synthesised for grid index `g` inside the current jump: the last integrated

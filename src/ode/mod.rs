@@ -288,6 +288,16 @@ impl OutputGrid {
 /// during the [`settle`] periods integrated after it, before the slope is measured again. Where the envelope bends
 /// (a slip starting), `M` falls below 2 and the driver integrates every period.
 ///
+/// Where `M` stays below 2 for `settle + 2L` checks in a row (a slip, or a response that does
+/// not repeat with the forcing at all: subharmonic or quasi-periodic, as the rig's near its
+/// contact's pole), the inner tolerance buys nothing, and where the tolerance asked for is
+/// looser the driver integrates at that one: for `2 (settle + 2L)` periods first, then it tries
+/// the inner tolerance again (`settle + 2L` periods, the slope measured on them alone) and, if
+/// still refused, goes on for twice as long, up to 4096 periods. At v_d = 0.1 mm/s,
+/// k_d = 1000 N/m, 1741 Hz, u0 = 9.854 nm (`stickslip run`, envelope 1e-4, rtol 1e-6): 17.4 s
+/// → 10.1 s, the mean force 10.5973 N against 10.5979 N integrating every period at 1e-6
+/// (10.5509 N before, the inner tolerance throughout).
+///
 /// The output grid must start at `t0`, a period boundary, and hold [`period_samples`] samples
 /// per period: the period is `period_samples · grid.step`.
 ///
@@ -699,31 +709,44 @@ impl Solver {
         let n = sys.dim();
         assert_eq!(y0.len(), n, "initial state has the wrong length");
         self.ensure(n);
+        // The periods whose slopes feed a jump are integrated at the envelope's inner
+        // tolerance; stretches the envelope gives up on, at the one asked for.
+        let inner = match envelope {
+            Some(e) => Options {
+                rtol: e.inner_tolerance(opts.rtol),
+                atol: e.inner_tolerance(opts.atol),
+                ..opts.clone()
+            },
+            None => opts.clone(),
+        };
         for i in 0..n {
-            self.shared.atol[i] = opts.atol * sys.scale(i);
+            self.shared.atol[i] = inner.atol * sys.scale(i);
         }
         if let Some(e) = envelope {
+            let loosen = inner.rtol < opts.rtol || inner.atol < opts.atol;
             self.shared
                 .strobe
-                .reset(n, e.period_samples, e.baseline, |i| sys.scale(i));
+                .reset(n, e.period_samples, e.baseline, loosen, |i| sys.scale(i));
         }
         if let Workspace::Auto(a) = &mut self.ws {
             a.switching = envelope.is_none();
         }
         let sh = &mut self.shared;
-        let env = envelope;
+        let env = envelope.map(|e| (e, opts));
+        let o = &inner;
         match &mut self.ws {
-            Workspace::Radau5(m) => drive(m, sys, t0, t1, y0, opts, grid, env, &mut observe, sh),
-            Workspace::Rodas4(m) => drive(m, sys, t0, t1, y0, opts, grid, env, &mut observe, sh),
-            Workspace::Dopri5(m) => drive(m, sys, t0, t1, y0, opts, grid, env, &mut observe, sh),
-            Workspace::Auto(m) => drive(m, sys, t0, t1, y0, opts, grid, env, &mut observe, sh),
+            Workspace::Radau5(m) => drive(m, sys, t0, t1, y0, o, grid, env, &mut observe, sh),
+            Workspace::Rodas4(m) => drive(m, sys, t0, t1, y0, o, grid, env, &mut observe, sh),
+            Workspace::Dopri5(m) => drive(m, sys, t0, t1, y0, o, grid, env, &mut observe, sh),
+            Workspace::Auto(m) => drive(m, sys, t0, t1, y0, o, grid, env, &mut observe, sh),
             Workspace::Empty => unreachable!("ensure() sized the workspace"),
         }
     }
 }
 
 /// The driver shared by all methods: step control against the span, output by dense output,
-/// step limits and status.
+/// step limits and status. `opts` are the options to integrate with; under envelope following
+/// `env` also carries the run's own, looser options for the stretches it gives up on.
 #[allow(clippy::too_many_arguments)]
 fn drive<M: Stepper, S: OdeSystem>(
     m: &mut M,
@@ -733,7 +756,7 @@ fn drive<M: Stepper, S: OdeSystem>(
     y0: &mut [f64],
     opts: &Options,
     grid: OutputGrid,
-    env: Option<&Envelope>,
+    env: Option<(&Envelope, &Options)>,
     observe: &mut impl FnMut(f64, &[f64]) -> bool,
     sh: &mut Shared,
 ) -> RunReport {
@@ -857,13 +880,20 @@ fn drive<M: Stepper, S: OdeSystem>(
                     if !observe(tk, out) {
                         return finish(Status::Success, tk, y0, out, stats);
                     }
-                    let Some(e) = env else { continue };
+                    let Some((e, own)) = env else { continue };
                     strobe.record(g, out);
                     if !g.is_multiple_of(e.period_samples) {
                         continue;
                     }
                     let jump = strobe.plan(g, e, (g_last - g) / e.period_samples);
                     if jump == 0 {
+                        if let Some(loose) = strobe.take_change() {
+                            let o = if loose { own } else { opts };
+                            for (i, a) in atol.iter_mut().enumerate() {
+                                *a = o.atol * sys.scale(i);
+                            }
+                            m.set_tolerances(o.rtol, atol);
+                        }
                         continue;
                     }
                     // Skip `jump` periods: synthesise their samples, land on the envelope and
