@@ -615,16 +615,22 @@ fn ramped(t: f64) -> [f64; 2] {
     ]
 }
 
-#[test]
-fn envelope_following_skips_periods_and_stays_on_the_closed_form() {
-    use stickslip::ode::Envelope;
+/// Output grid of 2000 forcing periods of 1 ms, 16 samples each: the grid, the samples per
+/// period and the last output time.
+fn thousand_hertz_grid() -> (OutputGrid, u64, f64) {
     let (period, samples) = (1e-3, 16u64);
     let grid = OutputGrid {
         start: 0.0,
         step: period / samples as f64,
         count: 2000 * samples + 1,
     };
-    let t1 = grid.time(grid.count - 1);
+    (grid, samples, grid.time(grid.count - 1))
+}
+
+#[test]
+fn envelope_following_skips_periods_and_stays_on_the_closed_form() {
+    use stickslip::ode::Envelope;
+    let (grid, samples, t1) = thousand_hertz_grid();
     for (method, baseline) in [
         (Method::Dopri5, 1),
         (Method::Dopri5, 4),
@@ -721,13 +727,7 @@ fn detuned(t: f64) -> f64 {
 #[test]
 fn envelope_integrates_a_response_it_cannot_follow_at_the_runs_own_tolerance() {
     use stickslip::ode::Envelope;
-    let (period, samples) = (1e-3, 16u64);
-    let grid = OutputGrid {
-        start: 0.0,
-        step: period / samples as f64,
-        count: 2000 * samples + 1,
-    };
-    let t1 = grid.time(grid.count - 1);
+    let (grid, samples, t1) = thousand_hertz_grid();
     // Slopes are measured on periods integrated at inner · tol = 1e-7.
     let env = Envelope {
         tol: 1e-3,
