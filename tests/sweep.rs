@@ -517,6 +517,101 @@ fn refinement_runs_the_points_near_the_level_and_finds_the_dense_boundary() {
     python(&[a.to_str().unwrap(), "f,u0", "4,33"]);
 }
 
+/// Nine frequencies refined along u0 to 3 % (coarse steps of a factor of 10 halved seven
+/// times), guided or with every column halving alone.
+fn nine_columns(guided: bool) -> String {
+    format!(
+        r#"
+name = "nine"
+[fixed]
+k_d = 20000.0
+v_d = 1.5e-3
+[[axis]]
+name = "f"
+logspace = [500.0, 4000.0, 9]
+[[axis]]
+name = "u0"
+logspace = [1e-8, 1e-5, 4]
+[refine]
+along = "u0"
+across = "f"
+resolution = 0.03
+guided = {guided}
+[solver]
+method = "dopri5"
+[run]
+t_end = 1.5
+"#
+    )
+}
+
+/// Guided columns start where their neighbours cross the level: the same boundary as columns
+/// that halve their steps alone, every crossing resolved to the same dense step, from fewer runs
+/// (each halving alone takes seven per column; a guided column whose prediction holds, two). The
+/// points both make carry the same numbers, and `guided = 1` is refused by name.
+#[test]
+fn guided_columns_find_the_halved_boundary_with_fewer_runs() {
+    let dir = tempfile::tempdir().unwrap();
+    let g = SweepSpec::parse("g.toml", &nine_columns(true)).unwrap();
+    let h = SweepSpec::parse("h.toml", &nine_columns(false)).unwrap();
+    assert_eq!(h.refine.as_ref().unwrap().levels, 7);
+    let (a, b) = (dir.path().join("g.h5"), dir.path().join("h.h5"));
+    let ra = sweep::run(&g, &opts(&a, 2)).unwrap();
+    let rb = sweep::run(&h, &opts(&b, 2)).unwrap();
+    let ba = sweep::boundary::run(&a).unwrap().1;
+    let bb = sweep::boundary::run(&b).unwrap().1;
+    assert_eq!(ba.len(), 9);
+    let mut crossed = 0;
+    for (p, q) in ba.iter().zip(&bb) {
+        let same = |x: f64, y: f64| x.to_bits() == y.to_bits() || (x.is_nan() && y.is_nan());
+        assert!(
+            same(p.u0, q.u0) && same(p.u0_upper, q.u0_upper),
+            "{p:?} vs {q:?}"
+        );
+        assert_eq!(p.crossings, q.crossings, "{p:?} vs {q:?}");
+        if p.u0.is_finite() && !p.below_range {
+            crossed += 1;
+            assert!(
+                p.resolution < 0.03 && same(p.resolution, q.resolution),
+                "{p:?}"
+            );
+        }
+    }
+    assert!(crossed >= 6, "{ba:?}");
+    // Halving alone: the coarse points and seven runs per crossing column at least.
+    assert!(rb.runs_made >= 1 + 9 * 4 + 7 * crossed, "{}", rb.runs_made);
+    // 79 against 104 runs.
+    assert!(
+        5 * ra.runs_made <= 4 * rb.runs_made,
+        "guided {} vs halved {}",
+        ra.runs_made,
+        rb.runs_made
+    );
+    let fa = H5File::open(&a).unwrap();
+    let fb = H5File::open(&b).unwrap();
+    let ca = fa.dataset("computed").unwrap().read_raw::<f64>().unwrap();
+    let cb = fb.dataset("computed").unwrap().read_raw::<f64>().unwrap();
+    let ya = fa.dataset("r").unwrap().read_raw::<f64>().unwrap();
+    let yb = fb.dataset("r").unwrap().read_raw::<f64>().unwrap();
+    let both = (0..ca.len())
+        .filter(|&k| ca[k] == 1.0 && cb[k] == 1.0)
+        .count();
+    assert!(both >= 9 * 4, "{both}");
+    for k in (0..ca.len()).filter(|&k| ca[k] == 1.0 && cb[k] == 1.0) {
+        assert_eq!(ya[k].to_bits(), yb[k].to_bits(), "r at {k}");
+    }
+    let err = SweepSpec::parse(
+        "bad.toml",
+        &nine_columns(true).replace("guided = true", "guided = 1"),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        err.contains("guided") && err.contains("true or false"),
+        "{err}"
+    );
+}
+
 /// A refinement killed with SIGKILL resumes from its journal to the same points and numbers.
 #[test]
 fn killed_refinement_resumes_to_the_same_points_and_numbers() {

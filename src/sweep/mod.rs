@@ -345,35 +345,135 @@ impl Executor<'_> {
                 drop(tx);
             });
             for (t, r) in rx {
-                if let Err(e) = self.journal.record(t, &r) {
-                    io_error.get_or_insert(format!("{}: {e}", self.journal.path().display()));
-                }
-                progress.inc(r.status != Status::Success);
-                results.store(t, r);
-                self.made += 1;
-                if self.last_checkpoint.elapsed()
-                    > Duration::from_secs_f64(self.opts.checkpoint_every)
-                {
-                    let _ = self.journal.sync();
-                    if let Err(e) = h5::write(
-                        self.target,
-                        self.spec,
-                        plan,
-                        results,
-                        &[],
-                        h5::Stamp {
-                            started: self.started,
-                            finished: None,
-                            partial: false,
-                            shard: self.opts.shard,
-                        },
-                    ) {
-                        io_error.get_or_insert(e.to_string());
-                    }
-                    self.last_checkpoint = Instant::now();
-                }
+                self.land(t, r, results, progress, &mut io_error);
             }
         });
+        match io_error {
+            Some(e) => Err(SweepError::State(e)),
+            None => Ok(()),
+        }
+    }
+
+    /// Journals and stores one run's result, and writes a checkpoint when one is due.
+    fn land(
+        &mut self,
+        t: Task,
+        r: RunResult,
+        results: &mut Results,
+        progress: &mut Progress,
+        io_error: &mut Option<String>,
+    ) {
+        if let Err(e) = self.journal.record(t, &r) {
+            io_error.get_or_insert(format!("{}: {e}", self.journal.path().display()));
+        }
+        progress.inc(r.status != Status::Success);
+        results.store(t, r);
+        self.made += 1;
+        if self.last_checkpoint.elapsed() > Duration::from_secs_f64(self.opts.checkpoint_every) {
+            let _ = self.journal.sync();
+            if let Err(e) = h5::write(
+                self.target,
+                self.spec,
+                self.plan,
+                results,
+                &[],
+                h5::Stamp {
+                    started: self.started,
+                    finished: None,
+                    partial: false,
+                    shard: self.opts.shard,
+                },
+            ) {
+                io_error.get_or_insert(e.to_string());
+            }
+            self.last_checkpoint = Instant::now();
+        }
+    }
+
+    /// The refinement after the coarse grid: each plane goes round after round
+    /// ([`refine::next_points`]), its next round asked for as soon as its own runs of the last
+    /// one have landed, whatever the other planes are doing, so no plane waits for another's
+    /// slowest run. The workers take the runs in the order they are asked for.
+    fn refine(
+        &mut self,
+        results: &mut Results,
+        progress: &mut Progress,
+        mine: &impl Fn(&usize) -> bool,
+    ) -> Result<(), SweepError> {
+        let (spec, plan, run_opts, pool) = (self.spec, self.plan, self.run_opts, self.pool);
+        let method = run_opts.method;
+        let planes = refine::plane_count(spec);
+        let (plane_of, _) = shard::planes(spec);
+        let mut io_error: Option<String> = None;
+        // Tasks still running per plane, and the plane each was asked for.
+        let mut pending = vec![0usize; planes];
+        let mut asked_by: HashMap<Task, usize> = HashMap::new();
+        let (task_tx, task_rx) = std::sync::mpsc::channel::<Task>();
+        let (res_tx, res_rx) = std::sync::mpsc::channel::<(Task, RunResult)>();
+        std::thread::scope(|sc| -> Result<(), SweepError> {
+            sc.spawn(move || {
+                let task_rx = std::sync::Mutex::new(task_rx);
+                pool.install(|| {
+                    rayon::scope(|s| {
+                        for _ in 0..rayon::current_num_threads() {
+                            let (res_tx, task_rx) = (res_tx.clone(), &task_rx);
+                            s.spawn(move |_| {
+                                let mut solver = Solver::new(method);
+                                // Until the sender is gone: no plane asks for more.
+                                while let Ok(Ok(t)) = task_rx.lock().map(|rx| rx.recv()) {
+                                    let r = run_task(plan, t, run_opts, &mut solver);
+                                    let _ = res_tx.send((t, r));
+                                }
+                            });
+                        }
+                    })
+                });
+                drop(res_tx);
+            });
+            // The next round of plane `p`: its tasks go to the workers (none: the plane is done).
+            let ask = |p: usize,
+                       results: &Results,
+                       pending: &mut [usize],
+                       asked_by: &mut HashMap<Task, usize>,
+                       progress: &mut Progress| {
+                let points: Vec<usize> = refine::next_points(spec, plan, results, p)
+                    .into_iter()
+                    .filter(|i| mine(i))
+                    .collect();
+                let tasks: Vec<Task> = tasks_of(plan, &points)
+                    .into_iter()
+                    .filter(|t| !results.has(*t) && !asked_by.contains_key(t))
+                    .collect();
+                progress.grow(tasks.len() as u64);
+                for t in tasks {
+                    pending[p] += 1;
+                    asked_by.insert(t, p);
+                    let _ = task_tx.send(t);
+                }
+            };
+            for p in 0..planes {
+                ask(p, results, &mut pending, &mut asked_by, progress);
+            }
+            let mut running: usize = pending.iter().sum();
+            while running > 0 {
+                let Ok((t, r)) = res_rx.recv() else {
+                    return Err(SweepError::State("the sweep's workers stopped".into()));
+                };
+                let p = asked_by.remove(&t).unwrap_or(match t {
+                    Task::Point(i) => plane_of[i],
+                    Task::Ref(_) => 0,
+                });
+                self.land(t, r, results, progress, &mut io_error);
+                pending[p] -= 1;
+                running -= 1;
+                if pending[p] == 0 {
+                    ask(p, results, &mut pending, &mut asked_by, progress);
+                    running += pending[p];
+                }
+            }
+            drop(task_tx);
+            Ok(())
+        })?;
         match io_error {
             Some(e) => Err(SweepError::State(e)),
             None => Ok(()),
@@ -506,19 +606,8 @@ pub fn run(spec: &SweepSpec, opts: &SweepOptions) -> Result<SweepOutcome, SweepE
         opts.progress,
     );
     exec.round(&todo, &mut results, &mut progress)?;
-    if let Some(rf) = &spec.refine {
-        for s in refine::widths(rf) {
-            let asked: Vec<usize> = refine::midpoints(spec, &plan, &results, s)
-                .into_iter()
-                .filter(mine)
-                .collect();
-            let round: Vec<Task> = tasks_of(&plan, &asked)
-                .into_iter()
-                .filter(|t| !results.has(*t))
-                .collect();
-            progress.grow(round.len() as u64);
-            exec.round(&round, &mut results, &mut progress)?;
-        }
+    if spec.refine.is_some() {
+        exec.refine(&mut results, &mut progress, &mine)?;
     }
     progress.finish();
     let runs_made = exec.made;

@@ -4,26 +4,45 @@
 //! The refined axis (`along`, say `u0`) holds the dense values; the sweep file's own axis is the
 //! coarse grid, every `2^levels`-th dense value. The plane is spanned by `along` and `across`
 //! (say `f`), whose values stay as given; it is refined separately for every combination of the
-//! other dimensions (the `(f, u0)` plane of each `(v_d, k_d)`).
+//! other dimensions (the `(f, u0)` plane of each `(v_d, k_d)`). A *column* is one line along
+//! `along` (one `f`).
 //!
-//! Level by level, from steps of `s = 2^levels` dense indices down to `s = 2`, a step
-//! `[j, j + s]` of one line along `along` whose ends are computed is refined (its midpoint
-//! `j + s/2` is run) when
+//! Round after round, a step `(j, k)` between neighbouring computed points of a column, at least
+//! two dense indices apart, is split (a point inside it is run) when
 //! - its ends straddle the level (one below, one at or above it), or
 //! - an end lies within `tolerance` of the level (`[refine] tolerance`, default 0): a dip that
 //!   reaches the level between grid points, such as the intermittent band near `v_a = v_d`, is
 //!   followed instead of bisected away.
 //!
-//! On the coarse grid the *cells* between neighbouring columns of `across` (`i`, `i + 1`) count
-//! too: a cell whose four corners straddle the level is refined in both columns, so an island
-//! or band that one column's coarse points miss is found from its neighbour. (Below the coarse
-//! level a cell that straddles only between its columns, the boundary passing between two
-//! frequencies, would be refined down to the finest step without resolving anything.)
+//! A column ends with every such step one dense index wide: its crossings, resolved to the dense
+//! step. The split point is the midpoint, except in *guided* columns (`[refine] guided`, default
+//! true). The boundary moves little from one column to the next (the paper's rule of thumb puts
+//! it at `u0 = v_d / (2 pi f)`, a straight line in `log u0` against `log f`), so the crossings
+//! of a column's two neighbours, interpolated in the across value (in its logarithm on a
+//! logarithmic axis), predict its own: on the overnight sixteenth 81 % of the odd columns cross
+//! within one dense step of the interpolation between their even neighbours. So the columns are
+//! taken in three passes: every fourth and the last halve their steps alone; then those halfway
+//! between (`4i + 2`), guided by the first; then the odd ones, guided by their even neighbours.
+//! A guided column waits until both its guides have finished. Where each crossed exactly once,
+//! at `b₁` and `b₂`, the interpolation gives the dense index `q` (rounded), and the column's
+//! straddling steps are split at `q` and `q + 1`: two runs where the prediction holds, instead of
+//! one per halving. Where the crossing lies beyond them, the next point lies as far beyond the
+//! step's end again (1, 2, 4, ... dense steps from the prediction), until the search brackets
+//! the crossing and halving resolves it. Elsewhere (a guide with no crossing or several, steps
+//! only near the level) the guided column halves too. Either way a column ends with crossings
+//! one dense step wide.
 //!
-//! Corners with no value (a failed run) do not count. Each level's runs are fixed before any
-//! of them is made, and the next level depends only on their values, so the points and numbers
-//! do not depend on the thread count; a resumed sweep asks for the same points and finds them in
-//! its journal.
+//! On the coarse grid the *cells* between neighbouring columns of `across` (`i`, `i + 1`) count
+//! too: a cell whose four corners straddle the level has its coarse step's midpoint run in both
+//! columns, so an island or band that one column's coarse points miss is found from its
+//! neighbour (a guided column whose own step straddles there is searched from its guides
+//! instead).
+//!
+//! Corners with no value (a failed run) do not count. A plane's rounds follow from its own values
+//! alone ([`next_points`]), every point of a round fixed before any of them is run, so the points
+//! and numbers do not depend on the thread count or on how far the other planes have got (the
+//! sweep asks for a plane's next round as soon as its last one has landed), and a resumed
+//! sweep, whatever its journal holds, goes on to the same points.
 
 use super::spec::{Refine, SweepSpec};
 use super::{Plan, Results};
@@ -73,21 +92,37 @@ impl Layout {
         out
     }
 
-    /// The cells' column pairs: each line with its neighbour across (or alone).
-    fn columns(&self) -> Vec<Vec<Vec<usize>>> {
-        self.lines()
-            .into_iter()
-            .filter_map(|l| match self.across {
-                None => Some(vec![l]),
-                Some(c) if self.shape[c] == 1 => Some(vec![l]),
-                Some(c) if l[c] + 1 < self.shape[c] => {
-                    let mut next = l.clone();
-                    next[c] += 1;
-                    Some(vec![l, next])
-                }
-                Some(_) => None,
-            })
+    /// The dimensions other than `along` and `across`, whose combinations are the planes.
+    fn others(&self) -> Vec<usize> {
+        (0..self.shape.len())
+            .filter(|&k| k != self.along && Some(k) != self.across)
             .collect()
+    }
+
+    /// Number of planes.
+    fn planes(&self) -> usize {
+        self.others().iter().map(|&k| self.shape[k]).product()
+    }
+
+    /// The lines of plane `p` (numbered in C order over [`Layout::others`], as
+    /// [`super::shard::planes`] does), by their index across.
+    fn plane_lines(&self, p: usize) -> Vec<Vec<usize>> {
+        let mut idx = vec![0usize; self.shape.len()];
+        let mut rem = p;
+        for &k in self.others().iter().rev() {
+            idx[k] = rem % self.shape[k];
+            rem /= self.shape[k];
+        }
+        match self.across {
+            None => vec![idx],
+            Some(c) => (0..self.shape[c])
+                .map(|a| {
+                    let mut l = idx.clone();
+                    l[c] = a;
+                    l
+                })
+                .collect(),
+        }
     }
 }
 
@@ -108,55 +143,200 @@ pub fn coarse_points(spec: &SweepSpec) -> Vec<usize> {
     out
 }
 
-/// The points the cells of width `s` (dense indices, a power of two ≥ 2) ask for: the
-/// midpoints of every cell to refine (module docs), sorted and without repeats, including
-/// points already computed (the caller skips those).
-pub fn midpoints(spec: &SweepSpec, plan: &Plan, res: &Results, s: usize) -> Vec<usize> {
+/// A line's computed points along `along`, in order: dense index and value (NaN where the
+/// run has no value).
+fn computed(
+    lay: &Layout,
+    line: &[usize],
+    value: &impl Fn(usize) -> Option<f64>,
+) -> Vec<(usize, f64)> {
+    let mut idx = line.to_vec();
+    (0..lay.shape[lay.along])
+        .filter_map(|j| {
+            idx[lay.along] = j;
+            value(lay.flat(&idx)).map(|v| (j, v))
+        })
+        .collect()
+}
+
+/// Where a line stands: its open steps (neighbouring computed points at least two dense
+/// indices apart to refine, and whether they straddle the level) and its crossings (neighbouring
+/// computed points one index apart that straddle it; the lower index).
+struct Line {
+    open: Vec<(usize, usize, bool)>,
+    crossings: Vec<usize>,
+}
+
+impl Line {
+    fn of(pts: &[(usize, f64)], rf: &Refine) -> Line {
+        let mut open = vec![];
+        let mut crossings = vec![];
+        for w in pts.windows(2) {
+            let ((a, x), (b, y)) = (w[0], w[1]);
+            let v: Vec<f64> = [x, y].into_iter().filter(|v| v.is_finite()).collect();
+            let straddles = v.iter().any(|&x| x < rf.level) && v.iter().any(|&x| x >= rf.level);
+            let near =
+                rf.tolerance > 0.0 && v.iter().any(|&x| (x - rf.level).abs() <= rf.tolerance);
+            if b - a >= 2 && (straddles || near) {
+                open.push((a, b, straddles));
+            } else if b - a == 1 && straddles {
+                crossings.push(a);
+            }
+        }
+        Line { open, crossings }
+    }
+}
+
+/// The neighbours across whose crossings guide column `a` of `n` (`guided`, module docs):
+/// `None` for the columns refined by halving alone (every fourth and the last).
+fn guides(a: usize, n: usize) -> Option<(usize, usize)> {
+    if n < 3 || a.is_multiple_of(4) || a + 1 == n {
+        None
+    } else if !a.is_multiple_of(2) {
+        Some((a - 1, a + 1))
+    } else {
+        Some((a - 2, (a + 2).min(n - 1)))
+    }
+}
+
+/// The points a straddling open step `(lo, hi)` is split at, given the crossing its neighbours
+/// predict between `q` and `q + 1`: those two where inside the step; else, the prediction lying
+/// beyond the step's end `e`, the point as far beyond `e` again (1, 2, 4, ... dense steps away
+/// from the prediction: a search that doubles its stride until it brackets the crossing); else
+/// the midpoint.
+fn guided_split(lo: usize, hi: usize, q: usize, out: &mut Vec<usize>) {
+    let inside: Vec<usize> = [q, q + 1]
+        .into_iter()
+        .filter(|&j| lo < j && j < hi)
+        .collect();
+    if !inside.is_empty() {
+        out.extend(inside);
+        return;
+    }
+    let cand = if q < lo {
+        lo + (lo - q)
+    } else {
+        // The prediction lies at or above `hi`: its upper point `q + 1` is beyond it.
+        hi.saturating_sub(q + 1 - hi)
+    };
+    out.push(if lo < cand && cand < hi {
+        cand
+    } else {
+        (lo + hi) / 2
+    });
+}
+
+/// Number of planes the refinement works in (every combination of the dimensions other than
+/// `along` and `across`).
+pub fn plane_count(spec: &SweepSpec) -> usize {
+    Layout::of(spec).planes()
+}
+
+/// The points the next round of plane `p` asks for (module docs), none of them computed yet,
+/// sorted and without repeats; empty when the plane is done. They depend only on the plane's
+/// values computed so far, so its rounds, and its points, are the same at any thread count, in
+/// whatever order the planes go, and after a resume.
+pub fn next_points(spec: &SweepSpec, plan: &Plan, res: &Results, p: usize) -> Vec<usize> {
     let rf: &Refine = spec.refine.as_ref().expect("a refined sweep");
     let lay = Layout::of(spec);
     let n = lay.shape[lay.along];
-    let half = s / 2;
+    let stride = rf.stride();
     let value = |i: usize| -> Option<f64> {
         let (own, _) = res.point(plan, i);
         own?;
         Some(res.measure(plan, i, &rf.measure))
     };
-    let at = |col: &Vec<usize>, j: usize| {
-        let mut idx = col.clone();
+    let at = |line: &[usize], j: usize| {
+        let mut idx = line.to_vec();
         idx[lay.along] = j;
         lay.flat(&idx)
     };
-    // The finite values at the ends of step [j, j + s] of each column (None: not both computed).
-    let ends = |col: &Vec<usize>, j: usize| -> Option<Vec<f64>> {
-        let (a, b) = (value(at(col, j))?, value(at(col, j + s))?);
-        Some([a, b].into_iter().filter(|v| v.is_finite()).collect())
+    // The plane's columns, by their index across.
+    let lines = lay.plane_lines(p);
+    let states: Vec<Line> = lines
+        .iter()
+        .map(|l| Line::of(&computed(&lay, l, &value), rf))
+        .collect();
+    // Where the across axis is logarithmic the crossings are interpolated in its logarithm.
+    let across_pos = |a: usize| -> f64 {
+        let Some(c) = lay.across else { return a as f64 };
+        let vals = &spec.axes[spec.dims[c].axes[0]].values;
+        if vals.iter().all(|&v| v > 0.0) {
+            vals[a].ln()
+        } else {
+            vals[a]
+        }
     };
-    let straddles = |v: &[f64]| v.iter().any(|&x| x < rf.level) && v.iter().any(|&x| x >= rf.level);
-    let near =
-        |v: &[f64]| rf.tolerance > 0.0 && v.iter().any(|&x| (x - rf.level).abs() <= rf.tolerance);
     let mut out = vec![];
-    let steps = (0..n.saturating_sub(1)).step_by(s).filter(|&j| j + s < n);
-    for line in lay.lines() {
-        for j in steps.clone() {
-            if let Some(v) = ends(&line, j)
-                && (straddles(&v) || near(&v))
-            {
-                out.push(at(&line, j + half));
+    for (l, line) in lines.iter().enumerate() {
+        let st = &states[l];
+        if st.open.is_empty() {
+            continue;
+        }
+        // A guided column waits for its guides to finish, then starts from the crossing they
+        // interpolate where each has exactly one.
+        let guide = match (rf.guided, lay.across) {
+            (true, Some(c)) => {
+                guides(line[c], lay.shape[c]).map(|(g, h)| ((g, &states[g]), (h, &states[h]), c))
+            }
+            _ => None,
+        };
+        let mut predicted = None;
+        if let Some(((pa, ps), (qa, qs), c)) = guide {
+            if !ps.open.is_empty() || !qs.open.is_empty() {
+                continue;
+            }
+            if let ([bp], [bq]) = (&ps.crossings[..], &qs.crossings[..]) {
+                let (xp, xq, x) = (across_pos(pa), across_pos(qa), across_pos(line[c]));
+                let w = if xq != xp { (x - xp) / (xq - xp) } else { 0.5 };
+                let b = *bp as f64 + w * (*bq as f64 - *bp as f64);
+                predicted = Some(b.round().clamp(0.0, (n - 2) as f64) as usize);
             }
         }
+        for &(lo, hi, straddles) in &st.open {
+            let mut split = vec![];
+            match predicted {
+                Some(q) if straddles => guided_split(lo, hi, q, &mut split),
+                _ => split.push((lo + hi) / 2),
+            }
+            out.extend(split.into_iter().map(|j| at(line, j)));
+        }
     }
-    // On the coarse grid, cells between neighbouring columns too: where the level passes
-    // between two columns inside a step, both columns are refined there, so that an island or
+    // Cells between neighbouring columns on the coarse grid: where the level passes between
+    // two columns inside a coarse step, both columns are refined there, so that an island or
     // band one column misses at its coarse points is found from its neighbour.
-    if s == rf.stride() {
-        for cols in lay.columns().into_iter().filter(|c| c.len() == 2) {
-            for j in steps.clone() {
-                let (Some(a), Some(b)) = (ends(&cols[0], j), ends(&cols[1], j)) else {
-                    continue;
+    let steps = (0..n.saturating_sub(1))
+        .step_by(stride)
+        .filter(|&j| j + stride < n);
+    for cols in lines.windows(2).map(|w| w.to_vec()) {
+        for j in steps.clone() {
+            let mid = |c: &Vec<usize>| at(c, j + stride / 2);
+            if cols.iter().all(|c| value(mid(c)).is_some()) {
+                continue;
+            }
+            let corners: Option<Vec<f64>> = cols
+                .iter()
+                .flat_map(|c| [at(c, j), at(c, j + stride)])
+                .map(&value)
+                .collect();
+            let Some(corners) = corners else { continue };
+            let v: Vec<f64> = corners.into_iter().filter(|v| v.is_finite()).collect();
+            if !(v.iter().any(|&x| x < rf.level) && v.iter().any(|&x| x >= rf.level)) {
+                continue;
+            }
+            for c in &cols {
+                // A guided column whose own step straddles searches it anyway, from its guides.
+                let own = |i: usize| value(at(c, i)).filter(|v| v.is_finite());
+                let straddles = match (own(j), own(j + stride)) {
+                    (Some(a), Some(b)) => (a < rf.level) != (b < rf.level),
+                    _ => false,
                 };
-                let corners: Vec<f64> = a.into_iter().chain(b).collect();
-                if straddles(&corners) {
-                    out.extend(cols.iter().map(|c| at(c, j + half)));
+                let guided = rf.guided
+                    && lay
+                        .across
+                        .is_some_and(|x| guides(c[x], lay.shape[x]).is_some());
+                if value(mid(c)).is_none() && !(guided && straddles) {
+                    out.push(mid(c));
                 }
             }
         }
@@ -164,9 +344,4 @@ pub fn midpoints(spec: &SweepSpec, plan: &Plan, res: &Results, s: usize) -> Vec<
     out.sort_unstable();
     out.dedup();
     out
-}
-
-/// The cell widths of the refinement, coarsest first: `2^levels, ..., 4, 2`.
-pub fn widths(rf: &Refine) -> Vec<usize> {
-    (1..=rf.levels).rev().map(|l| 1usize << l).collect()
 }

@@ -85,6 +85,8 @@ pub struct Axis {
 /// resolution = 0.01      # finest step along `along`: relative on a logspace axis (0.01: 1 %),
 ///                        # in the axis unit on a linspace axis
 /// tolerance = 0.03       # default 0: also refine cells with a value this close to the level
+/// guided = true          # default true: columns between others start where their neighbours
+///                        # cross the level
 /// ```
 ///
 /// The `along` axis of the file is the coarse grid. Its steps are halved `levels` times, the
@@ -107,6 +109,10 @@ pub struct Refine {
     /// Cells with a corner within this distance of the level are refined too (default 0: only
     /// cells that straddle it).
     pub tolerance: f64,
+    /// Columns between others (across) start their search where their neighbours' crossings
+    /// interpolate (default true; see [`crate::sweep::refine`]). `false`: every column halves
+    /// its steps alone.
+    pub guided: bool,
     /// Times the coarse steps are halved.
     pub levels: u32,
     /// Values of the coarse axis.
@@ -397,6 +403,7 @@ impl SweepSpec {
         let mut across: Option<String> = None;
         let mut resolution: Option<f64> = None;
         let mut tolerance = 0.0;
+        let mut guided = true;
         for (k, v) in t {
             match k.as_str() {
                 "measure" => {
@@ -454,11 +461,20 @@ impl SweepSpec {
                         ));
                     }
                 }
+                "guided" => {
+                    guided = v.as_bool().ok_or_else(|| {
+                        doc.err(
+                            sec,
+                            k,
+                            format!("guided = {v} is not allowed: must be true or false"),
+                        )
+                    })?;
+                }
                 _ => {
                     return Err(doc.err(
                         sec,
                         k,
-                        "unknown key; allowed: measure, level, along, across, resolution, tolerance",
+                        "unknown key; allowed: measure, level, along, across, resolution, tolerance, guided",
                     ));
                 }
             }
@@ -586,6 +602,7 @@ impl SweepSpec {
             across,
             resolution,
             tolerance,
+            guided,
             levels,
             coarse: n,
         });
