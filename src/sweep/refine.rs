@@ -19,7 +19,7 @@
 //! true). The boundary moves little from one column to the next (the paper's rule of thumb puts
 //! it at `u0 = v_d / (2 pi f)`, a straight line in `log u0` against `log f`), so the crossings
 //! of a column's two neighbours, interpolated in the across value (in its logarithm on a
-//! logarithmic axis), predict its own: on the overnight sixteenth 81 % of the odd columns cross
+//! logarithmic axis), predict its own: on the overnight sixteenth 84 % of the odd columns cross
 //! within one dense step of the interpolation between their even neighbours. So the columns are
 //! taken in three passes: every fourth and the last halve their steps alone; then those halfway
 //! between (`4i + 2`), guided by the first; then the odd ones, guided by their even neighbours.
