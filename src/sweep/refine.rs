@@ -167,16 +167,21 @@ struct Line {
     crossings: Vec<usize>,
 }
 
+/// Whether the finite values among `v` straddle `level` (one below, one at or above it).
+fn straddles(v: &[f64], level: f64) -> bool {
+    let finite = || v.iter().filter(|x| x.is_finite());
+    finite().any(|&x| x < level) && finite().any(|&x| x >= level)
+}
+
 impl Line {
     fn of(pts: &[(usize, f64)], rf: &Refine) -> Line {
         let mut open = vec![];
         let mut crossings = vec![];
         for w in pts.windows(2) {
             let ((a, x), (b, y)) = (w[0], w[1]);
-            let v: Vec<f64> = [x, y].into_iter().filter(|v| v.is_finite()).collect();
-            let straddles = v.iter().any(|&x| x < rf.level) && v.iter().any(|&x| x >= rf.level);
+            let straddles = straddles(&[x, y], rf.level);
             let near =
-                rf.tolerance > 0.0 && v.iter().any(|&x| (x - rf.level).abs() <= rf.tolerance);
+                rf.tolerance > 0.0 && [x, y].iter().any(|&v| (v - rf.level).abs() <= rf.tolerance);
             if b - a >= 2 && (straddles || near) {
                 open.push((a, b, straddles));
             } else if b - a == 1 && straddles {
@@ -308,9 +313,9 @@ pub fn next_points(spec: &SweepSpec, plan: &Plan, res: &Results, p: usize) -> Ve
     let steps = (0..n.saturating_sub(1))
         .step_by(stride)
         .filter(|&j| j + stride < n);
-    for cols in lines.windows(2).map(|w| w.to_vec()) {
+    for cols in lines.windows(2) {
         for j in steps.clone() {
-            let mid = |c: &Vec<usize>| at(c, j + stride / 2);
+            let mid = |c: &[usize]| at(c, j + stride / 2);
             if cols.iter().all(|c| value(mid(c)).is_some()) {
                 continue;
             }
@@ -320,17 +325,13 @@ pub fn next_points(spec: &SweepSpec, plan: &Plan, res: &Results, p: usize) -> Ve
                 .map(&value)
                 .collect();
             let Some(corners) = corners else { continue };
-            let v: Vec<f64> = corners.into_iter().filter(|v| v.is_finite()).collect();
-            if !(v.iter().any(|&x| x < rf.level) && v.iter().any(|&x| x >= rf.level)) {
+            if !straddles(&corners, rf.level) {
                 continue;
             }
-            for c in &cols {
+            for c in cols {
                 // A guided column whose own step straddles searches it anyway, from its guides.
-                let own = |i: usize| value(at(c, i)).filter(|v| v.is_finite());
-                let straddles = match (own(j), own(j + stride)) {
-                    (Some(a), Some(b)) => (a < rf.level) != (b < rf.level),
-                    _ => false,
-                };
+                let own = |i: usize| value(at(c, i)).unwrap_or(f64::NAN);
+                let straddles = straddles(&[own(j), own(j + stride)], rf.level);
                 let guided = rf.guided
                     && lay
                         .across
