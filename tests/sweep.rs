@@ -612,6 +612,171 @@ fn guided_columns_find_the_halved_boundary_with_fewer_runs() {
     );
 }
 
+/// Five drive stiffnesses and three frequencies at two drive velocities, refined along u0 to
+/// 3 %: ten `(f, u0)` planes, with or without `guide_planes = "k_d"`.
+fn stiffness_planes(guide: bool) -> String {
+    let g = if guide { "guide_planes = \"k_d\"" } else { "" };
+    format!(
+        r#"
+name = "stiffness-planes"
+[[axis]]
+name = "v_d"
+values = [1.0e-3, 1.5e-3]
+[[axis]]
+name = "k_d"
+logspace = [5000.0, 20000.0, 5]
+[[axis]]
+name = "f"
+logspace = [500.0, 4000.0, 3]
+[[axis]]
+name = "u0"
+logspace = [1e-8, 1e-5, 4]
+[refine]
+along = "u0"
+across = "f"
+resolution = 0.03
+{g}
+[solver]
+method = "dopri5"
+[run]
+t_end = 1.5
+"#
+    )
+}
+
+/// Planes along `guide_planes` start every column where the same column of the planes on
+/// either side crosses: the same boundary as planes refined alone, from fewer runs; the two
+/// groups of planes (one per drive velocity) run as two shards and merge into the single
+/// machine's file bit for bit; three shards, and `guide_planes` naming a side of the plane,
+/// no dimension, or with `guided = false`, are refused by name.
+#[test]
+fn planes_guided_along_the_stiffness_find_the_same_boundary_with_fewer_runs() {
+    let dir = tempfile::tempdir().unwrap();
+    let g = SweepSpec::parse("g.toml", &stiffness_planes(true)).unwrap();
+    let h = SweepSpec::parse("h.toml", &stiffness_planes(false)).unwrap();
+    assert_eq!(sweep::refine::plane_count(&g), 10);
+    // The planes at the ends of k_d refine alone; the middle one (2) is guided by them, the
+    // quarters (1, 3) by an end and the middle.
+    let guides: Vec<_> = (0..5).map(|p| sweep::refine::plane_guides(&g, p)).collect();
+    assert_eq!(
+        guides,
+        [None, Some((0, 2)), Some((0, 4)), Some((2, 4)), None]
+    );
+    assert_eq!(sweep::refine::plane_guides(&g, 7), Some((5, 9)));
+    assert!((0..10).all(|p| sweep::refine::plane_guides(&h, p).is_none()));
+    let (a, b) = (dir.path().join("g.h5"), dir.path().join("h.h5"));
+    let ra = sweep::run(&g, &opts(&a, 2)).unwrap();
+    let rb = sweep::run(&h, &opts(&b, 2)).unwrap();
+    let ba = sweep::boundary::run(&a).unwrap().1;
+    let bb = sweep::boundary::run(&b).unwrap().1;
+    assert_eq!(ba.len(), 30);
+    let mut crossed = 0;
+    for (p, q) in ba.iter().zip(&bb) {
+        let same = |x: f64, y: f64| x.to_bits() == y.to_bits() || (x.is_nan() && y.is_nan());
+        assert!(
+            same(p.u0, q.u0) && same(p.u0_upper, q.u0_upper),
+            "{p:?} vs {q:?}"
+        );
+        assert_eq!(p.crossings, q.crossings, "{p:?} vs {q:?}");
+        if p.u0.is_finite() && !p.below_range {
+            crossed += 1;
+            assert!(p.resolution < 0.03, "{p:?}");
+        }
+    }
+    assert!(crossed >= 20, "{ba:?}");
+    assert!(
+        ra.runs_made < rb.runs_made,
+        "{} vs {}",
+        ra.runs_made,
+        rb.runs_made
+    );
+    // Per plane (v_d, k_d), in C order: the planes at the ends of k_d refine alone, exactly as
+    // without guide_planes; the six between make fewer refinement runs (12 coarse points each).
+    let computed = |path: &Path| {
+        let f = H5File::open(path).unwrap();
+        f.dataset("computed").unwrap().read_raw::<f64>().unwrap()
+    };
+    let (ca, cb) = (computed(&a), computed(&b));
+    let per = ca.len() / 10;
+    let runs = |c: &[f64], p: usize| {
+        c[p * per..(p + 1) * per]
+            .iter()
+            .filter(|&&x| x == 1.0)
+            .count()
+    };
+    for p in [0, 4, 5, 9] {
+        assert_eq!(
+            ca[p * per..(p + 1) * per],
+            cb[p * per..(p + 1) * per],
+            "plane {p}"
+        );
+    }
+    let refined = |c: &[f64]| {
+        [1, 2, 3, 6, 7, 8]
+            .iter()
+            .map(|&p| runs(c, p) - 12)
+            .sum::<usize>()
+    };
+    let (ga, gb) = (refined(&ca), refined(&cb));
+    // 129 against 152: here the boundary moves by up to 90 dense steps from k_d = 5000 to
+    // 20 000 N/m, so the interpolation misses by a few steps (the overnight surface's moves by
+    // a few).
+    assert!(10 * ga <= 9 * gb, "guided planes {ga} vs alone {gb}");
+    // Two shards, one group of five planes each, merged: the single machine's file.
+    let file = write(dir.path(), "g.toml", &stiffness_planes(true));
+    let merged = dir.path().join("merged.h5");
+    let m = merged.to_str().unwrap();
+    for i in 0..2 {
+        let (ok, log) = stickslip(&[
+            "sweep",
+            file.to_str().unwrap(),
+            "-o",
+            m,
+            "--shard",
+            &format!("{i}/2"),
+            "-q",
+        ]);
+        assert!(ok, "{log}");
+    }
+    let (ok, log) = stickslip(&["merge", m]);
+    assert!(ok, "{log}");
+    same_sweep(&a, &merged);
+    let owners = sweep::shard::owners(&g, 2);
+    let (plane, _) = sweep::shard::planes(&g);
+    for i in 0..owners.len() {
+        // Plane p lies at v_d index p / 5: a shard owns whole drive velocities.
+        assert_eq!(
+            owners[i],
+            owners[if plane[i] < 5 { 0 } else { owners.len() - 1 }]
+        );
+    }
+    let (ok, log) = stickslip(&["sweep", file.to_str().unwrap(), "-o", m, "--shard", "0/3"]);
+    assert!(
+        !ok && log.contains("3 shards") && log.contains("groups of planes"),
+        "{log}"
+    );
+    let text = stiffness_planes(true);
+    for (bad, words) in [
+        (
+            "guide_planes = \"f\"",
+            &["guide_planes", "`f`", "side of the refined plane"][..],
+        ),
+        (
+            "guide_planes = \"h_d\"",
+            &["guide_planes", "`h_d`", "not a dimension"],
+        ),
+        (
+            "guide_planes = \"k_d\"\nguided = false",
+            &["guide_planes", "guided = true"],
+        ),
+    ] {
+        let err = SweepSpec::parse("bad.toml", &text.replace("guide_planes = \"k_d\"", bad))
+            .unwrap_err()
+            .to_string();
+        assert!(words.iter().all(|w| err.contains(w)), "{err}");
+    }
+}
+
 /// A refinement killed with SIGKILL resumes from its journal to the same points and numbers.
 #[test]
 fn killed_refinement_resumes_to_the_same_points_and_numbers() {

@@ -13,7 +13,9 @@
 //!   run).
 //! - `[refine]` sweep: the runs of a plane depend on where its level lies, so whole planes are
 //!   sampled: `CPU = c_plane N_plane`, with the standard error over the sampled planes (a single
-//!   sampled plane gives none).
+//!   sampled plane gives none). With `[refine] guide_planes` the unit is the group of planes
+//!   that guide each other (one value of every dimension but `along`, `across` and the guiding
+//!   one), since none of them refines apart from the others.
 //!
 //! For a Slurm array of `N` tasks, a task of a dense sweep holds `N_pt / N` points and, expecting
 //! the points spread evenly over the `N_ref` references, `N_ref (1 − (1 − 1/N_ref)^(N_pt/N))` of
@@ -34,6 +36,8 @@ pub struct Estimate {
     pub name: String,
     /// Whether the sweep refines (units are planes).
     pub refine: bool,
+    /// Whether the units are groups of planes (`[refine] guide_planes`).
+    pub grouped: bool,
     /// Grid points (dense) or planes (refine) sampled, and in the whole sweep.
     pub sampled: usize,
     /// Units in the whole sweep.
@@ -78,7 +82,12 @@ pub fn estimate(
     threads: Option<usize>,
 ) -> Result<Estimate, SweepError> {
     let units = shard::units(spec);
-    let sample = sample.clamp(1, units);
+    // `sample` counts planes; with guide_planes whole groups of them are sampled.
+    let per_unit = match spec.refine {
+        Some(_) => shard::planes(spec).1 / units,
+        None => 1,
+    };
+    let sample = sample.div_ceil(per_unit).clamp(1, units);
     let count = units.div_ceil(sample);
     let sh = Shard { index: 0, count };
     let dir = std::env::temp_dir().join(format!(
@@ -118,6 +127,10 @@ pub fn estimate(
     let base = Estimate {
         name: spec.name.clone(),
         refine: spec.refine.is_some(),
+        grouped: spec
+            .refine
+            .as_ref()
+            .is_some_and(|r| r.guide_planes.is_some()),
         sampled,
         units,
         sample_runs: records.len(),
@@ -167,7 +180,8 @@ pub fn estimate(
             }
         }
         Some(_) => {
-            let (plane, _) = shard::planes(spec);
+            // Per unit: a plane, or a group of planes that guide each other.
+            let (plane, _) = shard::groups(spec);
             let mut cost = std::collections::BTreeMap::<usize, f64>::new();
             for (i, &o) in owners.iter().enumerate() {
                 if o == 0 {
@@ -245,7 +259,11 @@ fn human(secs: f64) -> String {
 
 impl fmt::Display for Estimate {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let unit = if self.refine { "planes" } else { "grid points" };
+        let unit = match (self.refine, self.grouped) {
+            (true, true) => "groups of planes",
+            (true, false) => "planes",
+            _ => "grid points",
+        };
         writeln!(
             f,
             "estimate for sweep {}: sampled {} of {} {unit} ({} runs) in {}",

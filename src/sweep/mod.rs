@@ -445,12 +445,23 @@ impl Executor<'_> {
                     .filter(|t| !results.has(*t) && !asked_by.contains_key(t))
                     .collect();
                 progress.grow(tasks.len() as u64);
+                let count = tasks.len();
                 for t in tasks {
                     pending[p] += 1;
                     asked_by.insert(t, p);
                     let _ = task_tx.send(t);
                 }
+                count
             };
+            // The planes each plane's finished columns guide (`[refine] guide_planes`): a plane
+            // waiting for them is asked again whenever one of its guides lands a round.
+            let mut guided_by: Vec<Vec<usize>> = vec![vec![]; planes];
+            for p in 0..planes {
+                if let Some((a, b)) = refine::plane_guides(spec, p) {
+                    guided_by[a].push(p);
+                    guided_by[b].push(p);
+                }
+            }
             for p in 0..planes {
                 ask(p, results, &mut pending, &mut asked_by, progress);
             }
@@ -467,8 +478,12 @@ impl Executor<'_> {
                 pending[p] -= 1;
                 running -= 1;
                 if pending[p] == 0 {
-                    ask(p, results, &mut pending, &mut asked_by, progress);
-                    running += pending[p];
+                    running += ask(p, results, &mut pending, &mut asked_by, progress);
+                    for &d in &guided_by[p] {
+                        if pending[d] == 0 {
+                            running += ask(d, results, &mut pending, &mut asked_by, progress);
+                        }
+                    }
                 }
             }
             drop(task_tx);

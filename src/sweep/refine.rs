@@ -32,6 +32,20 @@
 //! only near the level) the guided column halves too. Either way a column ends with crossings
 //! one dense step wide.
 //!
+//! *Guided planes* (`[refine] guide_planes`, a dimension other than the plane's two sides, say
+//! `k_d`). Where the boundary hardly moves from one plane to the next along that dimension (on
+//! the overnight surface the threshold's `v_a / v_d` changes by a few per cent over a factor of
+//! 20 in `k_d`), a plane's columns are predicted by the same columns of planes on either side
+//! better than by their neighbours across: counted on the whole overnight surface refined
+//! without it, interpolating between the planes on either side (the dyadic order below) puts
+//! 84 % of the crossings on the dense step the column finds and 97 % within one, against 56 %
+//! and 84 % for the odd columns between their neighbours across. So the planes at the first
+//! and the last value of the guiding dimension refine as above, and every other plane `m`
+//! takes, for every column, the same column of planes `m − s` and `min(m + s, last)`, `s` the
+//! largest power of two dividing `m` (the middle plane from the two ends, the quarters from an
+//! end and the middle, and so on), each column waiting until those two have finished. The
+//! planes that guide each other make one group, and a sharded sweep deals whole groups.
+//!
 //! On the coarse grid the *cells* between neighbouring columns of `across` (`i`, `i + 1`) count
 //! too: a cell whose four corners straddle the level has its coarse step's midpoint run in both
 //! columns, so an island or band that one column's coarse points miss is found from its
@@ -39,9 +53,10 @@
 //! instead).
 //!
 //! Corners with no value (a failed run) do not count. A plane's rounds follow from its own values
-//! alone ([`next_points`]), every point of a round fixed before any of them is run, so the points
-//! and numbers do not depend on the thread count or on how far the other planes have got (the
-//! sweep asks for a plane's next round as soon as its last one has landed), and a resumed
+//! (and its guiding planes' finished columns) alone ([`next_points`]), every point of a round
+//! fixed before any of them is run, so the points and numbers do not depend on the thread count
+//! or on how far the other planes have got (the sweep asks for a plane's next round as soon as
+//! its last one has landed, and again when a plane it waits for lands one), and a resumed
 //! sweep, whatever its journal holds, goes on to the same points.
 
 use super::spec::{Refine, SweepSpec};
@@ -52,6 +67,7 @@ struct Layout {
     shape: Vec<usize>,
     along: usize,
     across: Option<usize>,
+    guide: Option<usize>,
 }
 
 impl Layout {
@@ -61,6 +77,7 @@ impl Layout {
             shape: spec.shape(),
             along: spec.along_dim().expect("the refined axis has a dimension"),
             across: rf.across,
+            guide: rf.guide_planes,
         }
     }
 
@@ -102,6 +119,18 @@ impl Layout {
     /// Number of planes.
     fn planes(&self) -> usize {
         self.others().iter().map(|&k| self.shape[k]).product()
+    }
+
+    /// The index of plane `p` along the guiding dimension `g`, its count there, and the plane
+    /// number's step per index along it.
+    fn along_guide(&self, p: usize, g: usize) -> (usize, usize, usize) {
+        let step: usize = self
+            .others()
+            .iter()
+            .filter(|&&k| k > g)
+            .map(|&k| self.shape[k])
+            .product();
+        ((p / step) % self.shape[g], self.shape[g], step)
     }
 
     /// The lines of plane `p` (numbered in C order over [`Layout::others`], as
@@ -204,6 +233,28 @@ fn guides(a: usize, n: usize) -> Option<(usize, usize)> {
     }
 }
 
+/// The neighbours along `guide_planes` that guide plane `m` of `n` (module docs): `None` for
+/// the first and the last, which refine alone; else `(m − s, min(m + s, n − 1))` with `s` the
+/// largest power of two dividing `m`, so that the guides of every plane come earlier in the
+/// order first and last, then the middle, then the quarters, and so on.
+fn dyadic_guides(m: usize, n: usize) -> Option<(usize, usize)> {
+    if m == 0 || m + 1 >= n {
+        return None;
+    }
+    let s = 1 << m.trailing_zeros();
+    Some((m - s, (m + s).min(n - 1)))
+}
+
+/// The two planes whose finished columns guide plane `p`'s (`[refine] guide_planes`, module
+/// docs), or `None` (no `guide_planes`, or `p` lies at its first or last value).
+pub fn plane_guides(spec: &SweepSpec, p: usize) -> Option<(usize, usize)> {
+    let lay = Layout::of(spec);
+    let g = lay.guide?;
+    let (m, n, step) = lay.along_guide(p, g);
+    let (a, b) = dyadic_guides(m, n)?;
+    Some((p - (m - a) * step, p + (b - m) * step))
+}
+
 /// The points a straddling open step `(lo, hi)` is split at, given the crossing its neighbours
 /// predict between `q` and `q + 1`: those two where inside the step; else, the prediction lying
 /// beyond the step's end `e`, the point as far beyond `e` again (1, 2, 4, ... dense steps away
@@ -262,16 +313,45 @@ pub fn next_points(spec: &SweepSpec, plan: &Plan, res: &Results, p: usize) -> Ve
         .iter()
         .map(|l| Line::of(&computed(&lay, l, &value), rf))
         .collect();
-    // Where the across axis is logarithmic the crossings are interpolated in its logarithm.
-    let across_pos = |a: usize| -> f64 {
-        let Some(c) = lay.across else { return a as f64 };
-        let vals = &spec.axes[spec.dims[c].axes[0]].values;
+    // The crossings are interpolated in the guiding dimension's values (in their logarithm on a
+    // logarithmic axis).
+    let pos = |d: usize, i: usize| -> f64 {
+        let vals = &spec.axes[spec.dims[d].axes[0]].values;
         if vals.iter().all(|&v| v > 0.0) {
-            vals[a].ln()
+            vals[i].ln()
         } else {
-            vals[a]
+            vals[i]
         }
     };
+    let weight = |d: usize, a: usize, b: usize, x: usize| {
+        let (xa, xb) = (pos(d, a), pos(d, b));
+        if xb != xa {
+            (pos(d, x) - xa) / (xb - xa)
+        } else {
+            0.5
+        }
+    };
+    // Each column's guides: two lines and the weight of the second. Between planes along
+    // `guide_planes`, the same column of the two guiding planes; else its neighbours across.
+    let between = plane_guides(spec, p).map(|(a, b)| {
+        let g = lay.guide.expect("plane guides come from guide_planes");
+        let at_g = |q: usize| lay.along_guide(q, g).0;
+        let w = weight(g, at_g(a), at_g(b), at_g(p));
+        (lay.plane_lines(a), lay.plane_lines(b), w)
+    });
+    let col_guides: Vec<Option<(Vec<usize>, Vec<usize>, f64)>> = (0..lines.len())
+        .map(|l| {
+            if !rf.guided {
+                return None;
+            }
+            if let Some((la, lb, w)) = &between {
+                return Some((la[l].clone(), lb[l].clone(), *w));
+            }
+            let c = lay.across?;
+            let (g, h) = guides(l, lay.shape[c])?;
+            Some((lines[g].clone(), lines[h].clone(), weight(c, g, h, l)))
+        })
+        .collect();
     let mut out = vec![];
     for (l, line) in lines.iter().enumerate() {
         let st = &states[l];
@@ -280,20 +360,14 @@ pub fn next_points(spec: &SweepSpec, plan: &Plan, res: &Results, p: usize) -> Ve
         }
         // A guided column waits for its guides to finish, then starts from the crossing they
         // interpolate where each has exactly one.
-        let guide = match (rf.guided, lay.across) {
-            (true, Some(c)) => {
-                guides(line[c], lay.shape[c]).map(|(g, h)| ((g, &states[g]), (h, &states[h]), c))
-            }
-            _ => None,
-        };
         let mut predicted = None;
-        if let Some(((pa, ps), (qa, qs), c)) = guide {
-            if !ps.open.is_empty() || !qs.open.is_empty() {
+        if let Some((lg, lh, w)) = &col_guides[l] {
+            let gs = Line::of(&computed(&lay, lg, &value), rf);
+            let hs = Line::of(&computed(&lay, lh, &value), rf);
+            if !gs.open.is_empty() || !hs.open.is_empty() {
                 continue;
             }
-            if let ([bp], [bq]) = (&ps.crossings[..], &qs.crossings[..]) {
-                let (xp, xq, x) = (across_pos(pa), across_pos(qa), across_pos(line[c]));
-                let w = if xq != xp { (x - xp) / (xq - xp) } else { 0.5 };
+            if let ([bp], [bq]) = (&gs.crossings[..], &hs.crossings[..]) {
                 let b = *bp as f64 + w * (*bq as f64 - *bp as f64);
                 predicted = Some(b.round().clamp(0.0, (n - 2) as f64) as usize);
             }
@@ -332,10 +406,7 @@ pub fn next_points(spec: &SweepSpec, plan: &Plan, res: &Results, p: usize) -> Ve
                 // A guided column whose own step straddles searches it anyway, from its guides.
                 let own = |i: usize| value(at(c, i)).unwrap_or(f64::NAN);
                 let straddles = straddles(&[own(j), own(j + stride)], rf.level);
-                let guided = rf.guided
-                    && lay
-                        .across
-                        .is_some_and(|x| guides(c[x], lay.shape[x]).is_some());
+                let guided = lay.across.is_some_and(|x| col_guides[c[x]].is_some());
                 if value(mid(c)).is_none() && !(guided && straddles) {
                     out.push(mid(c));
                 }

@@ -21,7 +21,9 @@
 //!
 //! A `[refine]` sweep shards by plane (every combination of the axes other than `along` and
 //! `across`), planes dealt the same way: the refinement of a plane depends only on that plane's
-//! runs, so a shard refines its planes exactly as a single machine would.
+//! runs, so a shard refines its planes exactly as a single machine would. With
+//! `[refine] guide_planes` the planes along that dimension guide each other, so they are dealt
+//! together, a group to a shard.
 
 use super::spec::SweepSpec;
 use std::path::{Path, PathBuf};
@@ -131,11 +133,32 @@ pub fn planes(spec: &SweepSpec) -> (Vec<usize>, usize) {
     (plane, count)
 }
 
-/// The units a sweep is dealt in: grid points, or planes for a `[refine]` sweep.
+/// The group of planes of each grid point of a `[refine]` sweep: its plane, or, with
+/// `guide_planes`, the flat index over the dimensions other than `along`, `across` and the
+/// guiding one (the planes that guide each other stay in one shard).
+pub fn groups(spec: &SweepSpec) -> (Vec<usize>, usize) {
+    let rf = spec.refine.as_ref().expect("a refined sweep");
+    let along = spec.along_dim().expect("the refined axis has a dimension");
+    let shape = spec.shape();
+    let other: Vec<usize> = (0..shape.len())
+        .filter(|&k| k != along && Some(k) != rf.across && Some(k) != rf.guide_planes)
+        .collect();
+    let count = other.iter().map(|&k| shape[k]).product::<usize>();
+    let group = (0..spec.len())
+        .map(|i| {
+            let idx = spec.unravel(i);
+            other.iter().fold(0, |acc, &k| acc * shape[k] + idx[k])
+        })
+        .collect();
+    (group, count)
+}
+
+/// The units a sweep is dealt in: grid points, or planes (groups of planes with
+/// `guide_planes`) for a `[refine]` sweep.
 pub fn units(spec: &SweepSpec) -> usize {
     match spec.refine {
         None => spec.len(),
-        Some(_) => planes(spec).1,
+        Some(_) => groups(spec).1,
     }
 }
 
@@ -144,9 +167,9 @@ pub fn owners(spec: &SweepSpec, count: usize) -> Vec<usize> {
     match spec.refine {
         None => deal(spec.len(), count),
         Some(_) => {
-            let (plane, n) = planes(spec);
-            let by_plane = deal(n, count);
-            plane.into_iter().map(|p| by_plane[p]).collect()
+            let (group, n) = groups(spec);
+            let by_group = deal(n, count);
+            group.into_iter().map(|p| by_group[p]).collect()
         }
     }
 }
@@ -156,7 +179,13 @@ pub fn owners(spec: &SweepSpec, count: usize) -> Vec<usize> {
 pub fn check(spec: &SweepSpec, count: usize) -> Result<(), String> {
     let n = units(spec);
     if count > n {
-        let what = if spec.refine.is_some() {
+        let what = if spec
+            .refine
+            .as_ref()
+            .is_some_and(|r| r.guide_planes.is_some())
+        {
+            "groups of planes (a [refine] sweep with guide_planes is sharded by the planes that guide each other: every combination of the axes other than `along`, `across` and `guide_planes`)"
+        } else if spec.refine.is_some() {
             "planes (a [refine] sweep is sharded by plane: every combination of the axes other than `along` and `across`)"
         } else {
             "grid points"

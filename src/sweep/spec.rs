@@ -87,6 +87,8 @@ pub struct Axis {
 /// tolerance = 0.03       # default 0: also refine cells with a value this close to the level
 /// guided = true          # default true: columns between others start where their neighbours
 ///                        # cross the level
+/// guide_planes = "k_d"   # optional: planes between others along this dimension start every
+///                        # column where the neighbouring planes' same column crosses
 /// ```
 ///
 /// The `along` axis of the file is the coarse grid. Its steps are halved `levels` times, the
@@ -113,6 +115,12 @@ pub struct Refine {
     /// interpolate (default true; see [`crate::sweep::refine`]). `false`: every column halves
     /// its steps alone.
     pub guided: bool,
+    /// Index into [`SweepSpec::dims`] of a dimension (neither `along` nor `across`, at least
+    /// three values) along which neighbouring planes guide each other (`guide_planes`, default
+    /// none; see [`crate::sweep::refine`]): the planes at its first and last value refine alone,
+    /// every other plane starts each column where the same column of two finished planes on
+    /// either side crosses. A sweep with it is sharded by groups of planes along it.
+    pub guide_planes: Option<usize>,
     /// Times the coarse steps are halved.
     pub levels: u32,
     /// Values of the coarse axis.
@@ -404,6 +412,7 @@ impl SweepSpec {
         let mut resolution: Option<f64> = None;
         let mut tolerance = 0.0;
         let mut guided = true;
+        let mut guide_planes: Option<String> = None;
         for (k, v) in t {
             match k.as_str() {
                 "measure" => {
@@ -470,11 +479,17 @@ impl SweepSpec {
                         )
                     })?;
                 }
+                "guide_planes" => {
+                    let name = v
+                        .as_str()
+                        .ok_or_else(|| doc.err(sec, k, "expected the name of a dimension"))?;
+                    guide_planes = Some(name.to_string());
+                }
                 _ => {
                     return Err(doc.err(
                         sec,
                         k,
-                        "unknown key; allowed: measure, level, along, across, resolution, tolerance, guided",
+                        "unknown key; allowed: measure, level, along, across, resolution, tolerance, guided, guide_planes",
                     ));
                 }
             }
@@ -563,6 +578,40 @@ impl SweepSpec {
                 return Err(doc.err(sec, "across", format!("[refine] needs across = \"<dimension>\", the plane's other side; dimensions: {}", names())));
             }
         };
+        let guide_planes = match guide_planes {
+            None => None,
+            Some(name) => {
+                let d = self
+                    .dims
+                    .iter()
+                    .position(|d| d.name == name)
+                    .ok_or_else(|| {
+                        doc.err(
+                            sec,
+                            "guide_planes",
+                            format!(
+                                "`{name}` is not a dimension of this sweep; dimensions: {}",
+                                names()
+                            ),
+                        )
+                    })?;
+                if d == d_along || Some(d) == across {
+                    return Err(doc.err(sec, "guide_planes", format!("guide_planes = `{name}` is a side of the refined plane (along or across); give another dimension")));
+                }
+                if !guided {
+                    return Err(doc.err(
+                        sec,
+                        "guide_planes",
+                        format!("guide_planes = `{name}` needs guided = true"),
+                    ));
+                }
+                let len = self.dims[d].len;
+                if len < 3 {
+                    return Err(doc.err(sec, "guide_planes", format!("guide_planes = `{name}` has {len} values; planes are guided between its first and last, so it needs at least 3")));
+                }
+                Some(d)
+            }
+        };
         // The coarse step against the resolution, in the axis's own spacing.
         let (step, fine) = if log {
             (
@@ -603,6 +652,7 @@ impl SweepSpec {
             resolution,
             tolerance,
             guided,
+            guide_planes,
             levels,
             coarse: n,
         });
