@@ -409,7 +409,8 @@ pub struct SweepArgs {
     pub checkpoint_every: f64,
     /// Run only part I of N of the sweep (I from 0 to N-1), into OUT.shards/I-of-N.h5 with its
     /// own journal; `stickslip merge OUT` assembles the parts. Parts are balanced by expected
-    /// cost (interleaved over the grid); a [refine] sweep is split by plane.
+    /// cost (interleaved over the grid); a [refine] sweep is split by plane (by group of planes
+    /// with guide_planes).
     #[arg(long, value_name = "I/N", value_parser = parse_shard)]
     pub shard: Option<crate::sweep::shard::Shard>,
     /// Run a small sample of the sweep (about --sample points, or planes of a [refine] sweep)
@@ -490,7 +491,7 @@ pub struct SlurmArgs {
     /// The sweep file (TOML).
     pub file: PathBuf,
     /// Array tasks, one shard each (1 to 100000; at most the sweep's points, or planes of a
-    /// [refine] sweep).
+    /// [refine] sweep, or its groups of planes with guide_planes).
     #[arg(long, value_name = "N")]
     pub tasks: usize,
     /// Output HDF5 file. Default: results/<sweep name>.h5. The scripts are written beside it

@@ -577,15 +577,14 @@ pub fn plot_all(d: &SweepData, out_stem: &Path) -> Result<Vec<PathBuf>, PlotErro
                 files.extend(render(
                     &stem(&name),
                     &Map {
-                        title: format!(
-                            "r over (f, u0), v_d = {:.3} mm/s{}",
-                            v_d * 1e3,
-                            if note.is_empty() {
-                                String::new()
-                            } else {
-                                format!(", {note}")
-                            }
-                        ),
+                        // A swept v_d is named in the note already.
+                        title: if note.contains("v_d =") {
+                            format!("r over (f, u0), {note}")
+                        } else if note.is_empty() {
+                            format!("r over (f, u0), v_d = {:.3} mm/s", v_d * 1e3)
+                        } else {
+                            format!("r over (f, u0), v_d = {:.3} mm/s, {note}", v_d * 1e3)
+                        },
                         f: d.dims[f].values.clone(),
                         u0: d.dims[u].values.clone(),
                         r,
