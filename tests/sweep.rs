@@ -517,6 +517,35 @@ fn refinement_runs_the_points_near_the_level_and_finds_the_dense_boundary() {
     python(&[a.to_str().unwrap(), "f,u0", "4,33"]);
 }
 
+/// Two refinements of the same 3 % sweep give the same boundary line by line: both edges to the
+/// bit and the same crossings; every line crossing within the range is resolved below 3 % (to
+/// the same resolution in both where `same_resolution`). Returns how many lines cross.
+fn same_edges(
+    ba: &[sweep::boundary::BoundaryPoint],
+    bb: &[sweep::boundary::BoundaryPoint],
+    same_resolution: bool,
+) -> usize {
+    assert_eq!(ba.len(), bb.len());
+    let same = |x: f64, y: f64| x.to_bits() == y.to_bits() || (x.is_nan() && y.is_nan());
+    let mut crossed = 0;
+    for (p, q) in ba.iter().zip(bb) {
+        assert!(
+            same(p.u0, q.u0) && same(p.u0_upper, q.u0_upper),
+            "{p:?} vs {q:?}"
+        );
+        assert_eq!(p.crossings, q.crossings, "{p:?} vs {q:?}");
+        if p.u0.is_finite() && !p.below_range {
+            crossed += 1;
+            assert!(p.resolution < 0.03, "{p:?}");
+            assert!(
+                !same_resolution || same(p.resolution, q.resolution),
+                "{p:?} vs {q:?}"
+            );
+        }
+    }
+    crossed
+}
+
 /// Nine frequencies refined along u0 to 3 % (coarse steps of a factor of 10 halved seven
 /// times), guided or with every column halving alone.
 fn nine_columns(guided: bool) -> String {
@@ -561,22 +590,7 @@ fn guided_columns_find_the_halved_boundary_with_fewer_runs() {
     let ba = sweep::boundary::run(&a).unwrap().1;
     let bb = sweep::boundary::run(&b).unwrap().1;
     assert_eq!(ba.len(), 9);
-    let mut crossed = 0;
-    for (p, q) in ba.iter().zip(&bb) {
-        let same = |x: f64, y: f64| x.to_bits() == y.to_bits() || (x.is_nan() && y.is_nan());
-        assert!(
-            same(p.u0, q.u0) && same(p.u0_upper, q.u0_upper),
-            "{p:?} vs {q:?}"
-        );
-        assert_eq!(p.crossings, q.crossings, "{p:?} vs {q:?}");
-        if p.u0.is_finite() && !p.below_range {
-            crossed += 1;
-            assert!(
-                p.resolution < 0.03 && same(p.resolution, q.resolution),
-                "{p:?}"
-            );
-        }
-    }
+    let crossed = same_edges(&ba, &bb, true);
     assert!(crossed >= 6, "{ba:?}");
     // Halving alone: the coarse points and seven runs per crossing column at least.
     assert!(rb.runs_made >= 1 + 9 * 4 + 7 * crossed, "{}", rb.runs_made);
@@ -670,19 +684,7 @@ fn planes_guided_along_the_stiffness_find_the_same_boundary_with_fewer_runs() {
     let ba = sweep::boundary::run(&a).unwrap().1;
     let bb = sweep::boundary::run(&b).unwrap().1;
     assert_eq!(ba.len(), 30);
-    let mut crossed = 0;
-    for (p, q) in ba.iter().zip(&bb) {
-        let same = |x: f64, y: f64| x.to_bits() == y.to_bits() || (x.is_nan() && y.is_nan());
-        assert!(
-            same(p.u0, q.u0) && same(p.u0_upper, q.u0_upper),
-            "{p:?} vs {q:?}"
-        );
-        assert_eq!(p.crossings, q.crossings, "{p:?} vs {q:?}");
-        if p.u0.is_finite() && !p.below_range {
-            crossed += 1;
-            assert!(p.resolution < 0.03, "{p:?}");
-        }
-    }
+    let crossed = same_edges(&ba, &bb, false);
     assert!(crossed >= 20, "{ba:?}");
     assert!(
         ra.runs_made < rb.runs_made,

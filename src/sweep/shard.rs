@@ -114,43 +114,37 @@ fn deal(items: usize, count: usize) -> Vec<usize> {
     owner
 }
 
-/// The plane of each grid point of a `[refine]` sweep: the flat index over the dimensions
-/// other than `along` and `across`.
-pub fn planes(spec: &SweepSpec) -> (Vec<usize>, usize) {
+/// The flat index of each grid point of a `[refine]` sweep over the dimensions other than
+/// `along`, `across` and `skip`, and how many such indices there are.
+fn flat_over_others(spec: &SweepSpec, skip: Option<usize>) -> (Vec<usize>, usize) {
     let rf = spec.refine.as_ref().expect("a refined sweep");
     let along = spec.along_dim().expect("the refined axis has a dimension");
     let shape = spec.shape();
     let other: Vec<usize> = (0..shape.len())
-        .filter(|&k| k != along && Some(k) != rf.across)
+        .filter(|&k| k != along && Some(k) != rf.across && Some(k) != skip)
         .collect();
     let count = other.iter().map(|&k| shape[k]).product::<usize>();
-    let plane = (0..spec.len())
+    let flat = (0..spec.len())
         .map(|i| {
             let idx = spec.unravel(i);
             other.iter().fold(0, |acc, &k| acc * shape[k] + idx[k])
         })
         .collect();
-    (plane, count)
+    (flat, count)
+}
+
+/// The plane of each grid point of a `[refine]` sweep: the flat index over the dimensions
+/// other than `along` and `across`.
+pub fn planes(spec: &SweepSpec) -> (Vec<usize>, usize) {
+    flat_over_others(spec, None)
 }
 
 /// The group of planes of each grid point of a `[refine]` sweep: its plane, or, with
 /// `guide_planes`, the flat index over the dimensions other than `along`, `across` and the
 /// guiding one (the planes that guide each other stay in one shard).
 pub fn groups(spec: &SweepSpec) -> (Vec<usize>, usize) {
-    let rf = spec.refine.as_ref().expect("a refined sweep");
-    let along = spec.along_dim().expect("the refined axis has a dimension");
-    let shape = spec.shape();
-    let other: Vec<usize> = (0..shape.len())
-        .filter(|&k| k != along && Some(k) != rf.across && Some(k) != rf.guide_planes)
-        .collect();
-    let count = other.iter().map(|&k| shape[k]).product::<usize>();
-    let group = (0..spec.len())
-        .map(|i| {
-            let idx = spec.unravel(i);
-            other.iter().fold(0, |acc, &k| acc * shape[k] + idx[k])
-        })
-        .collect();
-    (group, count)
+    let guide = spec.refine.as_ref().and_then(|r| r.guide_planes);
+    flat_over_others(spec, guide)
 }
 
 /// The units a sweep is dealt in: grid points, or planes (groups of planes with

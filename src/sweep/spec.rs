@@ -548,22 +548,25 @@ impl SweepSpec {
                 format!("axis `{along}` has {n} value; refinement needs at least 2"),
             ));
         }
+        // The dimension a key names, or an error naming the key and the dimensions there are.
+        let dim_named = |key: &str, name: &str| {
+            self.dims
+                .iter()
+                .position(|d| d.name == name)
+                .ok_or_else(|| {
+                    doc.err(
+                        sec,
+                        key,
+                        format!(
+                            "`{name}` is not a dimension of this sweep; dimensions: {}",
+                            names()
+                        ),
+                    )
+                })
+        };
         let across = match across {
             Some(name) => {
-                let d = self
-                    .dims
-                    .iter()
-                    .position(|d| d.name == name)
-                    .ok_or_else(|| {
-                        doc.err(
-                            sec,
-                            "across",
-                            format!(
-                                "`{name}` is not a dimension of this sweep; dimensions: {}",
-                                names()
-                            ),
-                        )
-                    })?;
+                let d = dim_named("across", &name)?;
                 if d == d_along {
                     return Err(doc.err(
                         sec,
@@ -581,20 +584,7 @@ impl SweepSpec {
         let guide_planes = match guide_planes {
             None => None,
             Some(name) => {
-                let d = self
-                    .dims
-                    .iter()
-                    .position(|d| d.name == name)
-                    .ok_or_else(|| {
-                        doc.err(
-                            sec,
-                            "guide_planes",
-                            format!(
-                                "`{name}` is not a dimension of this sweep; dimensions: {}",
-                                names()
-                            ),
-                        )
-                    })?;
+                let d = dim_named("guide_planes", &name)?;
                 if d == d_along || Some(d) == across {
                     return Err(doc.err(sec, "guide_planes", format!("guide_planes = `{name}` is a side of the refined plane (along or across); give another dimension")));
                 }
