@@ -55,6 +55,9 @@ fn show(d: &Diagnosis) -> String {
             r.effect, r.gap_after, r.reduction, r.wall_time, r.fit.evaluations
         );
     }
+    if let Some((f, m, t, n)) = d.systematic {
+        s += &format!("systematic: {} mean z {m:.2}, t {t:.1}, {n} units\n", f.name());
+    }
     s + &d.location.summary
 }
 
@@ -264,4 +267,54 @@ fn friction_along_the_track_is_unexplained_but_located() {
     assert!((share - 1.0).abs() < 1e-9, "{msg}");
     assert!(w.summary.contains("concentrates in"), "{msg}");
     assert_eq!(w.recordings.len(), 16);
+}
+
+/// The plausible ranges a campaign implies: a sensor's and an actuator's resonance no lower than
+/// the fastest drive oscillator (closed form `√(k_d/m)/2π` from the conditions), the sensor's
+/// also no slower than the shortest recorded slip allows, and never above the injected sensor
+/// (40 Hz, the low end of `synth`'s load cells): the truth stays inside. A screw error's
+/// wavelength at most half the longest drive travel (`v_d` times the record's length).
+#[test]
+fn plausible_ranges_come_from_the_recordings_and_hold_the_truth() {
+    use stickslip::campaign::fit::{Plausible, SLIP_BOUND_MARGIN, Target};
+    let mut fx = Effects::none();
+    fx.set(EffectKind::SensorDynamics, "f_n", 40.0).unwrap();
+    fx.set(EffectKind::SensorDynamics, "zeta", 0.05).unwrap();
+    let (_dir, c) = campaign(fx, 41);
+    let all = Target::new(c.recordings.iter().collect());
+    let b: &Plausible = &all.bounds;
+    let f_osc = c
+        .recordings
+        .iter()
+        .map(|r| (r.params.k_d / r.params.m).sqrt() / std::f64::consts::TAU)
+        .fold(0.0, f64::max);
+    // k_d = 20 000 N/m on 0.665 kg: 27.6 Hz.
+    assert!((f_osc - 27.6).abs() < 0.1, "{f_osc}");
+    let (lo, hi) = b.range(EffectKind::SensorDynamics, "f_n");
+    assert!(lo >= f_osc && lo < 40.0, "sensor range [{lo}, {hi}]");
+    assert_eq!(hi, 2e4);
+    let t_slip = all
+        .measured
+        .iter()
+        .map(|m| m.get(stickslip::campaign::features::Feature::SlipTime))
+        .filter(|v| v.is_finite() && *v > 0.0)
+        .fold(f64::INFINITY, f64::min);
+    assert!(
+        (lo - f_osc.max(SLIP_BOUND_MARGIN / (2.0 * t_slip))).abs() < 1e-9,
+        "{lo} {t_slip}"
+    );
+    let (a_lo, _) = b.range(EffectKind::ActuatorResponse, "f_r");
+    assert!((a_lo - f_osc.max(100.0)).abs() < 1e-9, "{a_lo}");
+    let travel = c
+        .recordings
+        .iter()
+        .map(|r| r.params.v_d * (r.t[r.t.len() - 1] - r.t[0]))
+        .fold(0.0, f64::max);
+    let (_, w_hi) = b.range(EffectKind::DriveRipple, "wavelength");
+    assert!((w_hi - 0.5 * travel).abs() < 1e-12 * travel, "{w_hi} {travel}");
+    // Every bound says why.
+    assert!(b.bounds.iter().all(|x| !x.reason.is_empty() && x.lo < x.hi));
+    // A subset keeps the campaign's bounds.
+    let sub = all.sub(all.recs[..4].to_vec());
+    assert_eq!(&sub.bounds, b);
 }

@@ -545,6 +545,59 @@ pub fn harmonics(y: &[f64], t0: f64, dt: f64, freq: f64, t_on: f64) -> [Option<H
     out
 }
 
+/// Smallest quantum [m] of a displacement channel that [`quantum`] reports: finer steps (a
+/// printed file's last digit) act as noise, not as an encoder's resolution.
+pub const MIN_QUANTUM: f64 = 1e-10;
+
+/// The step of a quantized channel (an encoder's or an interferometer's resolution), where it
+/// has one: the smallest nonzero change between consecutive samples, where at least 90 % of the
+/// nonzero changes are whole multiples of it (within 0.1 % of it) and it is at least
+/// [`MIN_QUANTUM`]. `None` for a channel that is not quantized (noise makes its changes arbitrary)
+/// or never changes.
+pub fn quantum(x: &[f64]) -> Option<f64> {
+    let diffs = || {
+        x.windows(2)
+            .map(|w| (w[1] - w[0]).abs())
+            .filter(|d| *d > 0.0 && d.is_finite())
+    };
+    let q = diffs().fold(f64::INFINITY, f64::min);
+    if !(q.is_finite() && q >= MIN_QUANTUM) {
+        return None;
+    }
+    let (mut n, mut whole) = (0usize, 0usize);
+    for d in diffs() {
+        n += 1;
+        let k = (d / q).round();
+        if (d - k * q).abs() <= 1e-3 * q {
+            whole += 1;
+        }
+    }
+    (n > 0 && whole as f64 >= 0.9 * n as f64).then_some(q)
+}
+
+/// `x` rounded to the quantum `q`: a simulated channel recorded like the measured one.
+pub fn quantize(x: &[f64], q: f64) -> Vec<f64> {
+    x.iter().map(|v| (v / q).round() * q).collect()
+}
+
+/// A body-displacement channel quantized to `q` [m]: its harmonic amplitude at `f` is known to no
+/// better than half a quantum (below a few quanta the rounding is a deterministic distortion,
+/// not a noise that averages out), so `q/2` joins its standard error in quadrature, and its
+/// phase counts only where the amplitude stands out of that too.
+pub fn weigh_quantum(fs: &mut FeatureSet, q: f64) {
+    let (a, p) = (Feature::BodyAmp1 as usize, Feature::BodyPhase1 as usize);
+    if !fs.value[a].is_finite() {
+        return;
+    }
+    let se = fs.stderr[a];
+    let se = if se.is_finite() { se } else { 0.0 };
+    fs.stderr[a] = se.hypot(0.5 * q);
+    if !(fs.value[a] > 3.0 * fs.stderr[a]) {
+        fs.value[p] = f64::NAN;
+        fs.stderr[p] = f64::NAN;
+    }
+}
+
 /// One stage of a recording: samples `lo..hi`, vibrating at `freq` (0: resting substrate).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Stage {
@@ -674,6 +727,44 @@ mod tests {
         let s = smooth(&y, dt, 1.0 / f);
         let worst = s[100..].iter().map(|v| (v - 3.0).abs()).fold(0.0, f64::max);
         assert!(worst < 0.08, "{worst}");
+    }
+
+    /// An encoder's step is found, whatever the motion; noise or a printed file's last digits
+    /// are not a step.
+    #[test]
+    fn quantized_channels_are_detected_by_their_step() {
+        use rand::{RngExt, SeedableRng, rngs::StdRng};
+        let mut rng = StdRng::seed_from_u64(3);
+        let q = 1e-7;
+        let x: Vec<f64> = (0..5000)
+            .map(|i| 1e-3 * i as f64 * 1e-4 + 3e-8 * (0.3 * i as f64).sin())
+            .collect();
+        let xq = quantize(&x, q);
+        let got = quantum(&xq).expect("quantized");
+        assert!((got / q - 1.0).abs() < 1e-6, "{got}");
+        // Coarser steps that the motion crosses two at a time are still one quantum apart.
+        let xq5 = quantize(&x, 5e-7);
+        assert!((quantum(&xq5).unwrap() / 5e-7 - 1.0).abs() < 1e-6);
+        let noisy: Vec<f64> = x
+            .iter()
+            .map(|v| v + 5e-9 * rng.sample::<f64, _>(rand_distr::StandardNormal))
+            .collect();
+        assert_eq!(quantum(&noisy), None);
+        // Ten significant digits, as a CSV writer prints them: not an encoder.
+        let printed: Vec<f64> = noisy
+            .iter()
+            .map(|v| format!("{v:.9e}").parse::<f64>().unwrap())
+            .collect();
+        assert_eq!(quantum(&printed), None);
+        assert_eq!(quantum(&vec![2e-6; 100]), None);
+        // The weight: half a quantum in the amplitude's error, the phase dropped below 3 of it.
+        let mut fs = FeatureSet::nan();
+        fs.value[Feature::BodyAmp1 as usize] = 1e-7;
+        fs.stderr[Feature::BodyAmp1 as usize] = 1e-9;
+        fs.value[Feature::BodyPhase1 as usize] = 0.3;
+        weigh_quantum(&mut fs, q);
+        assert!((fs.stderr[Feature::BodyAmp1 as usize] - (1e-18f64 + 2.5e-15).sqrt()).abs() < 1e-12);
+        assert!(fs.value[Feature::BodyPhase1 as usize].is_nan());
     }
 
     /// A sinusoidal drive error is measured through white noise.

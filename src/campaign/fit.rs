@@ -16,7 +16,9 @@
 //! afresh when the updated one fails to give a descent step). Parameter uncertainties are
 //! `s √diag((JᵀJ)⁻¹)` with `s² = Σz² / (m − p)`, from a fresh Jacobian at the optimum.
 
-use super::features::{FEATURES, Feature, FeatureSet, Stage, stage_features, stages};
+use super::features::{
+    FEATURES, Feature, FeatureSet, Stage, quantize, quantum, stage_features, stages, weigh_quantum,
+};
 use super::{Recording, Solvers, simulate_grid};
 use crate::model::effects::actuator_gain;
 use crate::model::{EffectKind, Effects, Params};
@@ -117,7 +119,7 @@ impl Coord {
 /// The fitted coordinates: `F_s`, `F_c`, `v_s` and `h_d`, and the effects' fitted parameters.
 /// The base parameters are refitted with every effect: an effect left out of the base model
 /// is partly absorbed by them (viscous friction by the drive damping `h_d`, ageing by `F_s`).
-fn coords(effects: &[EffectKind]) -> Vec<Coord> {
+fn coords(bounds: &Plausible, effects: &[EffectKind]) -> Vec<Coord> {
     let base = |i: usize, name: &str, unit, log, lo: f64, hi: f64, step| Coord {
         name: name.to_string(),
         unit,
@@ -138,7 +140,7 @@ fn coords(effects: &[EffectKind]) -> Vec<Coord> {
             if !p.fitted {
                 continue;
             }
-            let (min, max) = fit_range(k, p.name).unwrap_or((p.min, p.max));
+            let (min, max) = bounds.range(k, p.name);
             let (lo, hi) = if p.log {
                 (min.ln(), max.ln())
             } else {
@@ -163,6 +165,226 @@ fn coords(effects: &[EffectKind]) -> Vec<Coord> {
     c
 }
 
+/// The plausible range of one effect parameter in a campaign, where the recordings themselves
+/// narrow the library's table (`src/model/effects.rs`), with the reason in words.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Bound {
+    /// The effect.
+    pub effect: EffectKind,
+    /// The parameter.
+    pub param: &'static str,
+    /// Lower end, in the parameter's unit.
+    pub lo: f64,
+    /// Upper end.
+    pub hi: f64,
+    /// Why, with the campaign's numbers.
+    pub reason: String,
+}
+
+/// The plausible ranges of the effects' fitted parameters in one campaign ([`Plausible::of`]).
+/// A parameter without a campaign bound keeps the fit's range ([`fit_range`]) or the library's.
+/// A fit never leaves these ranges; one that ends on a campaign bound is reported as such
+/// (`diagnose` names it only as partial, with a warning).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Plausible {
+    /// The campaign's own bounds.
+    pub bounds: Vec<Bound>,
+}
+
+/// The longest time from the onset of a force drop to its trough that a second-order sensor of
+/// natural frequency `f_n` shows for an instantaneous drop is half its damped period,
+/// `1/(2 f_n √(1 − ζ²)) ≥ 1/(2 f_n)`: a recorded slip (peak to trough of the smoothed force)
+/// can be no shorter than that. The bound takes this margin below `1/(2 t_slip)`, for the
+/// smoothing and the zig-zag detection of the trough.
+pub const SLIP_BOUND_MARGIN: f64 = 0.75;
+
+/// The plausible range of the Stribeck exponent `δ` (the library allows 0.2 to 10): generous
+/// about the 0.5 to 2 of measured friction curves.
+pub const STRIBECK_DELTA: (f64, f64) = (0.25, 4.0);
+
+impl Plausible {
+    /// The bounds a campaign's recordings imply (the units' measured features, their conditions
+    /// and sampling):
+    /// - a force sensor's `f_n` and an actuator's `f_r` no lower than the fastest drive
+    ///   oscillator of the campaign, `√(k_d/m)/2π` (a resonance below it would turn each
+    ///   stick-slip cycle into a ringing of its own); a sensor's also no lower than
+    ///   [`SLIP_BOUND_MARGIN`]` / (2 t_slip)` with `t_slip` the shortest recorded slip (the mean
+    ///   peak-to-trough time of a unit's smoothed force): a sensor slower than that cannot
+    ///   record a drop that fast;
+    /// - a screw error's `wavelength` no longer than half the longest drive travel recorded
+    ///   (`v_d` times the record's length: a longer one is a drift, not a periodic error) and
+    ///   no shorter than the shortest one any recording resolves (`2 v_d / f_sample`);
+    /// - a friction lag `tau` no longer than the longest stick-slip period recorded (a longer
+    ///   memory acts as a changed friction level, not as a lag);
+    /// - a Stribeck exponent within [`STRIBECK_DELTA`] (not from the campaign: from measured
+    ///   friction curves).
+    pub fn of(t: &Target) -> Plausible {
+        let mut bounds = vec![];
+        let table = |k: EffectKind, name: &str| -> (f64, f64) {
+            let p = k.info().params.iter().find(|p| p.name == name);
+            let (a, b) = p.map_or((0.0, f64::INFINITY), |p| (p.min, p.max));
+            fit_range(k, name).unwrap_or((a, b))
+        };
+        let mut push = |effect: EffectKind, param: &'static str, lo: f64, hi: f64, reason: String| {
+            let (a, b) = table(effect, param);
+            let (lo, hi) = (lo.max(a), hi.min(b));
+            if lo < hi && (lo > a || hi < b) {
+                bounds.push(Bound {
+                    effect,
+                    param,
+                    lo,
+                    hi,
+                    reason,
+                });
+            }
+        };
+        if t.recs.is_empty() {
+            return Plausible { bounds };
+        }
+        // The fastest drive oscillator.
+        let f_osc = t
+            .recs
+            .iter()
+            .map(|r| (r.params.k_d / r.params.m).sqrt() / std::f64::consts::TAU)
+            .fold(0.0, f64::max);
+        // The shortest recorded slip and the longest stick-slip period, over the units.
+        let feature_over = |f: Feature, pick: fn(f64, f64) -> f64, init: f64| {
+            t.measured
+                .iter()
+                .map(|m| m.get(f))
+                .filter(|v| v.is_finite() && *v > 0.0)
+                .fold(init, pick)
+        };
+        let t_slip = feature_over(Feature::SlipTime, f64::min, f64::INFINITY);
+        let period = feature_over(Feature::Period, f64::max, 0.0);
+        let slip_lo = if t_slip.is_finite() {
+            SLIP_BOUND_MARGIN / (2.0 * t_slip)
+        } else {
+            0.0
+        };
+        let (sensor_lo, why) = if slip_lo > f_osc {
+            (
+                slip_lo,
+                format!(
+                    "the shortest recorded slip lasts {:.1} ms: a slower sensor cannot record it ({SLIP_BOUND_MARGIN} / (2 t_slip)); the fastest drive oscillator is {f_osc:.1} Hz",
+                    1e3 * t_slip
+                ),
+            )
+        } else {
+            (
+                f_osc,
+                format!(
+                    "no lower than the fastest drive oscillator, sqrt(k_d/m)/2pi = {f_osc:.1} Hz{}",
+                    if t_slip.is_finite() {
+                        format!(" (the shortest recorded slip, {:.1} ms, allows {slip_lo:.1} Hz)", 1e3 * t_slip)
+                    } else {
+                        String::new()
+                    }
+                ),
+            )
+        };
+        push(EffectKind::SensorDynamics, "f_n", sensor_lo, f64::INFINITY, why);
+        push(
+            EffectKind::ActuatorResponse,
+            "f_r",
+            f_osc,
+            f64::INFINITY,
+            format!("no lower than the fastest drive oscillator, sqrt(k_d/m)/2pi = {f_osc:.1} Hz"),
+        );
+        let travel = t
+            .recs
+            .iter()
+            .map(|r| r.params.v_d * (r.t[r.t.len() - 1] - r.t[0]))
+            .fold(0.0, f64::max);
+        let resolved = t
+            .recs
+            .iter()
+            .map(|r| 2.0 * r.params.v_d * r.dt())
+            .fold(f64::INFINITY, f64::min);
+        push(
+            EffectKind::DriveRipple,
+            "wavelength",
+            resolved,
+            0.5 * travel,
+            format!(
+                "at most half the longest drive travel recorded ({:.3} mm) and at least the shortest wavelength a recording resolves (2 v_d / sampling rate = {:.2} um)",
+                1e3 * travel,
+                1e6 * resolved
+            ),
+        );
+        if period > 0.0 {
+            push(
+                EffectKind::FrictionalLag,
+                "tau",
+                0.0,
+                period,
+                format!(
+                    "no longer than the longest stick-slip period recorded ({:.0} ms)",
+                    1e3 * period
+                ),
+            );
+        }
+        push(
+            EffectKind::StribeckShape,
+            "delta",
+            STRIBECK_DELTA.0,
+            STRIBECK_DELTA.1,
+            format!(
+                "Stribeck exponents of measured friction curves lie about 0.5 to 2 (1: Tustin's exponential, 2: Gaussian); outside {} to {} the curve is a step or a straight line",
+                STRIBECK_DELTA.0, STRIBECK_DELTA.1
+            ),
+        );
+        Plausible { bounds }
+    }
+
+    /// The range of a fitted parameter: the campaign's bound, else the fit's ([`fit_range`]),
+    /// else the library's table.
+    pub fn range(&self, kind: EffectKind, param: &str) -> (f64, f64) {
+        if let Some(b) = self
+            .bounds
+            .iter()
+            .find(|b| b.effect == kind && b.param == param)
+        {
+            return (b.lo, b.hi);
+        }
+        let p = kind.info().params.iter().find(|p| p.name == param);
+        let table = p.map_or((f64::NEG_INFINITY, f64::INFINITY), |p| (p.min, p.max));
+        fit_range(kind, param).unwrap_or(table)
+    }
+}
+
+/// The fitted effect parameters of `fr` that end on a bound of their range (within 1 % on a
+/// log scale, 0.1 % of the range on a linear one) other than the end where the effect vanishes
+/// ([`neutral`]): `"effect.param = value at the lower|upper bound lo|hi unit"`, one each.
+pub fn at_bounds(bounds: &Plausible, fr: &FitResult) -> Vec<String> {
+    let cs = coords(bounds, &fr.effects);
+    let mut out = vec![];
+    for (c, &th) in cs.iter().zip(&fr.theta) {
+        let Ok((k, i)) = c.target else { continue };
+        let p = &k.info().params[i];
+        let tol = if c.log { 0.01 } else { 1e-3 * (c.hi - c.lo) };
+        let neutral_at = |end: f64| {
+            neutral(k, p.name).is_some_and(|v| {
+                let v = if c.log { v.ln() } else { v };
+                (v - end).abs() <= tol
+            })
+        };
+        let value = if c.log { th.exp() } else { th };
+        for (end, word) in [(c.lo, "lower"), (c.hi, "upper")] {
+            if (th - end).abs() <= tol && !neutral_at(end) {
+                let e = if c.log { end.exp() } else { end };
+                out.push(format!(
+                    "{}.{} = {value:.4e} at the {word} bound {e:.4e} {}",
+                    k.name(),
+                    p.name,
+                    p.unit
+                ));
+            }
+        }
+    }
+    out
+}
+
 /// A set of recordings with their measured features, ready for fitting. Each recording gives
 /// one unit per stage ([`stages`]: one, or two where the vibration is switched on within it),
 /// and every unit its own features.
@@ -176,6 +398,9 @@ pub struct Target<'a> {
     /// For each vibrated unit, the unit it is compared with for `r`: the resting stage of the
     /// same recording, else a recording without vibration of the same drive in the set.
     pub reference: Vec<Option<usize>>,
+    /// The plausible ranges of the effects' fitted parameters, derived from the whole
+    /// campaign's recordings (a subset keeps the campaign's: [`Plausible::of`]).
+    pub bounds: Plausible,
 }
 
 fn same_drive(a: &Params, b: &Params) -> bool {
@@ -206,15 +431,31 @@ fn fill_r(fs: &mut [FeatureSet], reference: &[Option<usize>]) {
 /// Features of every stage of a trace sampled at the recording's times; `x_s` and `x_d` count
 /// only where given (where the recording has them), so measured and simulated traces pass
 /// through one pipeline.
+///
+/// A displacement channel the recording holds quantized ([`quantum`]: an encoder's step) is
+/// quantized alike in a simulated trace, and its harmonic amplitude weighted by the step
+/// ([`weigh_quantum`]).
 pub fn trace_features(
     rec: &Recording,
     f_d: &[f64],
     x_s: Option<&[f64]>,
     x_d: Option<&[f64]>,
 ) -> Vec<FeatureSet> {
+    let q_s = rec.x_s.as_deref().and_then(quantum);
+    let q_d = rec.x_d.as_deref().and_then(quantum);
+    let xs_q = x_s.zip(q_s).map(|(x, q)| quantize(x, q));
+    let xd_q = x_d.zip(q_d).map(|(x, q)| quantize(x, q));
+    let x_s = xs_q.as_deref().or(x_s);
+    let x_d = xd_q.as_deref().or(x_d);
     stages(&rec.t, &rec.params)
         .into_iter()
-        .map(|st| stage_features(&rec.t, f_d, x_s, x_d, rec.dt(), st, rec.params.t_on))
+        .map(|st| {
+            let mut fs = stage_features(&rec.t, f_d, x_s, x_d, rec.dt(), st, rec.params.t_on);
+            if let Some(q) = q_s {
+                weigh_quantum(&mut fs, q);
+            }
+            fs
+        })
         .collect()
 }
 
@@ -224,8 +465,21 @@ pub fn measured_features(rec: &Recording) -> Vec<FeatureSet> {
 }
 
 impl<'a> Target<'a> {
-    /// Prepares recordings for fitting.
+    /// Prepares recordings for fitting, with the plausible ranges of the effects' parameters
+    /// derived from them ([`Plausible::of`]).
     pub fn new(recs: Vec<&'a Recording>) -> Target<'a> {
+        let mut t = Target::with_bounds(recs, Plausible::default());
+        t.bounds = Plausible::of(&t);
+        t
+    }
+
+    /// A subset of this target's recordings, with this target's plausible ranges: the bounds of
+    /// a fit are the campaign's, whichever recordings it is scored on.
+    pub fn sub(&self, recs: Vec<&'a Recording>) -> Target<'a> {
+        Target::with_bounds(recs, self.bounds.clone())
+    }
+
+    fn with_bounds(recs: Vec<&'a Recording>, bounds: Plausible) -> Target<'a> {
         let per: Vec<Vec<FeatureSet>> = recs.par_iter().map(|r| measured_features(r)).collect();
         let mut units = vec![];
         let mut measured = vec![];
@@ -267,6 +521,7 @@ impl<'a> Target<'a> {
             units,
             measured,
             reference,
+            bounds,
         }
     }
 
@@ -521,7 +776,7 @@ impl Start {
 /// The start of a fit of `effects` from `start` (as [`fit`]), evaluated on `target`: one
 /// evaluation, counted in the fit [`fit_from`] makes from it.
 pub fn prepare(target: &Target, start: &Model, effects: &[EffectKind]) -> Start {
-    let cs = coords(effects);
+    let cs = coords(&target.bounds, effects);
     let mut model = start.clone();
     for &k in effects {
         model.effects.enable(k);
@@ -609,7 +864,7 @@ pub fn refine(target: &Target, fr: &FitResult, opts: FitOptions) -> FitResult {
             ..fr.clone()
         };
     }
-    let cs = coords(&fr.effects);
+    let cs = coords(&target.bounds, &fr.effects);
     let cost = fr.z.iter().map(|v| v * v).sum();
     levenberg_marquardt(
         target,
@@ -815,7 +1070,7 @@ pub fn with_fresh_jacobian(target: &Target, mut fr: FitResult) -> FitResult {
     if fr.jacobian_fresh || fr.z.is_empty() || !fr.gap.is_finite() {
         return fr;
     }
-    let cs = coords(&fr.effects);
+    let cs = coords(&target.bounds, &fr.effects);
     // The fitted model holds every coordinate, and its effects enabled: the template.
     fr.jacobian = fd_jacobian(target, &fr.model, &cs, &fr.theta, &fr.z, 0..cs.len());
     fr.evaluations += cs.len();
@@ -827,7 +1082,10 @@ pub fn with_fresh_jacobian(target: &Target, mut fr: FitResult) -> FitResult {
 
 /// Number of fitted coordinates that belong to `effects` (beside the four base parameters).
 pub fn effect_params(effects: &[EffectKind]) -> usize {
-    coords(effects).iter().filter(|c| c.target.is_ok()).count()
+    coords(&Plausible::default(), effects)
+        .iter()
+        .filter(|c| c.target.is_ok())
+        .count()
 }
 
 /// `template` with the coordinates `cs` set to `theta`.
@@ -914,8 +1172,14 @@ fn estimates(cs: &[Coord], theta: &[f64], cost: f64, jac: &Mat<f64>) -> Vec<Esti
 /// the gradient of the whole cost vanishes, so the subset's optimum lies where the left-out
 /// rows pulled it from, which one Gauss–Newton step finds to first order; the damping keeps
 /// directions that only the left-out rows determine where they are.
-pub fn refit_rows(fr: &FitResult, start: &Model, keep: &[bool], step: f64) -> Model {
-    let cs = coords(&fr.effects);
+pub fn refit_rows(
+    bounds: &Plausible,
+    fr: &FitResult,
+    start: &Model,
+    keep: &[bool],
+    step: f64,
+) -> Model {
+    let cs = coords(bounds, &fr.effects);
     let p = cs.len();
     let rows: Vec<usize> = (0..keep.len()).filter(|&i| keep[i]).collect();
     let mut model = start.clone();
@@ -1058,7 +1322,8 @@ pub fn starts(target: &Target, base: &FitResult, kind: EffectKind) -> Model {
     {
         let mut m = m0.clone();
         let _ = m.effects.set(kind, "a", a.clamp(0.0, 1e-3));
-        let _ = m.effects.set(kind, "wavelength", lambda.clamp(1e-6, 0.1));
+        let (lo, hi) = target.bounds.range(kind, "wavelength");
+        let _ = m.effects.set(kind, "wavelength", lambda.clamp(lo, hi));
         candidates.push(m);
     }
     // The scan only chooses a start: score the starts on a subset of the recordings.
@@ -1070,7 +1335,17 @@ pub fn starts(target: &Target, base: &FitResult, kind: EffectKind) -> Model {
     }
     let mut grid: Vec<Vec<(&str, f64)>> = vec![vec![]];
     for p in kind.info().params.iter().filter(|p| p.fitted) {
-        let vals = scan_values(kind, p.name);
+        // The scan's values within the campaign's plausible range, its ends added where the
+        // range cuts some off.
+        let (lo, hi) = target.bounds.range(kind, p.name);
+        let all_vals = scan_values(kind, p.name);
+        let mut vals: Vec<f64> = all_vals.iter().copied().filter(|v| (lo..=hi).contains(v)).collect();
+        if all_vals.iter().any(|&v| v < lo) {
+            vals.insert(0, lo);
+        }
+        if all_vals.iter().any(|&v| v > hi) {
+            vals.push(hi);
+        }
         if vals.is_empty() {
             continue;
         }
@@ -1155,15 +1430,10 @@ pub fn actuator_scan(sub: &Target, m0: &Model) -> Option<Model> {
             }
             pick.sort_unstable();
             pick.dedup();
-            Target::new(pick.into_iter().map(|i| sub.recs[i]).collect())
+            sub.sub(pick.into_iter().map(|i| sub.recs[i]).collect())
         })
         .collect();
-    let bound = |name: &str| {
-        let p = kind.info().params.iter().find(|p| p.name == name);
-        p.map(|p| (p.min, p.max))
-            .expect("actuator_response has f_r")
-    };
-    let (f_lo, f_hi) = bound("f_r");
+    let (f_lo, f_hi) = sub.bounds.range(kind, "f_r");
     // A resonance that gives gain `g` at `f`: below `f` for g < 1 (`(f/f_r)² = 1 + 1/g`), above
     // it for g > 1 (`(f/f_r)² = 1 − 1/g`), lightly damped; the neutral start `m0` for 1. The
     // gain tabulated is the one realised (the bounds of `f_r` may cut it).
@@ -1276,7 +1546,7 @@ pub fn line_search(target: &Target, fr: &FitResult, kind: EffectKind) -> (Option
     let Some(v0) = fr.model.effects.get(kind, name) else {
         return (None, 0);
     };
-    let (lo, hi) = fit_range(kind, name).unwrap_or((0.0, f64::INFINITY));
+    let (lo, hi) = target.bounds.range(kind, name);
     let values: Vec<f64> = logspace(0.5 * v0, 2.0 * v0, LINE_POINTS)
         .into_iter()
         .filter(|v| (lo..=hi).contains(v))
@@ -1318,7 +1588,7 @@ fn scan_subset<'a>(target: &Target<'a>, z: &[f64]) -> Target<'a> {
 pub fn subset<'a>(target: &Target<'a>, z: &[f64], most: usize) -> Target<'a> {
     let n = target.recs.len();
     if n <= most {
-        return Target::new(target.recs.clone());
+        return target.sub(target.recs.clone());
     }
     let rows = target.row_recordings();
     let gaps: Option<Vec<f64>> = (rows.len() == z.len()).then(|| {
@@ -1344,7 +1614,7 @@ pub fn subset<'a>(target: &Target<'a>, z: &[f64], most: usize) -> Target<'a> {
         }
     }
     pick.sort_unstable();
-    Target::new(pick.into_iter().map(|i| target.recs[i]).collect())
+    target.sub(pick.into_iter().map(|i| target.recs[i]).collect())
 }
 
 /// `most` of `n` recordings (`most < n`): the `most/2` with the largest mean squared residual

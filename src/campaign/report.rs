@@ -49,6 +49,9 @@ pub fn json(c: &Campaign, d: &Diagnosis) -> serde_json::Value {
         "concentrated": d.concentrated.map(|(f, g, n)| json!({
             "feature": f.name(), "gap": num(g), "recordings": n,
         })),
+        "systematic": d.systematic.map(|(f, m, t, n)| json!({
+            "feature": f.name(), "mean_z": num(m), "t": num(t), "units": n,
+        })),
         "gap_after": num(d.gap_after),
         "gap_after_spread": num(d.gap_after_spread),
         "reduction": num(d.reduction),
@@ -63,16 +66,28 @@ pub fn json(c: &Campaign, d: &Diagnosis) -> serde_json::Value {
             "not_checked": d.not_checked,
         },
         "missing_channels": missing_channels(c),
+        "evidence": d.evidence.map(|e| evidence_json(&e)),
+        "evidence_runner_up": d.evidence_runner_up.map(|(k, e)| {
+            let mut v = evidence_json(&e);
+            v["runner_up"] = json!(k.name());
+            v
+        }),
+        "tie": d.tie.iter().map(|k| k.name()).collect::<Vec<_>>(),
+        "warnings": d.warnings,
+        "bounds": d.bounds.bounds.iter().map(|b| json!({
+            "effect": b.effect.name(), "param": b.param,
+            "lo": num(b.lo), "hi": num(b.hi), "reason": b.reason,
+        })).collect::<Vec<_>>(),
         "thresholds": {
-            "min_breadth": super::diagnose::MIN_BREADTH,
-            "gapped": super::diagnose::GAPPED,
-            "partial_margin": super::diagnose::PARTIAL_MARGIN,
+            "rule": "a candidate is named where the held-out data make it clearly more likely than the model it extends and than every rival (ln odds >= ln_prior_odds and >= evidence_se standard errors above 0) and it explains at least min_partial of the gap; rivals it does not clearly beat make a tie",
+            "ln_prior_odds": super::diagnose::LN_PRIOR_ODDS,
+            "evidence_se": super::diagnose::EVIDENCE_SE,
+            "param_nats": super::diagnose::PARAM_NATS,
             "significant_gap": super::diagnose::SIGNIFICANT_GAP,
             "feature_gap": super::diagnose::FEATURE_GAP,
-            "min_reduction": super::diagnose::MIN_REDUCTION,
             "min_partial": super::diagnose::MIN_PARTIAL,
             "min_second": super::diagnose::MIN_SECOND,
-            "clear_margin": super::diagnose::CLEAR_MARGIN,
+            "gapped": super::diagnose::GAPPED,
             "param_penalty": super::diagnose::PARAM_PENALTY,
         },
         "calibration": {
@@ -84,6 +99,8 @@ pub fn json(c: &Campaign, d: &Diagnosis) -> serde_json::Value {
         },
         "second": d.second.iter().map(|r| json!({
             "effect": r.effect.name(),
+            "evidence": evidence_json(&r.evidence),
+            "at_bound": r.at_bound,
             "gap_after": num(r.gap_after),
             "gap_spread": num(r.gap_spread),
             "reduction": num(r.reduction),
@@ -92,6 +109,9 @@ pub fn json(c: &Campaign, d: &Diagnosis) -> serde_json::Value {
         })).collect::<Vec<_>>(),
         "ranking": d.ranking.iter().map(|r| json!({
             "effect": r.effect.name(),
+            "per_feature": per_feature_json(&d.base_per_feature, &r.per_feature),
+            "evidence": evidence_json(&r.evidence),
+            "at_bound": r.at_bound,
             "stderr_from": if r.fit.jacobian_fresh {
                 "finite-difference Jacobian at the optimum"
             } else {
@@ -124,6 +144,43 @@ pub fn json(c: &Campaign, d: &Diagnosis) -> serde_json::Value {
         },
         "wall_time": d.wall_time,
     })
+}
+
+/// Each feature's held-out gap under the base model and under a candidate (`before`, `after`),
+/// where held-out units define it: where the candidate's fit acts.
+fn per_feature_json(base: &[f64], cand: &[f64]) -> serde_json::Value {
+    super::features::FEATURES
+        .iter()
+        .filter_map(|&f| {
+            let (b, a) = (*base.get(f as usize)?, *cand.get(f as usize)?);
+            (b.is_finite() && a.is_finite())
+                .then(|| (f.name().to_string(), json!({"before": num(b), "after": num(a)})))
+        })
+        .collect::<serde_json::Map<_, _>>()
+        .into()
+}
+
+/// One [`Evidence`] in the JSON: the log-likelihood ratio in nats and as a power of ten, its
+/// standard error, the recordings it rests on and whether it is clear.
+fn evidence_json(e: &super::diagnose::Evidence) -> serde_json::Value {
+    json!({
+        "ln_odds": num(e.ln_odds),
+        "log10_odds": num(e.log10_odds()),
+        "stderr": num(e.stderr),
+        "recordings": e.recordings,
+        "clear": e.clear(),
+    })
+}
+
+/// Words for an evidence: "10^x times as likely (ln odds a ± s over n recordings)".
+fn evidence_words(e: &super::diagnose::Evidence) -> String {
+    format!(
+        "10^{:.1} times as likely (ln odds {:.1} ± {:.1} over {} held-out recordings)",
+        e.log10_odds(),
+        e.ln_odds,
+        e.stderr,
+        e.recordings
+    )
 }
 
 /// The channels some recordings lack, and the features skipped for it.
@@ -211,6 +268,16 @@ pub fn summary(c: &Campaign, d: &Diagnosis) -> String {
             n
         );
     }
+    if let Some((f, m, t, n)) = d.systematic {
+        let _ = writeln!(
+            s,
+            "  systematic in {}: held-out mean z {:+.2} ({:.1} standard errors from 0) over {} units",
+            f.name(),
+            m,
+            t.abs(),
+            n
+        );
+    }
     if d.ranking.is_empty() && d.verdict == super::diagnose::Verdict::NoSignificantGap {
         let _ = writeln!(
             s,
@@ -227,11 +294,18 @@ pub fn summary(c: &Campaign, d: &Diagnosis) -> String {
             .collect();
         let _ = writeln!(
             s,
-            "  {:<18} gap {:>7.2}  reduction {:>6.1} %  {}",
+            "  {:<18} gap {:>7.2}  reduction {:>6.1} %  ln odds {:>7.1} ± {:<5.1} {}{}",
             r.effect.name(),
             r.gap_after,
             100.0 * r.reduction,
-            ps.join(", ")
+            r.evidence.ln_odds,
+            r.evidence.stderr,
+            ps.join(", "),
+            if r.at_bound.is_empty() {
+                String::new()
+            } else {
+                format!("  [on a bound: {}]", r.at_bound.join("; "))
+            }
         );
     }
     for r in &d.second {
@@ -244,7 +318,28 @@ pub fn summary(c: &Campaign, d: &Diagnosis) -> String {
             100.0 * r.reduction
         );
     }
+    for b in &d.bounds.bounds {
+        let _ = writeln!(
+            s,
+            "  plausible: {}.{} in [{:.4e}, {:.4e}]: {}",
+            b.effect.name(),
+            b.param,
+            b.lo,
+            b.hi,
+            b.reason
+        );
+    }
     let names: Vec<&str> = d.effects.iter().map(|k| k.name()).collect();
+    let strength = match (d.evidence, d.evidence_runner_up) {
+        (Some(e), Some((k, r))) => format!(
+            "\nevidence: against the base model {}; against the runner-up {} {}",
+            evidence_words(&e),
+            k.name(),
+            evidence_words(&r)
+        ),
+        (Some(e), None) => format!("\nevidence: against the base model {}", evidence_words(&e)),
+        _ => String::new(),
+    };
     let verdict = match d.best_effect {
         Some(_) => format!(
             "verdict: {} {} the gap: held-out gap {:.2} -> {:.2} ({:.0} % smaller{}){}",
@@ -268,7 +363,11 @@ pub fn summary(c: &Campaign, d: &Diagnosis) -> String {
             } else {
                 format!("\nwhat remains: {}", d.remaining)
             }
-        ),
+        ) + &strength,
+        None if d.verdict == super::diagnose::Verdict::Tie => format!(
+            "verdict: tie: {} explain the gap alike, and the held-out data cannot tell them apart (none is named)",
+            d.tie.iter().map(|k| k.name()).collect::<Vec<_>>().join(", ")
+        ) + &strength,
         None if d.verdict == super::diagnose::Verdict::NoSignificantGap => format!(
             "verdict: no significant gap (held-out gap {:.2} < {}, no feature's >= {})",
             d.gap_before,
@@ -279,9 +378,37 @@ pub fn summary(c: &Campaign, d: &Diagnosis) -> String {
             "verdict: unexplained: no candidate explains the gap (best {} cuts it by {:.0} %)",
             d.ranking.first().map_or("-", |r| r.effect.name()),
             100.0 * d.ranking.first().map_or(0.0, |r| r.reduction)
-        ),
+        ) + &strength,
     };
     let _ = writeln!(s, "{verdict}");
+    if let Some(top) = d.ranking.first().filter(|_| d.best_effect.is_some()) {
+        // Where the named effect acts: the features whose held-out gap it lowers most.
+        let mut moved: Vec<(&str, f64, f64)> = super::features::FEATURES
+            .iter()
+            .filter_map(|&f| {
+                let (b, a) = (
+                    *d.base_per_feature.get(f as usize)?,
+                    *top.per_feature.get(f as usize)?,
+                );
+                (b.is_finite() && a.is_finite()).then_some((f.name(), b, a))
+            })
+            .collect();
+        moved.sort_by(|x, y| (y.1 - y.2).total_cmp(&(x.1 - x.2)));
+        let words: Vec<String> = moved
+            .iter()
+            .take(3)
+            .map(|(n, b, a)| format!("{n} {b:.2} -> {a:.2}"))
+            .collect();
+        let _ = writeln!(
+            s,
+            "where {} acts (held-out gap per feature): {}",
+            top.effect.name(),
+            words.join(", ")
+        );
+    }
+    for w in &d.warnings {
+        let _ = writeln!(s, "WARNING: {w}");
+    }
     let _ = writeln!(s, "wall time {:.1} s", d.wall_time);
     s
 }
