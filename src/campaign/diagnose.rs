@@ -28,9 +28,10 @@
 //! "within noise and floors".
 //!
 //! **Evidence** ([`evidence`]). Two models are compared on the held-out recordings by the
-//! log-likelihood ratio `Λ = N ln(E_B/E_A) − `[`PARAM_NATS`]` (k_A − k_B)` over the `N`
-//! held-out residuals: each is taken as Gaussian with the model's own mean square as variance,
-//! and each added parameter costs a nat. A recording's residuals share one stick-slip history,
+//! log-likelihood ratio `Λ = Σ_i n_i ln(E_B,i/E_A,i) − `[`PARAM_NATS`]` (k_A − k_B)` over the
+//! recordings (`n_i` held-out residuals each, `E_i` the recording's held-out gap): each residual
+//! is taken as Gaussian with the model's own mean square in its recording as variance, and each
+//! added parameter costs a nat. A recording's residuals share one stick-slip history,
 //! so the standard error is the jackknife over recordings (leave one recording out), and a
 //! preference that one recording carries is not clear. `Λ` is "how many times as likely":
 //! `e^Λ`. A preference is **clear** ([`Evidence::clear`]) where `Λ ≥ ln 20`
@@ -112,8 +113,8 @@ pub const FOLDS: usize = 4;
 /// The held-out evidence for one model against another (see the module docs, "Evidence").
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Evidence {
-    /// Log-likelihood ratio \[nats\]: `N ln(E_B/E_A) − PARAM_NATS (k_A − k_B)` with `E` the
-    /// pooled held-out gaps over the `N` held-out residuals of the recordings both define.
+    /// Log-likelihood ratio \[nats\]: `Σ_i n_i ln(E_B,i/E_A,i) − PARAM_NATS (k_A − k_B)` over
+    /// the held-out recordings both models define, `n_i` residuals each.
     pub ln_odds: f64,
     /// Its jackknife standard error over those recordings (0 where the two models give the
     /// same gaps; NaN with fewer than two recordings).
@@ -140,13 +141,13 @@ impl Evidence {
 
 /// The held-out evidence for model A (per-recording held-out gaps `a`, each over `a_n`
 /// residuals) against model B (`b`, `b_n`), A having `extra` more parameters than B. The
-/// held-out residuals of a model are taken as Gaussian with the model's own mean square as
-/// variance (the profile likelihood), so the log-likelihood ratio over the `N` residuals of the
-/// recordings both models define is `N ln(E_B/E_A)` with `E` the pooled gaps
-/// (`√(Σ n_i E_i² / Σ n_i)`), less [`PARAM_NATS`] per extra parameter. One recording's residuals
-/// share its one stick-slip history and are not independent: the standard error is therefore
-/// the jackknife over recordings (leave one recording out, a cluster jackknife), and a
-/// preference that one recording carries has a large one.
+/// held-out residuals of a model in recording `i` are taken as Gaussian with the model's own
+/// mean square there as variance (the profile likelihood, one scale per recording: recordings
+/// differ in noise and in how far a model misses them), so the log-likelihood ratio is
+/// `Σ_i n_i ln(E_B,i/E_A,i)` over the recordings both models define, less [`PARAM_NATS`] per
+/// extra parameter. One recording's residuals share its one stick-slip history and are not
+/// independent: the standard error is therefore the jackknife over recordings (leave one
+/// recording out), and a preference that one recording carries has a large one.
 pub fn evidence(a: &[f64], a_n: &[usize], b: &[f64], b_n: &[usize], extra: f64) -> Evidence {
     let idx: Vec<usize> = (0..a.len().min(b.len()))
         .filter(|&i| {
@@ -158,19 +159,17 @@ pub fn evidence(a: &[f64], a_n: &[usize], b: &[f64], b_n: &[usize], extra: f64) 
         .collect();
     let n = idx.len();
     let penalty = PARAM_NATS * extra;
+    // Each recording's term: its residuals' log-likelihood ratio, `n_i ln(E_B,i/E_A,i)`.
+    let term = |i: usize| {
+        let n_i = 0.5 * (a_n[i] + b_n[i]) as f64;
+        n_i * (b[i].max(1e-150) / a[i].max(1e-150)).ln()
+    };
     let ln_odds = |skip: Option<usize>| {
-        let (mut sa, mut na, mut sb, mut nb) = (0.0, 0.0, 0.0, 0.0);
-        for &i in idx.iter().filter(|&&i| Some(i) != skip) {
-            sa += a_n[i] as f64 * a[i] * a[i];
-            na += a_n[i] as f64;
-            sb += b_n[i] as f64 * b[i] * b[i];
-            nb += b_n[i] as f64;
-        }
-        if na == 0.0 || nb == 0.0 {
-            return -penalty;
-        }
-        let (ma, mb) = ((sa / na).max(1e-300), (sb / nb).max(1e-300));
-        0.25 * (na + nb) * (mb / ma).ln() - penalty
+        idx.iter()
+            .filter(|&&i| Some(i) != skip)
+            .map(|&i| term(i))
+            .sum::<f64>()
+            - penalty
     };
     let full = ln_odds(None);
     let stderr = if n < 2 {
@@ -1069,7 +1068,10 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
         NOISE_GAP
     };
     let share = |e1: f64| (gap_before - e1) / (gap_before - noise).max(0.1 * gap_before);
-    let mut warnings: Vec<String> = vec![];
+    let mut warnings: Vec<String> = fit::base_at_bounds(&base)
+        .into_iter()
+        .map(|b| format!("the base calibration ends on a bound of its range ({b}): the base model has not found this rig's values, and every comparison with it is weaker for it"))
+        .collect();
     let mut tie: Vec<EffectKind> = vec![];
     let verdict = if no_gap {
         Verdict::NoSignificantGap
@@ -1509,8 +1511,8 @@ mod tests {
         // Against itself with two parameters more: two nats against, never clear.
         let same = evidence(&a, &counts, &a, &counts, 2.0);
         assert!((same.ln_odds + 2.0 * PARAM_NATS).abs() < 1e-12 && !same.clear());
-        // One recording far off under B, the others alike: the pooled ratio is large, but the
-        // jackknife sees that it rests on one recording.
+        // One recording far off under B, the others alike: strong evidence, but the jackknife
+        // sees that it rests on one recording.
         let mut b1 = a.clone();
         b1[3] = 40.0;
         let one = evidence(&a, &counts, &b1, &counts, 0.0);

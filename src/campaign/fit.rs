@@ -385,6 +385,31 @@ pub fn at_bounds(bounds: &Plausible, fr: &FitResult) -> Vec<String> {
     out
 }
 
+/// The base parameters of `fr` that end on a bound of the calibration's range (within 1 % on a
+/// log scale; `h_d = 0`, no drive damping, is a value, not a bound): `"v_s = ... at the lower
+/// bound ..."`, one each. A calibration that ends there has not found the rig's values.
+pub fn base_at_bounds(fr: &FitResult) -> Vec<String> {
+    let cs = coords(&Plausible::default(), &[]);
+    let mut out = vec![];
+    for (c, &th) in cs.iter().zip(&fr.theta) {
+        let tol = if c.log { 0.01 } else { 1e-3 * (c.hi - c.lo) };
+        for (end, word) in [(c.lo, "lower"), (c.hi, "upper")] {
+            let natural = !c.log && end == 0.0;
+            if (th - end).abs() <= tol && !natural {
+                let v = |x: f64| if c.log { x.exp() } else { x };
+                out.push(format!(
+                    "{} = {:.4e} at the {word} bound {:.4e} {}",
+                    c.name,
+                    v(th),
+                    v(end),
+                    c.unit
+                ));
+            }
+        }
+    }
+    out
+}
+
 /// A set of recordings with their measured features, ready for fitting. Each recording gives
 /// one unit per stage ([`stages`]: one, or two where the vibration is switched on within it),
 /// and every unit its own features.

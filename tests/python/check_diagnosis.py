@@ -44,4 +44,23 @@ cv = v["cross_validation"]
 assert sorted(cv["fold_of"]) == sorted(names), cv["fold_of"]
 assert all(0 <= k < cv["folds"] for k in cv["fold_of"].values())
 assert v["calibration"]["converged"] in (True, False)
+# The decision's evidence: a log-likelihood ratio with its error, clear or not; a tie names two
+# candidates or more and no effect; every plausible range says why.
+assert isinstance(v["tie"], list) and isinstance(v["warnings"], list)
+if v["verdict"] == "tie":
+    assert len(v["tie"]) >= 2 and v["best_effect"] is None, v["tie"]
+else:
+    assert v["tie"] == [], v["tie"]
+for r in v["ranking"]:
+    e = r["evidence"]
+    assert abs(e["log10_odds"] * np.log(10) - e["ln_odds"]) < 1e-9 * max(1, abs(e["ln_odds"])), e
+    assert e["clear"] == bool(e["ln_odds"] >= v["thresholds"]["ln_prior_odds"]
+                              and e["recordings"] >= 2
+                              and e["ln_odds"] - v["thresholds"]["evidence_se"] * e["stderr"] >= 0), e
+    assert isinstance(r["at_bound"], list)
+if v["verdict"] == "effect":
+    assert v["evidence"]["clear"], v["evidence"]
+    assert v["evidence"]["ln_odds"] == v["ranking"][0]["evidence"]["ln_odds"]
+for b in v["bounds"]:
+    assert b["lo"] < b["hi"] and b["reason"], b
 print("ok")
