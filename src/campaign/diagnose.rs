@@ -49,7 +49,8 @@
 //! - `tie` when it is, but not clearly more likely than some other candidate: those it does
 //!   not clearly beat are listed ([`Diagnosis::tie`]) and none is named;
 //! - `effect` otherwise, with `partial` where the named effects leave a significant gap
-//!   (`E1 ≥` [`SIGNIFICANT_GAP`], or the feature the gap concentrated in still carries it) or a
+//!   (`E1 ≥` [`SIGNIFICANT_GAP`], or, where only a concentrated feature made the gap
+//!   significant, a feature that still concentrates it) or a
 //!   named effect's fitted parameter ends on a bound of the campaign's plausible range
 //!   ([`fit::Plausible`], [`fit::at_bounds`]; with a warning).
 //!
@@ -328,7 +329,8 @@ pub struct Diagnosis {
     /// ([`FEATURE_GAP`]): the feature, its held-out gap and the number of checked recordings
     /// on which its `|z|` reaches that level.
     pub concentrated: Option<(Feature, f64, usize)>,
-    /// The feature the base model misses systematically on held-out data ([`systematic`]),
+    /// The harmonic feature the base model misses systematically on held-out data ([`BIAS_Z`],
+    /// [`BIAS_T`], [`BIAS_UNITS`]),
     /// where one does: the feature, its mean `z`, the `t` of that mean and the units.
     pub systematic: Option<(Feature, f64, f64, usize)>,
     /// Where only [`Diagnosis::concentrated`] makes the gap significant: the held-out
@@ -639,7 +641,7 @@ pub const BIAS_Z: f64 = 1.5;
 /// 17 features tested, about a 1 % chance that some effect-free feature reaches it by chance
 /// (from 6 units on, [`BIAS_UNITS`]).
 pub const BIAS_T: f64 = 5.0;
-/// Fewest held-out units that must define a feature for [`systematic`].
+/// Fewest held-out units that must define a feature for it to count as systematically off.
 pub const BIAS_UNITS: usize = 6;
 
 /// The harmonic feature (amplitude or phase at `f` or `2f`) the model misses systematically on

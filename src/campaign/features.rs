@@ -545,7 +545,7 @@ pub fn harmonics(y: &[f64], t0: f64, dt: f64, freq: f64, t_on: f64) -> [Option<H
     out
 }
 
-/// Smallest quantum [m] of a displacement channel that [`quantum`] reports: finer steps (a
+/// Smallest quantum \[m\] of a displacement channel that [`quantum`] reports: finer steps (a
 /// printed file's last digit) act as noise, not as an encoder's resolution.
 pub const MIN_QUANTUM: f64 = 1e-10;
 
@@ -580,7 +580,7 @@ pub fn quantize(x: &[f64], q: f64) -> Vec<f64> {
     x.iter().map(|v| (v / q).round() * q).collect()
 }
 
-/// A body-displacement channel quantized to `q` [m]: its harmonic amplitude at `f` is known to no
+/// A body-displacement channel quantized to `q` \[m\]: its harmonic amplitude at `f` is known to no
 /// better than half a quantum (below a few quanta the rounding is a deterministic distortion,
 /// not a noise that averages out), so `q/2` joins its standard error in quadrature, and its
 /// phase counts only where the amplitude stands out of that too.

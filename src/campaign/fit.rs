@@ -182,7 +182,7 @@ pub struct Bound {
 }
 
 /// The plausible ranges of the effects' fitted parameters in one campaign ([`Plausible::of`]).
-/// A parameter without a campaign bound keeps the fit's range ([`fit_range`]) or the library's.
+/// A parameter without a campaign bound keeps the fit's narrower range (where it has one) or the library's.
 /// A fit never leaves these ranges; one that ends on a campaign bound is reported as such
 /// (`diagnose` names it only as partial, with a warning).
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -337,7 +337,7 @@ impl Plausible {
         Plausible { bounds }
     }
 
-    /// The range of a fitted parameter: the campaign's bound, else the fit's ([`fit_range`]),
+    /// The range of a fitted parameter: the campaign's bound, else the fit's narrower range,
     /// else the library's table.
     pub fn range(&self, kind: EffectKind, param: &str) -> (f64, f64) {
         if let Some(b) = self
