@@ -79,7 +79,7 @@ pub fn json(c: &Campaign, d: &Diagnosis) -> serde_json::Value {
             "lo": num(b.lo), "hi": num(b.hi), "reason": b.reason,
         })).collect::<Vec<_>>(),
         "thresholds": {
-            "rule": "a candidate is named where the held-out data make it clearly more likely than the model it extends and than every rival (ln odds >= ln_prior_odds and >= evidence_se standard errors above 0) and it explains at least min_partial of the gap; rivals it does not clearly beat make a tie",
+            "rule": "a candidate is named where the held-out data make it clearly more likely than the model it extends and than every plausible rival (ln odds >= ln_prior_odds, >= evidence_se standard errors above 0, and >= ln_prior_odds with any one recording left out) and it explains at least min_partial of the gap; rivals it does not clearly beat make a tie",
             "ln_prior_odds": super::diagnose::LN_PRIOR_ODDS,
             "evidence_se": super::diagnose::EVIDENCE_SE,
             "param_nats": super::diagnose::PARAM_NATS,
@@ -168,6 +168,7 @@ fn evidence_json(e: &super::diagnose::Evidence) -> serde_json::Value {
         "log10_odds": num(e.log10_odds()),
         "stderr": num(e.stderr),
         "recordings": e.recordings,
+        "least_left_out": num(e.least_left_out),
         "clear": e.clear(),
     })
 }

@@ -56,7 +56,8 @@ for r in v["ranking"]:
     assert abs(e["log10_odds"] * np.log(10) - e["ln_odds"]) < 1e-9 * max(1, abs(e["ln_odds"])), e
     assert e["clear"] == bool(e["ln_odds"] >= v["thresholds"]["ln_prior_odds"]
                               and e["recordings"] >= 2
-                              and e["ln_odds"] - v["thresholds"]["evidence_se"] * e["stderr"] >= 0), e
+                              and e["ln_odds"] - v["thresholds"]["evidence_se"] * e["stderr"] >= 0
+                              and e["least_left_out"] >= v["thresholds"]["ln_prior_odds"]), e
     assert isinstance(r["at_bound"], list)
 if v["verdict"] == "effect":
     assert v["evidence"]["clear"], v["evidence"]
