@@ -56,7 +56,10 @@ fn show(d: &Diagnosis) -> String {
         );
     }
     if let Some((f, m, t, n)) = d.systematic {
-        s += &format!("systematic: {} mean z {m:.2}, t {t:.1}, {n} units\n", f.name());
+        s += &format!(
+            "systematic: {} mean z {m:.2}, t {t:.1}, {n} units\n",
+            f.name()
+        );
     }
     s + &d.location.summary
 }
@@ -311,7 +314,10 @@ fn plausible_ranges_come_from_the_recordings_and_hold_the_truth() {
         .map(|r| r.params.v_d * (r.t[r.t.len() - 1] - r.t[0]))
         .fold(0.0, f64::max);
     let (_, w_hi) = b.range(EffectKind::DriveRipple, "wavelength");
-    assert!((w_hi - 0.5 * travel).abs() < 1e-12 * travel, "{w_hi} {travel}");
+    assert!(
+        (w_hi - 0.5 * travel).abs() < 1e-12 * travel,
+        "{w_hi} {travel}"
+    );
     // Every bound says why.
     assert!(b.bounds.iter().all(|x| !x.reason.is_empty() && x.lo < x.hi));
     // A subset keeps the campaign's bounds.

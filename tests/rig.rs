@@ -163,7 +163,11 @@ fn row(name: &str, expect: &serde_json::Value, d: &Diagnosis) -> String {
         d.verdict.name(),
         if d.partial { " (partial)" } else { "" },
         if !d.tie.is_empty() {
-            d.tie.iter().map(|k| k.name()).collect::<Vec<_>>().join(" = ")
+            d.tie
+                .iter()
+                .map(|k| k.name())
+                .collect::<Vec<_>>()
+                .join(" = ")
         } else if effects.is_empty() {
             "-".to_string()
         } else {

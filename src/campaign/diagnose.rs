@@ -187,7 +187,10 @@ pub fn evidence(a: &[f64], a_n: &[usize], b: &[f64], b_n: &[usize], extra: f64) 
         let jack: Vec<f64> = idx.iter().map(|&i| ln_odds(Some(i))).collect();
         let mean = jack.iter().sum::<f64>() / n as f64;
         let var = (n - 1) as f64 / n as f64 * jack.iter().map(|j| (j - mean).powi(2)).sum::<f64>();
-        (var.sqrt(), jack.iter().copied().fold(f64::INFINITY, f64::min))
+        (
+            var.sqrt(),
+            jack.iter().copied().fold(f64::INFINITY, f64::min),
+        )
     };
     Evidence {
         ln_odds: full,
@@ -636,9 +639,7 @@ fn concentrated(cv: &CrossValidated) -> Option<(Feature, f64, usize)> {
         .filter_map(|&f| cv.per_feature.get(f as usize).map(|&(g, n)| (f, g, n)))
         .filter(|&(_, g, n)| g >= FEATURE_GAP && n >= 2)
         .max_by(|a, b| a.1.total_cmp(&b.1))
-        .or_else(|| {
-            systematic(cv).map(|(f, _, _, n)| (f, cv.per_feature[f as usize].0, n))
-        })
+        .or_else(|| systematic(cv).map(|(f, _, _, n)| (f, cv.per_feature[f as usize].0, n)))
 }
 
 /// Smallest held-out mean `|z|` of a feature that counts as systematically off: the model
@@ -1535,7 +1536,10 @@ mod tests {
         let mut b2 = b1.clone();
         b2[7] = 40.0;
         let two = evidence(&a, &counts, &b2, &counts, 0.0);
-        assert!((two.least_left_out - 0.5 * two.ln_odds).abs() < 1e-9, "{two:?}");
+        assert!(
+            (two.least_left_out - 0.5 * two.ln_odds).abs() < 1e-9,
+            "{two:?}"
+        );
         assert!(two.clear(), "{two:?}");
         // Recordings either model leaves undefined (NaN, no residuals) do not count.
         let mut a2 = a.clone();

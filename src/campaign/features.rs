@@ -763,7 +763,9 @@ mod tests {
         fs.stderr[Feature::BodyAmp1 as usize] = 1e-9;
         fs.value[Feature::BodyPhase1 as usize] = 0.3;
         weigh_quantum(&mut fs, q);
-        assert!((fs.stderr[Feature::BodyAmp1 as usize] - (1e-18f64 + 2.5e-15).sqrt()).abs() < 1e-12);
+        assert!(
+            (fs.stderr[Feature::BodyAmp1 as usize] - (1e-18f64 + 2.5e-15).sqrt()).abs() < 1e-12
+        );
         assert!(fs.value[Feature::BodyPhase1 as usize].is_nan());
     }
 

@@ -220,24 +220,20 @@ impl Plausible {
     ///   friction curves).
     pub fn of(t: &Target) -> Plausible {
         let mut bounds = vec![];
-        let table = |k: EffectKind, name: &str| -> (f64, f64) {
-            let p = k.info().params.iter().find(|p| p.name == name);
-            let (a, b) = p.map_or((0.0, f64::INFINITY), |p| (p.min, p.max));
-            fit_range(k, name).unwrap_or((a, b))
-        };
-        let mut push = |effect: EffectKind, param: &'static str, lo: f64, hi: f64, reason: String| {
-            let (a, b) = table(effect, param);
-            let (lo, hi) = (lo.max(a), hi.min(b));
-            if lo < hi && (lo > a || hi < b) {
-                bounds.push(Bound {
-                    effect,
-                    param,
-                    lo,
-                    hi,
-                    reason,
-                });
-            }
-        };
+        let mut push =
+            |effect: EffectKind, param: &'static str, lo: f64, hi: f64, reason: String| {
+                let (a, b) = default_range(effect, param);
+                let (lo, hi) = (lo.max(a), hi.min(b));
+                if lo < hi && (lo > a || hi < b) {
+                    bounds.push(Bound {
+                        effect,
+                        param,
+                        lo,
+                        hi,
+                        reason,
+                    });
+                }
+            };
         if t.recs.is_empty() {
             return Plausible { bounds };
         }
@@ -276,14 +272,23 @@ impl Plausible {
                 format!(
                     "no lower than the fastest drive oscillator, sqrt(k_d/m)/2pi = {f_osc:.1} Hz{}",
                     if t_slip.is_finite() {
-                        format!(" (the shortest recorded slip, {:.1} ms, allows {slip_lo:.1} Hz)", 1e3 * t_slip)
+                        format!(
+                            " (the shortest recorded slip, {:.1} ms, allows {slip_lo:.1} Hz)",
+                            1e3 * t_slip
+                        )
                     } else {
                         String::new()
                     }
                 ),
             )
         };
-        push(EffectKind::SensorDynamics, "f_n", sensor_lo, f64::INFINITY, why);
+        push(
+            EffectKind::SensorDynamics,
+            "f_n",
+            sensor_lo,
+            f64::INFINITY,
+            why,
+        );
         push(
             EffectKind::ActuatorResponse,
             "f_r",
@@ -347,56 +352,28 @@ impl Plausible {
         {
             return (b.lo, b.hi);
         }
-        let p = kind.info().params.iter().find(|p| p.name == param);
-        let table = p.map_or((f64::NEG_INFINITY, f64::INFINITY), |p| (p.min, p.max));
-        fit_range(kind, param).unwrap_or(table)
+        default_range(kind, param)
     }
 }
 
-/// The fitted effect parameters of `fr` that end on a bound of their range (within 1 % on a
-/// log scale, 0.1 % of the range on a linear one) other than the end where the effect vanishes
-/// ([`neutral`]): `"effect.param = value at the lower|upper bound lo|hi unit"`, one each.
-pub fn at_bounds(bounds: &Plausible, fr: &FitResult) -> Vec<String> {
-    let cs = coords(bounds, &fr.effects);
-    let mut out = vec![];
-    for (c, &th) in cs.iter().zip(&fr.theta) {
-        let Ok((k, i)) = c.target else { continue };
-        let p = &k.info().params[i];
-        let tol = if c.log { 0.01 } else { 1e-3 * (c.hi - c.lo) };
-        let neutral_at = |end: f64| {
-            neutral(k, p.name).is_some_and(|v| {
-                let v = if c.log { v.ln() } else { v };
-                (v - end).abs() <= tol
-            })
-        };
-        let value = if c.log { th.exp() } else { th };
-        for (end, word) in [(c.lo, "lower"), (c.hi, "upper")] {
-            if (th - end).abs() <= tol && !neutral_at(end) {
-                let e = if c.log { end.exp() } else { end };
-                out.push(format!(
-                    "{}.{} = {value:.4e} at the {word} bound {e:.4e} {}",
-                    k.name(),
-                    p.name,
-                    p.unit
-                ));
-            }
-        }
-    }
-    out
+/// The range of a fitted effect parameter without the campaign's bounds: the fit's narrower
+/// range ([`fit_range`]), else the library's table.
+fn default_range(kind: EffectKind, param: &str) -> (f64, f64) {
+    let p = kind.info().params.iter().find(|p| p.name == param);
+    let table = p.map_or((f64::NEG_INFINITY, f64::INFINITY), |p| (p.min, p.max));
+    fit_range(kind, param).unwrap_or(table)
 }
 
-/// The base parameters of `fr` that end on a bound of the calibration's range (within 1 % on a
-/// log scale; `h_d = 0`, no drive damping, is a value, not a bound): `"v_s = ... at the lower
-/// bound ..."`, one each. A calibration that ends there has not found the rig's values.
-pub fn base_at_bounds(fr: &FitResult) -> Vec<String> {
-    let cs = coords(&Plausible::default(), &[]);
+/// The coordinates `cs` at `theta` that lie on an end of their range (within 1 % on a log scale,
+/// 0.1 % of the range on a linear one), other than the ends `natural` accepts as values:
+/// `"name = value at the lower|upper bound end unit"`, one each.
+fn on_bounds(cs: &[Coord], theta: &[f64], natural: impl Fn(&Coord, f64) -> bool) -> Vec<String> {
     let mut out = vec![];
-    for (c, &th) in cs.iter().zip(&fr.theta) {
+    for (c, &th) in cs.iter().zip(theta) {
         let tol = if c.log { 0.01 } else { 1e-3 * (c.hi - c.lo) };
+        let v = |x: f64| if c.log { x.exp() } else { x };
         for (end, word) in [(c.lo, "lower"), (c.hi, "upper")] {
-            let natural = !c.log && end == 0.0;
-            if (th - end).abs() <= tol && !natural {
-                let v = |x: f64| if c.log { x.exp() } else { x };
+            if (th - end).abs() <= tol && !natural(c, end) {
                 out.push(format!(
                     "{} = {:.4e} at the {word} bound {:.4e} {}",
                     c.name,
@@ -408,6 +385,36 @@ pub fn base_at_bounds(fr: &FitResult) -> Vec<String> {
         }
     }
     out
+}
+
+/// The fitted effect parameters of `fr` that end on a bound of their range (within 1 % on a
+/// log scale, 0.1 % of the range on a linear one) other than the end where the effect vanishes
+/// ([`neutral`]): `"effect.param = value at the lower|upper bound lo|hi unit"`, one each.
+pub fn at_bounds(bounds: &Plausible, fr: &FitResult) -> Vec<String> {
+    let cs = coords(bounds, &fr.effects);
+    let (cs, theta): (Vec<Coord>, Vec<f64>) = cs
+        .iter()
+        .zip(&fr.theta)
+        .filter(|(c, _)| c.target.is_ok())
+        .map(|(c, &t)| (c.clone(), t))
+        .unzip();
+    // The end where the effect vanishes is the model it extends, not an implausible value.
+    on_bounds(&cs, &theta, |c, end| {
+        let Ok((k, i)) = c.target else { return true };
+        neutral(k, k.info().params[i].name).is_some_and(|v| {
+            let v = if c.log { v.ln() } else { v };
+            let tol = if c.log { 0.01 } else { 1e-3 * (c.hi - c.lo) };
+            (v - end).abs() <= tol
+        })
+    })
+}
+
+/// The base parameters of `fr` that end on a bound of the calibration's range (within 1 % on a
+/// log scale; `h_d = 0`, no drive damping, is a value, not a bound): `"v_s = ... at the lower
+/// bound ..."`, one each. A calibration that ends there has not found the rig's values.
+pub fn base_at_bounds(fr: &FitResult) -> Vec<String> {
+    let cs = coords(&Plausible::default(), &[]);
+    on_bounds(&cs, &fr.theta, |c, end| !c.log && end == 0.0)
 }
 
 /// A set of recordings with their measured features, ready for fitting. Each recording gives
@@ -1364,7 +1371,11 @@ pub fn starts(target: &Target, base: &FitResult, kind: EffectKind) -> Model {
         // range cuts some off.
         let (lo, hi) = target.bounds.range(kind, p.name);
         let all_vals = scan_values(kind, p.name);
-        let mut vals: Vec<f64> = all_vals.iter().copied().filter(|v| (lo..=hi).contains(v)).collect();
+        let mut vals: Vec<f64> = all_vals
+            .iter()
+            .copied()
+            .filter(|v| (lo..=hi).contains(v))
+            .collect();
         if all_vals.iter().any(|&v| v < lo) {
             vals.insert(0, lo);
         }

@@ -153,8 +153,12 @@ fn per_feature_json(base: &[f64], cand: &[f64]) -> serde_json::Value {
         .iter()
         .filter_map(|&f| {
             let (b, a) = (*base.get(f as usize)?, *cand.get(f as usize)?);
-            (b.is_finite() && a.is_finite())
-                .then(|| (f.name().to_string(), json!({"before": num(b), "after": num(a)})))
+            (b.is_finite() && a.is_finite()).then(|| {
+                (
+                    f.name().to_string(),
+                    json!({"before": num(b), "after": num(a)}),
+                )
+            })
         })
         .collect::<serde_json::Map<_, _>>()
         .into()
@@ -342,44 +346,54 @@ pub fn summary(c: &Campaign, d: &Diagnosis) -> String {
         _ => String::new(),
     };
     let verdict = match d.best_effect {
-        Some(_) => format!(
-            "verdict: {} {} the gap: held-out gap {:.2} -> {:.2} ({:.0} % smaller{}){}",
-            names.join(" + "),
-            if d.partial {
-                "explains part of"
-            } else if names.len() > 1 {
-                "explain"
-            } else {
-                "explains"
-            },
-            d.gap_before,
-            d.gap_after,
-            100.0 * d.reduction,
-            d.reduction_beyond_noise.map_or(String::new(), |x| format!(
-                "; {:.0} % of the gap beyond noise (1)",
-                100.0 * x
-            )),
-            if d.remaining.is_empty() {
-                String::new()
-            } else {
-                format!("\nwhat remains: {}", d.remaining)
-            }
-        ) + &strength,
-        None if d.verdict == super::diagnose::Verdict::Tie => format!(
-            "verdict: tie: {} explain the gap alike, and the held-out data cannot tell them apart (none is named)",
-            d.tie.iter().map(|k| k.name()).collect::<Vec<_>>().join(", ")
-        ) + &strength,
+        Some(_) => {
+            format!(
+                "verdict: {} {} the gap: held-out gap {:.2} -> {:.2} ({:.0} % smaller{}){}",
+                names.join(" + "),
+                if d.partial {
+                    "explains part of"
+                } else if names.len() > 1 {
+                    "explain"
+                } else {
+                    "explains"
+                },
+                d.gap_before,
+                d.gap_after,
+                100.0 * d.reduction,
+                d.reduction_beyond_noise.map_or(String::new(), |x| format!(
+                    "; {:.0} % of the gap beyond noise (1)",
+                    100.0 * x
+                )),
+                if d.remaining.is_empty() {
+                    String::new()
+                } else {
+                    format!("\nwhat remains: {}", d.remaining)
+                }
+            ) + &strength
+        }
+        None if d.verdict == super::diagnose::Verdict::Tie => {
+            format!(
+                "verdict: tie: {} explain the gap alike, and the held-out data cannot tell them apart (none is named)",
+                d.tie
+                    .iter()
+                    .map(|k| k.name())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ) + &strength
+        }
         None if d.verdict == super::diagnose::Verdict::NoSignificantGap => format!(
             "verdict: no significant gap (held-out gap {:.2} < {}, no feature's >= {})",
             d.gap_before,
             super::diagnose::SIGNIFICANT_GAP,
             super::diagnose::FEATURE_GAP
         ),
-        None => format!(
-            "verdict: unexplained: no candidate explains the gap (best {} cuts it by {:.0} %)",
-            d.ranking.first().map_or("-", |r| r.effect.name()),
-            100.0 * d.ranking.first().map_or(0.0, |r| r.reduction)
-        ) + &strength,
+        None => {
+            format!(
+                "verdict: unexplained: no candidate explains the gap (best {} cuts it by {:.0} %)",
+                d.ranking.first().map_or("-", |r| r.effect.name()),
+                100.0 * d.ranking.first().map_or(0.0, |r| r.reduction)
+            ) + &strength
+        }
     };
     let _ = writeln!(s, "{verdict}");
     if let Some(top) = d.ranking.first().filter(|_| d.best_effect.is_some()) {
