@@ -452,7 +452,33 @@ pub fn merge_cmd(a: &MergeArgs) -> Result<(), AppError> {
         }
         .into());
     }
-    crate::cli::check_output("out", &a.out, &[])?;
+    let inputs: Vec<&std::path::Path> = a.sweep.iter().map(|p| p.as_path()).collect();
+    crate::cli::check_output("out", &a.out, &inputs)?;
+    // The shards' folder holds the inputs (records, shard files, journals): the output may not
+    // be written among them.
+    let shards = a
+        .shards
+        .clone()
+        .unwrap_or_else(|| sweep::shard::dir_for(&a.out));
+    let canon = |p: &std::path::Path| std::path::absolute(p).ok().map(|p| {
+        p.parent()
+            .and_then(|d| d.canonicalize().ok())
+            .map(|d| d.join(p.file_name().unwrap_or_default()))
+            .unwrap_or(p)
+    });
+    if let (Some(o), Ok(d)) = (canon(&a.out), shards.canonicalize())
+        && o.starts_with(&d)
+    {
+        return Err(CliError::Flag {
+            flag: "out".into(),
+            value: a.out.display().to_string(),
+            msg: format!(
+                "lies in the shards' folder {}, among this merge's inputs; give an output outside it",
+                shards.display()
+            ),
+        }
+        .into());
+    }
     let o = sweep::merge::merge(&sweep::merge::MergeOptions {
         out: a.out.clone(),
         shards: a.shards.clone(),
@@ -562,9 +588,9 @@ pub fn slurm_cmd(a: &SlurmArgs) -> Result<(), AppError> {
     } else {
         println!(
             "submit with: jid=$(sbatch --parsable {}) && sbatch --dependency=afterok:$jid {}   (or: stickslip slurm {} --tasks {} --submit)",
-            script.display(),
-            merge_script.display(),
-            a.file.display(),
+            crate::slurm::quote(&script),
+            crate::slurm::quote(&merge_script),
+            crate::slurm::quote(&a.file),
             a.tasks
         );
     }
@@ -659,21 +685,33 @@ pub fn run(a: &RunArgs) -> Result<(), AppError> {
     }
     times.sort_by(f64::total_cmp);
     let timing = (a.repeats > 1).then(|| (times[times.len() / 2], times[0]));
-    // A failed run has no measures: it never replaces an earlier result.
-    if !res.status().has_measures() {
-        return Err(AppError::Failed(format!(
-            "{} ({} not written; an earlier file there is kept)",
-            res.status().name(),
-            a.out.display()
-        )));
+    // Only a successful run is written: a failed or unsettled one never replaces an earlier
+    // result (its measures, where it has them, are printed and flagged).
+    let status = res.status();
+    let failed = |why: String| {
+        let mut kept = vec![a.out.display().to_string()];
+        kept.extend(a.csv.iter().map(|p| p.display().to_string()));
+        AppError::Failed(format!(
+            "{why} (nothing written; {} left untouched)",
+            kept.join(", ")
+        ))
+    };
+    if !status.has_measures() {
+        return Err(failed(status.name().to_string()));
     }
-    output::write_case_h5(&a.out, &res, &case.run, &case.effects)?;
-    let mut written = vec![a.out.clone()];
-    if let (Some(path), Some(tr)) = (&a.csv, &res.run.trace) {
+    let mut written = vec![];
+    if status == crate::ode::Status::Success {
+        output::write_case_h5(&a.out, &res, &case.run, &case.effects)?;
+        written.push(a.out.clone());
+    }
+    if status == crate::ode::Status::Success
+        && let (Some(path), Some(tr)) = (&a.csv, &res.run.trace)
+    {
         output::write_trace_csv(path, tr)?;
         written.push(path.clone());
     }
     if a.plot
+        && status == crate::ode::Status::Success
         && let Some(tr) = &res.run.trace
     {
         let p = &case.params;
@@ -725,8 +763,24 @@ pub fn run(a: &RunArgs) -> Result<(), AppError> {
             let _ = writeln!(out, "wrote {}", w.display());
         }
     }
-    if res.status() != crate::ode::Status::Success {
-        return Err(AppError::Failed(res.status().name().to_string()));
+    if status != crate::ode::Status::Success {
+        let why = match (status, case.run.t_end) {
+            (crate::ode::Status::Unsettled, Some(t)) => {
+                let auto = sim::planned_time(&case.params, case.run.min_cycles);
+                format!(
+                    "unsettled: t_end = {t} s is too short for the stick-slip to settle and be \
+                     measured over {} cycles of about {:.3} s each; give t_end >= {auto:.3} s, \
+                     or leave t_end out to have it chosen",
+                    case.run.min_cycles,
+                    case.params.cycle_estimate()
+                )
+            }
+            (crate::ode::Status::Unsettled, None) => "unsettled: the stick-slip did not settle \
+                 within the automatic time; give a longer t_end"
+                .to_string(),
+            (s, _) => s.name().to_string(),
+        };
+        return Err(failed(why));
     }
     Ok(())
 }
@@ -833,7 +887,12 @@ pub fn case_summary(c: &CaseResult, o: &RunOptions) -> String {
     if m.cycles == 0 {
         let _ = writeln!(
             s,
-            "dF        0 N: no stick-slip cycle in the steady window (the body slides)"
+            "dF        0 N: no stick-slip cycle in the steady window ({})",
+            if m.stick_fraction > 0.5 {
+                "the body sticks throughout"
+            } else {
+                "the body slides"
+            }
         );
     } else {
         let _ = writeln!(

@@ -75,6 +75,11 @@ pub enum EarlyStop {
 /// k_d = 1000 N/m), continued runs included (8 times that).
 pub const T_END_MAX: f64 = 1e5;
 
+/// Most forcing periods a run may simulate: 1e7, some minutes of one core at the ~13 µs a
+/// period costs (1500 Hz, 0.5 mm/s, 11 700 N/m: 3 738 periods in 50 ms), and four times the
+/// most of the paper's ranges (576 s at 4000 Hz).
+pub const PERIODS_MAX: f64 = 1e7;
+
 /// Early stop: the smoothed drive force over the second half of the run so far must stay within
 /// this share of the nominal stick-slip amplitude `2 (F_s − F_c)` (so `r` below it, a tenth of
 /// the elimination threshold) ...
@@ -420,16 +425,45 @@ pub fn simulate_with(
 }
 
 /// The simulated time of a run: the given `t_end`, or [`planned_time`]. A two-stage run must
-/// reach its second stage.
-fn end_time(p: &Params, opts: &RunOptions) -> Result<f64, SimError> {
-    let t_end = opts
-        .t_end
-        .unwrap_or_else(|| planned_time(p, opts.min_cycles));
+/// reach its second stage, and every run must keep within the work budget: at most
+/// [`T_END_MAX`] of simulated time, chosen automatically or given, and at most
+/// [`PERIODS_MAX`] forcing periods. Every route to a run (`run`, case files, sweep points,
+/// refinements, campaigns) checks it here, before anything runs.
+pub fn end_time(p: &Params, opts: &RunOptions) -> Result<f64, SimError> {
+    let t_end = match opts.t_end {
+        Some(t) => t,
+        None => {
+            let t = planned_time(p, opts.min_cycles);
+            if !(t <= T_END_MAX) {
+                return Err(SimError::Budget(format!(
+                    "the automatic simulated time is {t:.3e} s ({} stick-slip cycles of \
+                     2 (F_s - F_c)/(k_d v_d) = {:.3e} s at k_d = {} N/m, v_d = {} m/s), over the \
+                     budget of {T_END_MAX:.0e} s; raise k_d or v_d, or give a shorter t_end",
+                    opts.min_cycles,
+                    p.cycle_estimate(),
+                    p.k_d,
+                    p.v_d
+                )));
+            }
+            t
+        }
+    };
     if p.two_stage() && !(p.t_on < t_end) {
         return Err(SimError::SwitchOnAfterEnd {
             t_on: p.t_on,
             t_end,
         });
+    }
+    if p.vibrates() {
+        let periods = p.f * (t_end - if p.two_stage() { p.t_on } else { 0.0 });
+        if !(periods <= PERIODS_MAX) {
+            return Err(SimError::Budget(format!(
+                "{periods:.3e} forcing periods (f = {} Hz over {:.3e} s of vibration) are over \
+                 the budget of {PERIODS_MAX:.0e} periods; lower f or t_end",
+                p.f,
+                t_end - if p.two_stage() { p.t_on } else { 0.0 }
+            )));
+        }
     }
     Ok(t_end)
 }
@@ -992,4 +1026,8 @@ pub enum SimError {
         /// End of the run \[s\].
         t_end: f64,
     },
+    /// A run over the work budget ([`T_END_MAX`], [`PERIODS_MAX`]): the message names the
+    /// parameters that make it long.
+    #[error("{0}")]
+    Budget(String),
 }

@@ -122,6 +122,13 @@ impl SlurmJob {
         {
             return flag("time", t.clone(), msg);
         }
+        for (what, path) in [
+            ("sweep file", &self.file),
+            ("output (-o)", &self.out),
+            ("program", &self.exe),
+        ] {
+            check_script_path(what, path)?;
+        }
         if let Some(p) = &self.partition
             && (p.is_empty() || p.chars().any(|c| c.is_whitespace() || c == '#'))
         {
@@ -144,6 +151,21 @@ impl SlurmJob {
         (with(".array.sbatch"), with(".merge.sbatch"))
     }
 
+    /// The job name in the scripts: the sweep's name with anything but letters, digits and
+    /// `._+-` replaced by `_` (a job name only labels the queue; Slurm shows it in columns).
+    fn job_name(&self) -> String {
+        self.name
+            .chars()
+            .map(|c| {
+                if c.is_ascii_alphanumeric() || "._+-".contains(c) {
+                    c
+                } else {
+                    '_'
+                }
+            })
+            .collect()
+    }
+
     fn header(&self, lines: &mut Vec<String>) {
         lines.push(format!("#SBATCH --cpus-per-task={}", self.cpus));
         lines.push("#SBATCH --ntasks=1".into());
@@ -160,9 +182,9 @@ impl SlurmJob {
         let logs = shard::dir_for(&self.out);
         let mut l = vec![
             "#!/bin/bash".to_string(),
-            format!("#SBATCH --job-name={}", self.name),
+            format!("#SBATCH --job-name={}", self.job_name()),
             format!("#SBATCH --array=0-{}", self.tasks - 1),
-            format!("#SBATCH --output={}/slurm-%A_%a.out", logs.display()),
+            format!("#SBATCH --output={}", output_pattern(&logs, "slurm-%A_%a.out")),
         ];
         self.header(&mut l);
         l.push(format!(
@@ -186,8 +208,8 @@ impl SlurmJob {
         let logs = shard::dir_for(&self.out);
         let mut l = vec![
             "#!/bin/bash".to_string(),
-            format!("#SBATCH --job-name={}-merge", self.name),
-            format!("#SBATCH --output={}/slurm-merge-%j.out", logs.display()),
+            format!("#SBATCH --job-name={}-merge", self.job_name()),
+            format!("#SBATCH --output={}", output_pattern(&logs, "slurm-merge-%j.out")),
         ];
         self.header(&mut l);
         l.push(format!(
@@ -372,8 +394,41 @@ impl SlurmJob {
     }
 }
 
+/// Refuses a path that cannot be written into a script as it is: not valid UTF-8 (it would be
+/// written altered), a control character (a newline would end the `#SBATCH` directive or the
+/// comment it stands in and start a command of its own), or a backslash (sbatch then takes
+/// the whole `--output` pattern literally, and every task would log into one file).
+fn check_script_path(what: &str, p: &Path) -> Result<(), SlurmError> {
+    let bad = |msg: &str| {
+        Err(SlurmError::Io(format!(
+            "the {what} path {:?} cannot go into a Slurm script: {msg}; rename or move it",
+            p.as_os_str()
+        )))
+    };
+    let Some(s) = p.to_str() else {
+        return bad("it is not valid UTF-8");
+    };
+    if s.chars().any(char::is_control) {
+        return bad("it holds a control character (a newline, tab, ...)");
+    }
+    if s.contains('\\') {
+        return bad("it holds a backslash, which turns off sbatch's %A/%a file-name patterns");
+    }
+    Ok(())
+}
+
+/// An `#SBATCH --output` value: `dir/file`, where `file` holds sbatch's own `%` patterns, and
+/// the folder's `%` are doubled (sbatch's `%%`, a literal `%`), in double quotes with `"`
+/// escaped by a backslash (sbatch's directive parser: outside quotes a space ends the value
+/// and a `#` starts a comment). The folder holds no backslash or control character
+/// ([`check_script_path`]).
+fn output_pattern(dir: &Path, file: &str) -> String {
+    let d = dir.display().to_string().replace('%', "%%");
+    format!("\"{}/{file}\"", d.replace('"', "\\\""))
+}
+
 /// Quotes a path for the shell.
-fn quote(p: &Path) -> String {
+pub fn quote(p: &Path) -> String {
     let s = p.display().to_string();
     if s.bytes()
         .all(|b| b.is_ascii_alphanumeric() || b"/._-+=:,".contains(&b))
@@ -450,6 +505,23 @@ mod tests {
         ] {
             assert!(check_time(bad).is_err(), "{bad}");
         }
+    }
+
+    #[test]
+    fn output_patterns_keep_the_folder_literal() {
+        assert_eq!(
+            output_pattern(Path::new("/a b/c%d\"e#"), "slurm-%A_%a.out"),
+            "\"/a b/c%%d\\\"e#/slurm-%A_%a.out\""
+        );
+    }
+
+    #[test]
+    fn control_characters_and_backslashes_are_refused() {
+        for bad in ["/a\nb", "/a\rb", "/a\\b", "/a\tb"] {
+            let e = check_script_path("output (-o)", Path::new(bad)).unwrap_err();
+            assert!(e.to_string().contains("output (-o)"), "{e}");
+        }
+        assert!(check_script_path("output (-o)", Path::new("/a b/#%$'\"`x")).is_ok());
     }
 
     #[test]

@@ -106,8 +106,12 @@ impl Coord {
             Err(_) => m.h_d = x,
             Ok((k, i)) => {
                 let info = &k.info().params[i];
-                // exp(ln(max)) may land an ulp outside the bound.
-                let x = x.clamp(info.min, info.max);
+                // An angle has no ends: it wraps. exp(ln(max)) may land an ulp outside a bound.
+                let x = if circular(k, info.name) {
+                    (x + 180.0).rem_euclid(360.0) - 180.0
+                } else {
+                    x.clamp(info.min, info.max)
+                };
                 if let Some((_, vals)) = m.effects.list.iter_mut().find(|(kk, _)| *kk == k) {
                     vals[i] = x;
                 }
@@ -143,6 +147,9 @@ fn coords(bounds: &Plausible, effects: &[EffectKind]) -> Vec<Coord> {
             let (min, max) = bounds.range(k, p.name);
             let (lo, hi) = if p.log {
                 (min.ln(), max.ln())
+            } else if circular(k, p.name) {
+                // One turn of room on either side: the fit crosses ±180° without meeting an end.
+                (min - 360.0, max + 360.0)
             } else {
                 (min, max)
             };
@@ -401,6 +408,9 @@ pub fn at_bounds(bounds: &Plausible, fr: &FitResult) -> Vec<String> {
     // The end where the effect vanishes is the model it extends, not an implausible value.
     on_bounds(&cs, &theta, |c, end| {
         let Ok((k, i)) = c.target else { return true };
+        if circular(k, k.info().params[i].name) {
+            return true;
+        }
         neutral(k, k.info().params[i].name).is_some_and(|v| {
             let v = if c.log { v.ln() } else { v };
             let tol = if c.log { 0.01 } else { 1e-3 * (c.hi - c.lo) };
@@ -1287,6 +1297,13 @@ pub fn neutral(kind: EffectKind, param: &str) -> Option<f64> {
     })
 }
 
+/// Whether an effect parameter is an angle (degrees, wrapped into [-180°, 180°)): the phase of
+/// the normal-load modulation, whose sign and timing against the vibration a rig's geometry sets
+/// (a load that follows the displacement after a delay lags it by `360° f delay`).
+fn circular(kind: EffectKind, param: &str) -> bool {
+    matches!((kind, param), (EffectKind::NormalCoupling, "phase"))
+}
+
 /// Where a fit narrows an effect parameter's allowed range: ends that add a stiff mode to the
 /// simulations (a lag under 30 µs, a sensor above 20 kHz) would make every evaluation of a fit
 /// that drifts there several times slower, as an effect-free campaign drives these candidates
@@ -1312,6 +1329,7 @@ fn scan_values(kind: EffectKind, param: &str) -> Vec<f64> {
         (K::SensorDynamics, "f_n") => logspace(20.0, 2e4, 10),
         (K::SensorDynamics, "zeta") => vec![0.05, 0.3, 0.7],
         (K::NormalCoupling, "k_n") => logspace(1e6, 1e8, 5),
+        (K::NormalCoupling, "phase") => vec![-90.0, 0.0, 90.0, 180.0],
         (K::Viscous, "h_v") => vec![20.0, 50.0, 100.0, 200.0],
         (K::StribeckShape, "delta") => vec![0.5, 1.0, 1.5, 3.0],
         (K::Presliding, "spread") => vec![0.3, 0.6, 0.9],

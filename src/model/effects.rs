@@ -202,7 +202,7 @@ pub static EFFECTS: [EffectInfo; 10] = [
                 -180.0,
                 180.0,
                 90.0,
-                false,
+                true,
                 false,
             ),
         ],

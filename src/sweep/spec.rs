@@ -887,6 +887,9 @@ impl SweepSpec {
             config::resolve_amplitude(&mut p, &k, x)?;
         }
         p.validate().map_err(|e| e.to_string())?;
+        // The relations of the point with the run's options (t_on before the end, the work
+        // budget), as `run` checks them.
+        crate::sim::end_time(&p, &self.run).map_err(|e| e.to_string())?;
         Ok(p)
     }
 
