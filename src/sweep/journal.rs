@@ -2,13 +2,15 @@
 //! written and flushed as the run finishes, so a crash, `kill -9` or Ctrl-C loses only the runs
 //! in flight. A torn last line is ignored on reading.
 //!
-//! Format: a header `stickslip-journal 1 <fingerprint>` (the sweep text and program version,
-//! so that a journal is never applied to another sweep), then one record per line:
+//! Format: a header `stickslip-journal 2 <fingerprint>` (the sweep text and program version,
+//! so that a journal is never applied to another sweep), then one record per line, ended by
+//! its checksum `~xxxxxxxx` (FNV-1a of the line before it: a damaged line is dropped and its
+//! run made again):
 //!
 //! ```text
 //! <kind> <index> <status> <t_end> <window_start> <wall_time> <steps> <rejected> <rhs> <jac> <lu>
 //!        <newton> <dF> <dF_stderr> <mean_force> <stick_fraction> <period> <peak> <trough> <cycles> <skipped_periods>
-//!        <continued_from> <predicted> <level_error>
+//!        <continued_from> <predicted> <level_error> ~<checksum>
 //! ```
 //!
 //! with `kind` `ref` or `pt`, `continued_from` NaN where the run was integrated to its end and
@@ -40,10 +42,16 @@ pub fn path_for(out: &Path) -> PathBuf {
     PathBuf::from(s)
 }
 
-/// A 64-bit FNV-1a fingerprint of the sweep text and the program version.
+/// A 64-bit FNV-1a fingerprint of the sweep text and the program version. The top-level
+/// `max_runs` line is left out: it bounds the work, not the results, so a sweep stopped at its
+/// cap continues from its journal once the cap is raised.
 pub fn fingerprint(text: &str) -> String {
     let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-    for b in text.bytes().chain(crate::output::program().bytes()) {
+    let kept = text
+        .lines()
+        .filter(|l| !l.trim_start().starts_with("max_runs"))
+        .flat_map(|l| l.bytes().chain(std::iter::once(b'\n')));
+    for b in kept.chain(crate::output::program().bytes()) {
         h ^= b as u64;
         h = h.wrapping_mul(0x0000_0100_0000_01b3);
     }
@@ -52,11 +60,28 @@ pub fn fingerprint(text: &str) -> String {
 
 /// The first line of a journal for fingerprint `fp`.
 pub fn header(fp: &str) -> String {
-    format!("stickslip-journal 1 {fp}")
+    format!("stickslip-journal 2 {fp}")
 }
 
-/// Formats one record (without the newline).
+/// The checksum that ends a record: FNV-1a (32 bits) of the record's text before it, in hex
+/// after a `~`. A line damaged anywhere (a flipped digit still parses) fails it.
+fn checksum(body: &str) -> String {
+    let mut h: u32 = 0x811c_9dc5;
+    for b in body.bytes() {
+        h ^= b as u32;
+        h = h.wrapping_mul(0x0100_0193);
+    }
+    format!("~{h:08x}")
+}
+
+/// Formats one record (without the newline), its checksum last.
 pub fn format_record(task: Task, r: &RunResult) -> String {
+    let body = format_body(task, r);
+    let sum = checksum(&body);
+    body + " " + &sum
+}
+
+fn format_body(task: Task, r: &RunResult) -> String {
     let (kind, i) = match task {
         Task::Ref(i) => ("ref", i),
         Task::Point(i) => ("pt", i),
@@ -92,7 +117,12 @@ pub fn format_record(task: Task, r: &RunResult) -> String {
 
 /// Parses one record; `None` for a torn or foreign line.
 pub fn parse_record(line: &str) -> Option<(Task, RunResult)> {
-    let f: Vec<&str> = line.split(' ').collect();
+    // Records end with their checksum; one that does not match is damaged.
+    let (body, sum) = line.rsplit_once(' ')?;
+    if !sum.starts_with('~') || checksum(body) != sum {
+        return None;
+    }
+    let f: Vec<&str> = body.split(' ').collect();
     // 24 fields; 23 in journals written before extrapolated levels had an error bound, 22
     // before predicted windows, 21 before the limit-cycle continuation, 20 before envelope
     // following (no skipped periods).

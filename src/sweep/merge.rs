@@ -49,8 +49,81 @@ pub enum ShardState {
         /// Runs recorded so far.
         runs: usize,
     },
+    /// A record `I-of-N.runs` that lacks runs the shard must make: cut short, damaged lines
+    /// (their checksums fail), only its header, or another shard's copy.
+    Broken {
+        /// Whole records of this sweep in it.
+        runs: usize,
+        /// Runs of the shard it lacks (for a refinement, at least these: the rounds after
+        /// them are not known yet).
+        missing: usize,
+        /// Lines dropped as damaged.
+        damaged: usize,
+    },
     /// Nothing on disk.
     Missing,
+}
+
+/// Runs of shard `sh` that `records` lack: every task of its points (or of its coarse points
+/// and, replayed from the records, every round of its refinement) must be there.
+pub fn missing_runs(
+    spec: &SweepSpec,
+    plan: &Plan,
+    sh: Shard,
+    records: Vec<(journal::Task, crate::sim::RunResult)>,
+) -> usize {
+    let owners = shard::owners(spec, sh.count);
+    let mine = |i: usize| owners[i] == sh.index;
+    let mut results = Results::new(plan);
+    results.absorb(plan, records);
+    let first = super::tasks_of(plan, &super::first_points(spec, mine));
+    let mut missing = first.iter().filter(|t| !results.has(**t)).count();
+    if spec.refine.is_some() && missing == 0 {
+        for p in 0..super::refine::plane_count(spec) {
+            let pts: Vec<usize> = super::refine::next_points(spec, plan, &results, p)
+                .into_iter()
+                .filter(|&i| mine(i))
+                .collect();
+            missing += super::tasks_of(plan, &pts)
+                .iter()
+                .filter(|t| !results.has(**t))
+                .count();
+        }
+    }
+    missing
+}
+
+/// The state of shard `sh` (file `h5`) judged from its record: complete only where
+/// `I-of-N.runs` holds every run the shard must make ([`missing_runs`]), each record whole
+/// (its checksum) and of this sweep and program (fingerprint `fp`). A whole record stands even
+/// where the shard's HDF5 file is damaged: the merge reads the runs from the record, and
+/// `--resume` rebuilds the file from it. Errors for a record of another sweep.
+pub fn judge(
+    spec: &SweepSpec,
+    plan: &Plan,
+    sh: Shard,
+    h5: &Path,
+    fp: &str,
+) -> Result<ShardState, String> {
+    let runs = shard::runs_path(h5);
+    if !runs.exists() {
+        return Ok(match state(h5) {
+            ShardState::Complete => ShardState::Unfinished { runs: 0 },
+            st => st,
+        });
+    }
+    let (records, damaged) = journal::read(&runs, fp)?;
+    let n = records.len();
+    let missing = missing_runs(spec, plan, sh, records);
+    Ok(if missing == 0 {
+        ShardState::Complete
+    } else {
+        ShardState::Broken {
+            runs: n,
+            missing,
+            damaged,
+        }
+    })
 }
 
 /// The shards found beside a sweep output: their count and each one's state.
@@ -204,6 +277,22 @@ pub fn merge(opts: &MergeOptions) -> Result<MergeOutcome, SweepError> {
     };
     shard::check(&spec, n).map_err(SweepError::State)?;
     let fp = journal::fingerprint(&spec.text);
+    let plan = Plan::new(&spec);
+    // Completeness from the records themselves, not from the files' flags.
+    let states: Vec<ShardState> = shards
+        .iter()
+        .map(|s| {
+            judge(&spec, &plan, *s, &path(s), &fp).map_err(|e| {
+                SweepError::State(format!(
+                    "shard {s} was not made from this sweep file and program version: {e}"
+                ))
+            })
+        })
+        .collect::<Result<_, _>>()?;
+    let found = Found {
+        count: n,
+        states,
+    };
     let incomplete: Vec<(Shard, &ShardState)> = shards
         .iter()
         .zip(&found.states)
@@ -221,6 +310,15 @@ pub fn merge(opts: &MergeOptions) -> Result<MergeOutcome, SweepError> {
                     "shard {s} is unfinished ({runs} runs recorded in {})",
                     journal::path_for(&path(s)).display()
                 ),
+                ShardState::Broken {
+                    runs,
+                    missing,
+                    damaged,
+                } => format!(
+                    "shard {s}'s record {} lacks {missing} of its runs ({runs} whole records, \
+                     {damaged} damaged lines)",
+                    shard::runs_path(&path(s)).display()
+                ),
                 ShardState::Complete => unreachable!(),
             })
             .collect::<Vec<_>>()
@@ -233,12 +331,11 @@ pub fn merge(opts: &MergeOptions) -> Result<MergeOutcome, SweepError> {
             opts.out.display()
         )));
     }
-    let plan = Plan::new(&spec);
     let mut results = Results::new(&plan);
     let mut started: Option<String> = None;
     for (s, st) in shards.iter().zip(&found.states) {
         let file = match st {
-            ShardState::Complete => shard::runs_path(&path(s)),
+            ShardState::Complete | ShardState::Broken { .. } => shard::runs_path(&path(s)),
             ShardState::Unfinished { .. } => journal::path_for(&path(s)),
             ShardState::Missing => continue,
         };

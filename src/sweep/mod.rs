@@ -148,6 +148,11 @@ impl Results {
         stored
     }
 
+    /// Runs stored (references and points).
+    fn count(&self) -> usize {
+        self.refs.iter().chain(&self.points).filter(|r| r.is_some()).count()
+    }
+
     fn has(&self, t: Task) -> bool {
         match t {
             Task::Ref(i) => self.refs[i].is_some(),
@@ -430,6 +435,9 @@ impl Executor<'_> {
                 });
                 drop(res_tx);
             });
+            // `max_runs` bounds the refinement too: a round that would pass it is not asked for,
+            // and the sweep stops once the rounds under way have landed (its journal kept).
+            let over: std::cell::Cell<Option<usize>> = std::cell::Cell::new(None);
             // The next round of plane `p`: its tasks go to the workers (none: the plane is done).
             let ask = |p: usize,
                        results: &Results,
@@ -444,6 +452,11 @@ impl Executor<'_> {
                     .into_iter()
                     .filter(|t| !results.has(*t) && !asked_by.contains_key(t))
                     .collect();
+                let asked = results.count() + asked_by.len() + tasks.len();
+                if asked > spec.max_runs || over.get().is_some() {
+                    over.set(Some(over.get().unwrap_or(0).max(asked)));
+                    return 0;
+                }
                 progress.grow(tasks.len() as u64);
                 let count = tasks.len();
                 for t in tasks {
@@ -487,6 +500,14 @@ impl Executor<'_> {
                 }
             }
             drop(task_tx);
+            if let Some(n) = over.get() {
+                return Err(SweepError::State(format!(
+                    "the refinement asks for {n} runs in all, over the sweep's cap max_runs = {}; \
+                     it stops here with every run so far kept in its journal: raise max_runs in \
+                     the sweep file and continue with --resume",
+                    spec.max_runs
+                )));
+            }
             Ok(())
         })?;
         match io_error {
@@ -520,6 +541,36 @@ pub fn run(spec: &SweepSpec, opts: &SweepOptions) -> Result<SweepOutcome, SweepE
     crate::output::ensure_parent(&target)?;
     let jpath = journal::path_for(&target);
     let fp = journal::fingerprint(&spec.text);
+    // A shard's record decides whether it is done: a whole record over a damaged file, or a
+    // record that lacks runs, goes back to being the shard's journal, and `--resume` rebuilds
+    // the file and makes only the runs it lacks.
+    let runs_file = shard::runs_path(&target);
+    if let Some(sh) = opts.shard
+        && !opts.overwrite
+        && runs_file.exists()
+        && !jpath.exists()
+    {
+        let judged = merge::judge(spec, &plan, sh, &target, &fp)
+            .map_err(|e| SweepError::State(format!("shard {sh}: {e}")))?;
+        let whole = judged == merge::ShardState::Complete;
+        if !(whole && is_complete(&target)) {
+            if !opts.resume {
+                return Err(SweepError::State(format!(
+                    "shard {sh} has a record {} that {}; continue it with --resume (only what is \
+                     lacking is made) or start afresh with --overwrite",
+                    runs_file.display(),
+                    match judged {
+                        merge::ShardState::Broken { missing, .. } => {
+                            format!("lacks {missing} runs")
+                        }
+                        _ => "is whole beside a damaged or unfinished file".to_string(),
+                    }
+                )));
+            }
+            std::fs::rename(&runs_file, &jpath)
+                .map_err(|e| SweepError::State(format!("{}: {e}", runs_file.display())))?;
+        }
+    }
     if let Some(sh) = opts.shard
         && shard_complete(&target)
         && !opts.overwrite

@@ -115,14 +115,23 @@ pub fn status(out: &Path) -> Result<SweepStatus, SweepError> {
             .as_ref()
             .filter(|s| shard::check(s, f.count).is_ok())
             .map(|s| shard::owners(s, f.count));
+        let fp = spec.as_ref().map(|s| journal::fingerprint(&s.text));
         for (index, state) in f.states.iter().enumerate() {
             let sh = Shard {
                 index,
                 count: f.count,
             };
             let h5 = sh.path(out);
+            // Completeness from the records themselves, where the sweep is known.
+            let judged = match (&spec, &plan, &owners, &fp) {
+                (Some(s), Some(p), Some(_), Some(fp)) => merge::judge(s, p, sh, &h5, fp)
+                    .map_err(|e| SweepError::State(format!("shard {sh}: {e}")))?,
+                _ => state.clone(),
+            };
+            let state = &judged;
             let (runs, idle) = match state {
                 ShardState::Complete => (merge::records_in(&shard::runs_path(&h5)), None),
+                ShardState::Broken { runs, .. } => (*runs, None),
                 ShardState::Unfinished { runs } => (*runs, idle_of(&journal::path_for(&h5))),
                 ShardState::Missing => (0, None),
             };
@@ -176,6 +185,13 @@ impl fmt::Display for PartStatus {
         match &self.state {
             ShardState::Complete => write!(f, "complete, {} runs", self.runs),
             ShardState::Missing => write!(f, "not started"),
+            ShardState::Broken {
+                missing, damaged, ..
+            } => write!(
+                f,
+                "finished but its record lacks {missing} runs ({of} whole records, {damaged} \
+                 damaged lines): run it again with --resume to make only those"
+            ),
             ShardState::Unfinished { .. } => {
                 write!(f, "running or interrupted, {of} runs recorded")?;
                 if let Some(s) = self.idle {
