@@ -338,16 +338,21 @@ mod tests {
     fn a_journal_of_another_sweep_is_refused_and_torn_tails_are_cut() {
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("j");
-        let r = parse_record("ref 0 0 1 0.5 0.1 1 0 6 1 2 3 6.4 0.01 8.4 0.9 1.1 11.4 5.1 4")
+        let body = "ref 0 0 1 0.5 0.1 1 0 6 1 2 3 6.4 0.01 8.4 0.9 1.1 11.4 5.1 4";
+        let r = parse_record(&format!("{body} {}", checksum(body)))
             .unwrap()
             .1;
+        // A record damaged anywhere fails its checksum, though every field still parses.
+        let flipped = format_record(Task::Ref(0), &r).replacen(" 8.4 ", " 8.5 ", 1);
+        assert!(flipped.contains(" 8.5 ") && parse_record(&flipped).is_none());
+        assert!(parse_record(body).is_none(), "a record without its checksum");
         {
             let mut j = Journal::create(&p, "abc").unwrap();
             j.record(Task::Ref(0), &r).unwrap();
             j.record(Task::Point(3), &r).unwrap();
         }
-        // Simulate a kill in the middle of a write: a torn record, even one whose last number
-        // still parses, is not read.
+        // Simulate a kill in the middle of a write: a torn record is not read (its checksum
+        // cut short fails; a torn line is dropped unread besides).
         let mut f = OpenOptions::new().append(true).open(&p).unwrap();
         let continued = RunResult {
             continued_from: Some(0.123456),
@@ -356,7 +361,7 @@ mod tests {
         };
         let full = format_record(Task::Point(4), &continued);
         f.write_all(&full.as_bytes()[..full.len() - 2]).unwrap();
-        assert!(parse_record(&full[..full.len() - 2]).is_some());
+        assert!(parse_record(&full[..full.len() - 2]).is_none());
         let (recs, dropped) = read(&p, "abc").unwrap();
         assert_eq!((recs.len(), dropped), (2, 1));
         assert!(read(&p, "xyz").unwrap_err().contains("another sweep"));
