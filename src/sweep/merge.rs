@@ -260,6 +260,8 @@ pub fn merge(opts: &MergeOptions) -> Result<MergeOutcome, SweepError> {
         .clone()
         .unwrap_or_else(|| shard::dir_for(&opts.out));
     let found = find_in(&dir, &opts.out)?;
+    crate::output::ensure_parent(&opts.out)?;
+    let _lock = super::lock::acquire(&opts.out).map_err(SweepError::State)?;
     let n = found.count;
     let shards: Vec<Shard> = (0..n).map(|index| Shard { index, count: n }).collect();
     let path = |s: &Shard| s.path_in(&dir);

@@ -13,6 +13,7 @@ pub mod estimate;
 pub mod figures;
 pub mod h5;
 pub mod journal;
+pub mod lock;
 pub mod merge;
 pub mod read;
 pub mod refine;
@@ -539,6 +540,8 @@ pub fn run(spec: &SweepSpec, opts: &SweepOptions) -> Result<SweepOutcome, SweepE
     let mine = |i: &usize| owned[*i];
     let mut results = Results::new(&plan);
     crate::output::ensure_parent(&target)?;
+    // One writer per output, from here to the end (module `lock`).
+    let _lock = lock::acquire(&target).map_err(SweepError::State)?;
     let jpath = journal::path_for(&target);
     let fp = journal::fingerprint(&spec.text);
     // A shard's record decides whether it is done: a whole record over a damaged file, or a
