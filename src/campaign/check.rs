@@ -12,7 +12,9 @@
 //! | flat channel | a channel (`F_d`, `x_s`, `x_d`) takes fewer than 3 distinct values (dead, disconnected, or zero-filled) |
 //! | force scale | the largest `abs(F_d)` lies beyond `S × 100` or below `min(k_d v_d T, F_s) / 100` (a unit or gain off by orders of magnitude) |
 //! | travel scale | the range of `x_s` or `x_d` exceeds `100 X` |
-//! | drive slope | the least-squares slope of `x_d` over `t` differs from `v_d` by more than a factor 1.25 |
+//! | drive slope | the least-squares slope of `x_d` over `t` differs from `v_d` by more than a factor 1.25 (without `x_d`: that of `x_s`, by more than a factor 2) |
+//! | spring | `F_d` follows `x_d − x_s` (R² ≥ 0.8) with a stiffness off `k_d` by more than a factor 1.5 (`F_d = k_d (x_d − x_s) + h_d (v_d − v)`: a force gain or `k_d` off) |
+//! | vibration timing | `t_on` is given without vibration, or at or after the recording's last sample |
 //! | spikes | a force sample stands out from both neighbours, which agree with each other: `abs(F_i − (F_{i−1} + F_{i+1})/2) > max(50 σ, 0.05 S)` with `abs(F_{i+1} − F_{i−1})` under a fifth of that, `σ` the median-absolute-deviation scale of that second difference (a slip drops the force over neighbouring samples, which then disagree) |
 //!
 //! The thresholds are orders of magnitude away from anything a rig like the paper's records:
@@ -25,6 +27,15 @@ use std::fmt;
 pub const SCALE_FACTOR: f64 = 100.0;
 /// Largest ratio of the recorded drive slope to `v_d` (and of `v_d` to the slope).
 pub const SLOPE_FACTOR: f64 = 1.25;
+/// Largest ratio of the body's recorded mean velocity to `v_d` (and of `v_d` to it), where no
+/// `x_d` is recorded.
+pub const BODY_SLOPE_FACTOR: f64 = 2.0;
+/// Largest ratio of the stiffness through which `F_d` follows `x_d − x_s` to `k_d` (and of
+/// `k_d` to it): a force gain of 1.5 or more is refused.
+pub const SPRING_FACTOR: f64 = 1.5;
+/// Smallest share of the force's variance that `x_d − x_s` must explain before the spring
+/// check judges (drive damping and a slow sensor scatter the relation).
+pub const SPRING_R2: f64 = 0.8;
 /// A spike stands this many noise scales out.
 pub const SPIKE_SIGMAS: f64 = 50.0;
 
@@ -33,7 +44,8 @@ pub const SPIKE_SIGMAS: f64 = 50.0;
 pub struct Implausible {
     /// The recording (file stem).
     pub recording: String,
-    /// The check (`flat channel`, `force scale`, `travel scale`, `drive slope`, `spikes`).
+    /// The check (`flat channel`, `force scale`, `travel scale`, `drive slope`, `spring`,
+    /// `vibration timing`, `spikes`).
     pub check: &'static str,
     /// What was found.
     pub found: String,
@@ -92,6 +104,12 @@ fn slope(t: &[f64], y: &[f64]) -> f64 {
         den += (a - mt) * (a - mt);
     }
     num / den
+}
+
+fn variance(v: &[f64]) -> f64 {
+    let n = v.len() as f64;
+    let m = v.iter().sum::<f64>() / n;
+    v.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / n
 }
 
 /// The checks of one recording (module docs); empty when it is plausible.
@@ -194,6 +212,65 @@ pub fn check(r: &Recording) -> Vec<Implausible> {
                 format!(
                     "at most {SCALE_FACTOR} times the drive's travel v_d T + 2 u0 = {travel:.3e} m (a unit off?)"
                 ),
+            );
+        }
+    }
+    // Without x_d, the body's own mean velocity: over a recording of stick-slip it follows
+    // the drive, though a first loading from rest can hold it back (a wider factor).
+    if r.x_d.is_none()
+        && let Some(x_s) = &r.x_s
+        && !flat.contains(&"x_s")
+    {
+        let s = slope(&r.t, x_s);
+        if !(s / p.v_d <= BODY_SLOPE_FACTOR && p.v_d / s <= BODY_SLOPE_FACTOR) {
+            fail(
+                "drive slope",
+                format!(
+                    "x_s rises at {s:.4e} m/s, {:.3} times v_d (no x_d recorded)",
+                    s / p.v_d
+                ),
+                format!(
+                    "the conditions' v_d = {:e} m/s within a factor {BODY_SLOPE_FACTOR}: the body follows the drive on average (is v_d in the conditions file right?)",
+                    p.v_d
+                ),
+            );
+        }
+    }
+    // The drive force is the spring's: F_d = k_d (x_d - x_s) + h_d (v_d - v) (MODEL.md).
+    if let (Some(x_s), Some(x_d)) = (&r.x_s, &r.x_d)
+        && !flat.iter().any(|c| ["F_d", "x_s", "x_d"].contains(c))
+    {
+        let ext: Vec<f64> = x_d.iter().zip(x_s).map(|(d, s)| d - s).collect();
+        let k = slope(&ext, &r.f_d);
+        let r2 = k * k * variance(&ext) / variance(&r.f_d);
+        if r2 >= SPRING_R2 && !(k / p.k_d <= SPRING_FACTOR && p.k_d / k <= SPRING_FACTOR) {
+            fail(
+                "spring",
+                format!(
+                    "F_d follows x_d - x_s with a stiffness of {k:.4e} N/m, {:.3} times k_d (it explains {:.0} % of the force's variance)",
+                    k / p.k_d,
+                    100.0 * r2
+                ),
+                format!(
+                    "the conditions' k_d = {:e} N/m within a factor {SPRING_FACTOR}, as F_d = k_d (x_d - x_s) + h_d (v_d - v) (a force gain or k_d off?)",
+                    p.k_d
+                ),
+            );
+        }
+    }
+    if p.t_on > 0.0 {
+        let end = r.t[r.t.len() - 1];
+        if !p.vibrates() {
+            fail(
+                "vibration timing",
+                format!("t_on = {} s with no vibration (f = {} Hz, u0 = {} m)", p.t_on, p.f, p.u0),
+                "t_on only where the substrate vibrates (f > 0, u0 > 0): the time it is switched on".into(),
+            );
+        } else if p.t_on >= end {
+            fail(
+                "vibration timing",
+                format!("t_on = {} s, at or after the recording's end at t = {end} s", p.t_on),
+                "a switch-on within the recording (t_on before its last sample), or t_on = 0 for vibration throughout".into(),
             );
         }
     }
