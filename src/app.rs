@@ -133,7 +133,7 @@ pub fn synth_cmd(a: &SynthArgs) -> Result<(), AppError> {
             msg: e.to_string(),
         })?;
     }
-    println!(
+    crate::say!(
         "wrote {} recordings to {} in {:.1} s (effects: {})",
         recs.len(),
         a.dir.display(),
@@ -160,7 +160,7 @@ pub fn calibrate_cmd(a: &CalibrateArgs) -> Result<(), AppError> {
             campaign::fit::fit(&target, &start, &[k], opts)
         }
     };
-    print!("{}", campaign::report::calibration_summary(&c, &f));
+    crate::console::print(format_args!("{}", campaign::report::calibration_summary(&c, &f)));
     print_skipped(&skipped);
     if let Some(path) = &a.json {
         output::ensure_parent(path)?;
@@ -171,7 +171,7 @@ pub fn calibrate_cmd(a: &CalibrateArgs) -> Result<(), AppError> {
             path: path.display().to_string(),
             msg: e.to_string(),
         })?;
-        println!("wrote {}", path.display());
+        crate::say!("wrote {}", path.display());
     }
     Ok(())
 }
@@ -217,9 +217,9 @@ fn checked(
 
 fn print_skipped(skipped: &[campaign::check::Implausible]) {
     if !skipped.is_empty() {
-        println!("set aside as implausible (--skip-implausible):");
+        crate::say!("set aside as implausible (--skip-implausible):");
         for s in skipped {
-            println!("  {s}");
+            crate::say!("  {s}");
         }
     }
 }
@@ -273,10 +273,10 @@ pub fn diagnose_cmd(a: &DiagnoseArgs) -> Result<(), AppError> {
     if !a.no_plots {
         written.extend(campaign::report::plots(&out, &c, &d)?);
     }
-    print!("{}", campaign::report::summary(&c, &d));
+    crate::console::print(format_args!("{}", campaign::report::summary(&c, &d)));
     print_skipped(&skipped);
     for w in written {
-        println!("wrote {}", w.display());
+        crate::say!("wrote {}", w.display());
     }
     Ok(())
 }
@@ -284,11 +284,11 @@ pub fn diagnose_cmd(a: &DiagnoseArgs) -> Result<(), AppError> {
 /// `stickslip bench`.
 pub fn bench_cmd(a: &BenchArgs) -> Result<(), AppError> {
     let o = a.resolve()?;
-    let (cases, refs, rows) = crate::bench::run(&o, |line| eprintln!("{line}"))?;
+    let (cases, refs, rows) = crate::bench::run(&o, |line| crate::note!("{line}"))?;
     crate::bench::write_h5(&a.out, &cases, &refs, &rows, &o)?;
-    println!("wrote {}", a.out.display());
+    crate::say!("wrote {}", a.out.display());
     for f in crate::bench::plot(&a.out.with_extension(""), &cases, &rows)? {
-        println!("wrote {}", f.display());
+        crate::say!("wrote {}", f.display());
     }
     // The fastest tolerance of each setting that meets the accuracy target, per case.
     for c in &cases {
@@ -307,14 +307,14 @@ pub fn bench_cmd(a: &BenchArgs) -> Result<(), AppError> {
                     })
                     .min_by(|x, y| x.time.total_cmp(&y.time));
                 match best {
-                    Some(r) => println!(
+                    Some(r) => crate::say!(
                         "{:13} {:22} fastest within |dr| <= 0.01, |dmean| <= 0.5 %: tol {:.0e}, {:.2} ms",
                         c.name,
                         name,
                         r.tol,
                         r.time * 1e3
                     ),
-                    None => println!(
+                    None => crate::say!(
                         "{:13} {:22} no tolerance of the ladder meets the accuracy target",
                         c.name, name
                     ),
@@ -337,7 +337,7 @@ pub fn sweep_cmd(a: &SweepArgs) -> Result<(), AppError> {
         .join(", ");
     let threads = opts.threads.unwrap_or_else(rayon::current_num_threads);
     if a.estimate {
-        eprintln!(
+        crate::note!(
             "sweep {}: estimating from a sample of about {} {}, {threads} threads",
             spec.name,
             a.sample,
@@ -348,11 +348,11 @@ pub fn sweep_cmd(a: &SweepArgs) -> Result<(), AppError> {
             }
         );
         let e = sweep::estimate::estimate(&spec, a.sample, opts.threads)?;
-        println!("{e}");
+        crate::say!("{e}");
         return Ok(());
     }
     if let Some(sh) = opts.shard {
-        eprintln!(
+        crate::note!(
             "sweep {}: shard {sh} of {} points ({}), {threads} threads -> {}",
             spec.name,
             plan.points.len(),
@@ -365,7 +365,7 @@ pub fn sweep_cmd(a: &SweepArgs) -> Result<(), AppError> {
         );
     } else {
         match &spec.refine {
-            None => eprintln!(
+            None => crate::note!(
                 "sweep {}: {} points over {dims} ({} runs: {} without vibration as references), {threads} threads -> {}",
                 spec.name,
                 plan.points.len(),
@@ -373,7 +373,7 @@ pub fn sweep_cmd(a: &SweepArgs) -> Result<(), AppError> {
                 plan.refs.len(),
                 opts.out.display()
             ),
-            Some(rf) => eprintln!(
+            Some(rf) => crate::note!(
                 "sweep {}: refining {} = {} along {} on a dense grid of {} points over {dims}: {} coarse points, steps halved {} times where needed, {threads} threads -> {}",
                 spec.name,
                 rf.measure,
@@ -388,12 +388,12 @@ pub fn sweep_cmd(a: &SweepArgs) -> Result<(), AppError> {
     }
     let outcome = sweep::run(&spec, &opts)?;
     if outcome.journal_dropped > 0 {
-        eprintln!(
+        crate::note!(
             "{} damaged line(s) of the journal were dropped on resuming; their runs were made again",
             outcome.journal_dropped
         );
     }
-    println!(
+    crate::say!(
         "wrote {}: {} points, {} runs made, {} resumed, {} failed, {:.1} s",
         outcome.out.display(),
         outcome.points,
@@ -404,7 +404,7 @@ pub fn sweep_cmd(a: &SweepArgs) -> Result<(), AppError> {
     );
     if let Some(sh) = opts.shard {
         // A shard's file holds part of the grid: the figures come with the merge.
-        println!(
+        crate::say!(
             "shard {sh} complete; when all {} are, `stickslip merge {}` assembles the sweep",
             sh.count,
             opts.out.display()
@@ -422,16 +422,16 @@ fn figures_and_boundary(out: &std::path::Path) -> Result<(), AppError> {
     let d = sweep::read::SweepData::read(out).map_err(SweepError::from)?;
     if let Err(e) = d.require_results() {
         // The sweep itself is complete: its statuses say what failed.
-        eprintln!("no figures or boundary: {e}");
+        crate::note!("no figures or boundary: {e}");
         return Ok(());
     }
     for f in sweep::figures::plot_all(&d, &out.with_extension(""))? {
-        println!("wrote {}", f.display());
+        crate::say!("wrote {}", f.display());
     }
     let has_amplitude = ["u0", "v_a", "va_ratio"].iter().any(|n| d.dim(n).is_some());
     if has_amplitude && d.dim("f").is_some() {
         let (csv, _) = sweep::boundary::run(out)?;
-        println!("wrote {} (elimination boundary)", csv.display());
+        crate::say!("wrote {} (elimination boundary)", csv.display());
     }
     Ok(())
 }
@@ -486,7 +486,7 @@ pub fn merge_cmd(a: &MergeArgs) -> Result<(), AppError> {
         partial: a.partial,
         threads: a.threads,
     })?;
-    println!(
+    crate::say!(
         "wrote {}: {} shards merged{}, {} points, {} computed, {} failed, {:.1} s",
         o.out.display(),
         o.shards - o.incomplete.len(),
@@ -517,7 +517,7 @@ pub fn merge_cmd(a: &MergeArgs) -> Result<(), AppError> {
 /// `stickslip status`.
 pub fn status_cmd(a: &StatusArgs) -> Result<(), AppError> {
     let s = sweep::status::status(&a.out)?;
-    print!("{s}");
+    crate::console::print(format_args!("{s}"));
     Ok(())
 }
 
@@ -548,12 +548,12 @@ pub fn slurm_cmd(a: &SlurmArgs) -> Result<(), AppError> {
     job.check_shards(&spec)?;
     if a.resubmit {
         if sweep::is_complete(&job.out) {
-            println!("{} is complete; nothing to resubmit", out.display());
+            crate::say!("{} is complete; nothing to resubmit", out.display());
             return Ok(());
         }
         let cancelled = job.cancel_waiting_merges()?;
         if !cancelled.is_empty() {
-            println!(
+            crate::say!(
                 "cancelled merge job(s) {} left waiting on earlier tasks",
                 cancelled.join(", ")
             );
@@ -561,7 +561,7 @@ pub fn slurm_cmd(a: &SlurmArgs) -> Result<(), AppError> {
         let left = job.to_resubmit()?;
         let (array, merge) = job.submit(Some(&left))?;
         match array {
-            Some(id) => println!(
+            Some(id) => crate::say!(
                 "submitted array job {id} ({} task(s): {})",
                 left.len(),
                 left.iter()
@@ -569,24 +569,24 @@ pub fn slurm_cmd(a: &SlurmArgs) -> Result<(), AppError> {
                     .collect::<Vec<_>>()
                     .join(",")
             ),
-            None => println!("every shard is complete or still queued; no tasks submitted"),
+            None => crate::say!("every shard is complete or still queued; no tasks submitted"),
         }
-        println!("submitted merge job {merge} -> {}", out.display());
+        crate::say!("submitted merge job {merge} -> {}", out.display());
         return Ok(());
     }
     let (script, merge_script) = job.write_scripts()?;
-    println!("wrote {} ({} array tasks)", script.display(), a.tasks);
-    println!("wrote {}", merge_script.display());
+    crate::say!("wrote {} ({} array tasks)", script.display(), a.tasks);
+    crate::say!("wrote {}", merge_script.display());
     if a.submit {
         let (array, merge) = job.submit(None)?;
-        println!(
+        crate::say!(
             "submitted array job {} and merge job {merge} (afterok); {} is complete once the merge job has finished",
             array.expect("the whole array"),
             out.display()
         );
-        println!("follow it with: stickslip status {}", out.display());
+        crate::say!("follow it with: stickslip status {}", out.display());
     } else {
-        println!(
+        crate::say!(
             "submit with: jid=$(sbatch --parsable {}) && sbatch --dependency=afterok:$jid {}   (or: stickslip slurm {} --tasks {} --submit)",
             crate::slurm::quote(&script),
             crate::slurm::quote(&merge_script),
@@ -609,7 +609,7 @@ pub fn plot_cmd(a: &PlotArgs) -> Result<(), AppError> {
     let d = sweep::read::SweepData::read(&a.file).map_err(SweepError::from)?;
     d.require_results().map_err(SweepError::State)?;
     for f in sweep::figures::plot_all(&d, &stem)? {
-        println!("wrote {}", f.display());
+        crate::say!("wrote {}", f.display());
     }
     Ok(())
 }
@@ -621,7 +621,7 @@ pub fn boundary_cmd(a: &BoundaryArgs) -> Result<(), AppError> {
         .require_results()
         .map_err(SweepError::State)?;
     let (csv, pts) = sweep::boundary::run(&a.file)?;
-    let mut out = std::io::stdout().lock();
+    let mut out = crate::console::stdout();
     for p in &pts {
         let coords = p
             .coords
@@ -730,7 +730,7 @@ pub fn run(a: &RunArgs) -> Result<(), AppError> {
         );
         written.extend(plot::trace_figure(&a.out.with_extension(""), tr, &title)?);
     }
-    let mut out = std::io::stdout().lock();
+    let mut out = crate::console::stdout();
     if a.json {
         let mut v = case_json(&res, &case.run);
         let obj = v.as_object_mut().expect("object");

@@ -427,7 +427,7 @@ pub fn write_h5(
         .map_err(&e)?;
         f.close().map_err(&e)?;
     }
-    std::fs::rename(&tmp, path).map_err(output::ioerr(path))
+    crate::output::replace(&tmp, path).map_err(output::ioerr(path))
 }
 
 /// Work-precision diagram of one case: error of r and of the mean force against time, log-log.

@@ -34,7 +34,7 @@ use std::path::{Path, PathBuf};
 
 /// A problem in a configuration file.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("{file}:{line}: `{key}`: {msg}")]
+#[error("{}", self.text())]
 pub struct ConfigError {
     /// The file.
     pub file: String,
@@ -44,6 +44,21 @@ pub struct ConfigError {
     pub key: String,
     /// What is wrong and what is allowed.
     pub msg: String,
+}
+
+impl ConfigError {
+    /// `file:line: `key`: msg`, without the line where it is unknown (0) and without the key
+    /// where there is none.
+    fn text(&self) -> String {
+        let mut t = self.file.clone();
+        if self.line > 0 {
+            t += &format!(":{}", self.line);
+        }
+        if !self.key.is_empty() {
+            t += &format!(": `{}`", self.key);
+        }
+        t + ": " + &self.msg
+    }
 }
 
 /// A parsed TOML document with its source, for error positions.
@@ -56,15 +71,55 @@ pub struct Doc {
     pub table: toml::Table,
 }
 
+/// Largest input text file read \[bytes\]: 64 MiB for TOML files (sweep, case and condition
+/// files are kilobytes).
+pub const MAX_TOML_BYTES: u64 = 64 << 20;
+
+/// Reads an input text file of at most `max` bytes. Refuses what is not a regular file (a
+/// device such as `/dev/zero`, a pipe that would block, a folder) before opening it, and a
+/// file over `max` before reading it; the message says which (the caller adds the path).
+pub fn read_input(path: &Path, max: u64) -> Result<String, String> {
+    use std::io::Read;
+    let m = std::fs::metadata(path).map_err(|e| format!("cannot read: {e}"))?;
+    if !m.is_file() {
+        return Err(if m.is_dir() {
+            "cannot read: is a directory, not a file".into()
+        } else {
+            "cannot read: not a regular file (a device, pipe or socket); give a file".into()
+        });
+    }
+    if m.len() > max {
+        return Err(format!(
+            "cannot read: {} bytes, over the limit of {max} bytes for this kind of file",
+            m.len()
+        ));
+    }
+    let f = std::fs::File::open(path).map_err(|e| format!("cannot read: {e}"))?;
+    // A file that grows while read is still cut at the limit.
+    let mut bytes = Vec::with_capacity(m.len() as usize);
+    f.take(max + 1)
+        .read_to_end(&mut bytes)
+        .map_err(|e| format!("cannot read: {e}"))?;
+    if bytes.len() as u64 > max {
+        return Err(format!("cannot read: over the limit of {max} bytes"));
+    }
+    String::from_utf8(bytes).map_err(|e| {
+        format!(
+            "cannot read: not UTF-8 text (byte {} is not valid)",
+            e.utf8_error().valid_up_to()
+        )
+    })
+}
+
 impl Doc {
-    /// Reads and parses a TOML file.
+    /// Reads and parses a TOML file ([`read_input`], at most [`MAX_TOML_BYTES`]).
     pub fn read(path: &Path) -> Result<Doc, ConfigError> {
         let file = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|e| ConfigError {
+        let text = read_input(path, MAX_TOML_BYTES).map_err(|msg| ConfigError {
             file: file.clone(),
             line: 0,
             key: String::new(),
-            msg: format!("cannot read: {e}"),
+            msg,
         })?;
         Doc::parse(&file, text)
     }

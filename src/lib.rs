@@ -18,6 +18,7 @@ pub mod bench;
 pub mod campaign;
 pub mod cli;
 pub mod config;
+pub mod console;
 pub mod cycle;
 pub mod measures;
 pub mod model;

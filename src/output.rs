@@ -53,6 +53,22 @@ pub fn temp_path(path: &Path) -> PathBuf {
     PathBuf::from(s)
 }
 
+/// Moves the finished `tmp` onto `path` (atomically, in one directory), unless `path` is there
+/// and is not a regular file: a device, pipe, socket or folder is never replaced (`tmp` is
+/// removed and an error of kind `InvalidInput` returned).
+pub fn replace(tmp: &Path, path: &Path) -> std::io::Result<()> {
+    if let Ok(m) = std::fs::metadata(path)
+        && !m.is_file()
+    {
+        let _ = std::fs::remove_file(tmp);
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            "not a regular file (a device, pipe, socket or folder): left as it is; give a file path",
+        ));
+    }
+    std::fs::rename(tmp, path)
+}
+
 /// Creates the parent directory of `path` if needed.
 pub fn ensure_parent(path: &Path) -> Result<()> {
     if let Some(d) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
@@ -227,7 +243,7 @@ pub fn write_case_h5(
         }
         file.close().map_err(&e)?;
     }
-    std::fs::rename(&tmp, path).map_err(ioerr(path))
+    crate::output::replace(&tmp, path).map_err(ioerr(path))
 }
 
 /// Writes a trace as group `name`: one dataset per channel, `t` a dimension scale.
@@ -277,7 +293,7 @@ pub fn write_trace_csv(path: &Path, tr: &Trace) -> Result<()> {
         }
         w.flush().map_err(&e)?;
     }
-    std::fs::rename(&tmp, path).map_err(e)
+    crate::output::replace(&tmp, path).map_err(e)
 }
 
 #[cfg(test)]

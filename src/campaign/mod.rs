@@ -248,8 +248,14 @@ fn read_conditions(path: &Path, defaults: Option<&Doc>) -> Result<Params, Campai
 
 type Columns = (Vec<f64>, Vec<f64>, Option<Vec<f64>>, Option<Vec<f64>>);
 
+/// Largest recording read \[bytes\]: 1 GiB of CSV text, some 20 million samples of four
+/// channels.
+pub const MAX_CSV_BYTES: u64 = 1 << 30;
+/// Most columns a recording's header may name (it uses four; a spreadsheet adds a few).
+pub const MAX_COLUMNS: usize = 256;
+
 fn read_csv(path: &Path) -> Result<Columns, CampaignError> {
-    let text = std::fs::read_to_string(path).map_err(|e| io(path, e))?;
+    let text = crate::config::read_input(path, MAX_CSV_BYTES).map_err(|e| io(path, e))?;
     let file = path.display().to_string();
     let bad = |line: usize, msg: String| CampaignError::Malformed {
         file: file.clone(),
@@ -263,6 +269,15 @@ fn read_csv(path: &Path) -> Result<Columns, CampaignError> {
     // A byte-order mark written by spreadsheet programs is not part of the first name.
     let header = header.strip_prefix('\u{feff}').unwrap_or(header);
     let names: Vec<&str> = header.split(',').map(|s| s.trim()).collect();
+    if names.len() > MAX_COLUMNS {
+        return Err(bad(
+            1,
+            format!(
+                "the header names {} columns; at most {MAX_COLUMNS} (t, F_d, x_s, x_d and a few more)",
+                names.len()
+            ),
+        ));
+    }
     for (j, n) in names.iter().enumerate() {
         if names[..j].contains(n) {
             return Err(bad(

@@ -557,7 +557,7 @@ pub fn write_h5(path: &Path, c: &Campaign, d: &Diagnosis) -> Result<(), OutputEr
         write_estimates(&cg, &d.base.estimates, &tmp)?;
         f.close().map_err(h5err(&tmp))?;
     }
-    std::fs::rename(&tmp, path).map_err(output::ioerr(path))
+    crate::output::replace(&tmp, path).map_err(output::ioerr(path))
 }
 
 /// One dataset `[value, standard uncertainty]` per fitted parameter, with its unit.

@@ -208,7 +208,7 @@ pub fn write(d: &SweepData, pts: &[BoundaryPoint]) -> Result<PathBuf, OutputErro
         }
         w.flush().map_err(&e)?;
         drop(w);
-        std::fs::rename(&tmp, &csv).map_err(&e)?;
+        crate::output::replace(&tmp, &csv).map_err(&e)?;
     }
     {
         let e = h5err(path);

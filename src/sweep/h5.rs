@@ -356,7 +356,7 @@ pub fn write(
         }
         file.close().map_err(&e)?;
     }
-    std::fs::rename(&tmp, path).map_err(ioerr(path))
+    crate::output::replace(&tmp, path).map_err(ioerr(path))
 }
 
 fn axis_doc(name: &str) -> String {

@@ -46,6 +46,12 @@ impl SweepData {
             path: path.display().to_string(),
             msg,
         };
+        // A device or pipe would be read for ever or block.
+        if let Ok(m) = std::fs::metadata(path)
+            && !m.is_file()
+        {
+            return Err(bad("not a regular file (a device, pipe, socket or folder)".into()));
+        }
         let f = H5File::open(path).map_err(|x| {
             bad(format!(
                 "not an HDF5 file, or a damaged one ({x}); plot and boundary read the files `stickslip sweep` and `stickslip merge` write"
