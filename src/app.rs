@@ -46,7 +46,9 @@ impl AppError {
     /// Process exit code: 2 for bad input, 1 for failures while running.
     pub fn exit_code(&self) -> i32 {
         match self {
-            AppError::Cli(_) | AppError::Sim(_) | AppError::Slurm(SlurmError::Flag { .. }) => 2,
+            AppError::Cli(_)
+            | AppError::Sim(_)
+            | AppError::Slurm(SlurmError::Flag { .. } | SlurmError::Unsafe(_)) => 2,
             AppError::Campaign(CampaignError::Malformed { .. } | CampaignError::Config(_)) => 2,
             _ => 1,
         }
@@ -160,7 +162,10 @@ pub fn calibrate_cmd(a: &CalibrateArgs) -> Result<(), AppError> {
             campaign::fit::fit(&target, &start, &[k], opts)
         }
     };
-    crate::console::print(format_args!("{}", campaign::report::calibration_summary(&c, &f)));
+    crate::console::print(format_args!(
+        "{}",
+        campaign::report::calibration_summary(&c, &f)
+    ));
     print_skipped(&skipped);
     if let Some(path) = &a.json {
         output::ensure_parent(path)?;
@@ -316,7 +321,8 @@ pub fn bench_cmd(a: &BenchArgs) -> Result<(), AppError> {
                     ),
                     None => crate::say!(
                         "{:13} {:22} no tolerance of the ladder meets the accuracy target",
-                        c.name, name
+                        c.name,
+                        name
                     ),
                 }
             }
@@ -460,12 +466,14 @@ pub fn merge_cmd(a: &MergeArgs) -> Result<(), AppError> {
         .shards
         .clone()
         .unwrap_or_else(|| sweep::shard::dir_for(&a.out));
-    let canon = |p: &std::path::Path| std::path::absolute(p).ok().map(|p| {
-        p.parent()
-            .and_then(|d| d.canonicalize().ok())
-            .map(|d| d.join(p.file_name().unwrap_or_default()))
-            .unwrap_or(p)
-    });
+    let canon = |p: &std::path::Path| {
+        std::path::absolute(p).ok().map(|p| {
+            p.parent()
+                .and_then(|d| d.canonicalize().ok())
+                .map(|d| d.join(p.file_name().unwrap_or_default()))
+                .unwrap_or(p)
+        })
+    };
     if let (Some(o), Ok(d)) = (canon(&a.out), shards.canonicalize())
         && o.starts_with(&d)
     {

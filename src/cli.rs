@@ -935,6 +935,24 @@ impl RunArgs {
             value: e.value.to_string(),
             msg: e.allowed.to_string(),
         })?;
+        // A switch-on time without vibration would be stored and mean nothing.
+        let p = &case.params;
+        if p.t_on > 0.0 && !p.vibrates() {
+            return Err(CliError::Flag {
+                flag: "t-on".into(),
+                value: p.t_on.to_string(),
+                msg: format!(
+                    "a switch-on time needs vibration to switch on (f = {} Hz, u0 = {} m); give u0, v_a or va_ratio, or leave t_on out",
+                    p.f, p.u0
+                ),
+            });
+        }
+        // The run's length and budget, before anything runs.
+        crate::sim::end_time(p, o).map_err(|e| CliError::Flag {
+            flag: "t-end".into(),
+            value: o.t_end.map_or("automatic".into(), |t| t.to_string()),
+            msg: e.to_string(),
+        })?;
         Ok(case)
     }
 }

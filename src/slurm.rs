@@ -57,6 +57,9 @@ pub enum SlurmError {
         /// What is allowed.
         msg: String,
     },
+    /// A path that cannot go into a script as it is (bad input).
+    #[error("{0}")]
+    Unsafe(String),
     /// `sbatch`, `squeue` or `scancel` failed or is missing.
     #[error("{0}")]
     Slurm(String),
@@ -184,7 +187,10 @@ impl SlurmJob {
             "#!/bin/bash".to_string(),
             format!("#SBATCH --job-name={}", self.job_name()),
             format!("#SBATCH --array=0-{}", self.tasks - 1),
-            format!("#SBATCH --output={}", output_pattern(&logs, "slurm-%A_%a.out")),
+            format!(
+                "#SBATCH --output={}",
+                output_pattern(&logs, "slurm-%A_%a.out")
+            ),
         ];
         self.header(&mut l);
         l.push(format!(
@@ -209,7 +215,10 @@ impl SlurmJob {
         let mut l = vec![
             "#!/bin/bash".to_string(),
             format!("#SBATCH --job-name={}-merge", self.job_name()),
-            format!("#SBATCH --output={}", output_pattern(&logs, "slurm-merge-%j.out")),
+            format!(
+                "#SBATCH --output={}",
+                output_pattern(&logs, "slurm-merge-%j.out")
+            ),
         ];
         self.header(&mut l);
         l.push(format!(
@@ -400,7 +409,7 @@ impl SlurmJob {
 /// the whole `--output` pattern literally, and every task would log into one file).
 fn check_script_path(what: &str, p: &Path) -> Result<(), SlurmError> {
     let bad = |msg: &str| {
-        Err(SlurmError::Io(format!(
+        Err(SlurmError::Unsafe(format!(
             "the {what} path {:?} cannot go into a Slurm script: {msg}; rename or move it",
             p.as_os_str()
         )))

@@ -9,11 +9,14 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+/// Every regular file under `dir` (not following links; pipes and devices left out, as reading
+/// them would block or never end), and every other entry by name.
 fn walk(dir: &Path) -> Vec<PathBuf> {
     let mut out = vec![];
     for e in std::fs::read_dir(dir).unwrap() {
         let p = e.unwrap().path();
-        if p.is_dir() {
+        let m = std::fs::symlink_metadata(&p).unwrap();
+        if m.is_dir() {
             out.extend(walk(&p));
         } else {
             out.push(p);
@@ -23,11 +26,18 @@ fn walk(dir: &Path) -> Vec<PathBuf> {
     out
 }
 
+/// The files under `dir` with their contents (regular files up to 64 MiB; larger ones by
+/// length and modification time; links and special files by what they are).
 fn snapshot(dir: &Path) -> Vec<(PathBuf, Vec<u8>)> {
     walk(dir)
         .into_iter()
         .map(|f| {
-            let b = std::fs::read(&f).unwrap();
+            let m = std::fs::symlink_metadata(&f).unwrap();
+            let b = if m.is_file() && m.len() <= 64 << 20 {
+                std::fs::read(&f).unwrap()
+            } else {
+                format!("{:?} {} {:?}", m.file_type(), m.len(), m.modified().ok()).into_bytes()
+            };
             (f, b)
         })
         .collect()
@@ -882,4 +892,796 @@ fn census_of_bad_input() {
         cases.len(),
         failures.join("\n")
     );
+}
+
+/// Copies folder `from` to `to` (files only, one level).
+fn copy_dir(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).unwrap();
+    for e in std::fs::read_dir(from).unwrap() {
+        let p = e.unwrap().path();
+        if p.is_file() {
+            std::fs::copy(&p, to.join(p.file_name().unwrap())).unwrap();
+        }
+    }
+}
+
+/// Makes a FIFO at `p` (a pipe that blocks whoever opens it to read).
+fn fifo(p: &Path) {
+    let st = Command::new("mkfifo").arg(p).status().unwrap();
+    assert!(st.success());
+}
+
+/// The second census: the paths between files and processes (shards, merges, status, Slurm
+/// scripts, refinements, `t_on`, budgets, campaigns, streams and devices). Each case asserts
+/// its exit code, the words of its message, no panic, no hang (a limit of 60 s), and that no
+/// file in the fixture folder changed (cases marked `writes` may leave a checkpoint, never
+/// replace an input or a result). Counted by outcome in the test's output.
+#[test]
+fn census_of_paths_between_files_and_processes() {
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    let w = |name: &str, text: &str| {
+        let p = d.join(name);
+        std::fs::create_dir_all(p.parent().unwrap()).unwrap();
+        std::fs::write(&p, text).unwrap();
+    };
+    let ok = |args: &[&str]| {
+        let o = run(d, &args.iter().map(|s| s.to_string()).collect::<Vec<_>>());
+        assert!(
+            o.status.success(),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+    };
+    w("s.toml", SWEEP);
+    w("prev.h5", "an earlier result that must survive");
+    w("prev.csv", "an earlier trace that must survive");
+    // A complete set of two shards, and damaged copies of it.
+    ok(&[
+        "sweep",
+        "s.toml",
+        "-o",
+        "sh.h5",
+        "--shard",
+        "0/2",
+        "-q",
+        "--no-plot",
+    ]);
+    ok(&[
+        "sweep",
+        "s.toml",
+        "-o",
+        "sh.h5",
+        "--shard",
+        "1/2",
+        "-q",
+        "--no-plot",
+    ]);
+    let shards = d.join("sh.h5.shards");
+    let runs1 = std::fs::read_to_string(shards.join("1-of-2.runs")).unwrap();
+    let lines: Vec<&str> = runs1.lines().collect();
+    assert!(lines.len() >= 3, "{runs1}");
+    let variant = |name: &str, runs: &str| {
+        let to = d.join(format!("{name}.h5.shards"));
+        copy_dir(&shards, &to);
+        std::fs::write(to.join("1-of-2.runs"), runs).unwrap();
+    };
+    variant("cut", &format!("{}\n{}\n", lines[0], lines[1]));
+    variant("hdr", &format!("{}\n", lines[0]));
+    variant(
+        "dup",
+        &std::fs::read_to_string(shards.join("0-of-2.runs")).unwrap(),
+    );
+    let flipped: String = {
+        let mut l: Vec<String> = lines.iter().map(|s| s.to_string()).collect();
+        // One digit of the second record changed: every field still parses.
+        let k = l[2].find(" 0.5 ").expect("t_end 0.5 in the record");
+        l[2].replace_range(k..k + 5, " 0.6 ");
+        l.join("\n") + "\n"
+    };
+    variant("dmg", &flipped);
+    variant("torn", &runs1[..runs1.len() - 3]);
+    variant(
+        "foreign",
+        &runs1.replacen(
+            lines[0],
+            &format!("{} {}", "stickslip-journal 2", "0123456789abcdef"),
+            1,
+        ),
+    );
+    // A sweep file whose name holds a newline, and one whose stem would run a command.
+    w("n\nl.toml", SWEEP);
+    w("$(touch pwned).toml", SWEEP);
+    // t_on and budgets.
+    w(
+        "ton_after.toml",
+        &SWEEP.replace("[[axis]]", "t_on = 2.0\n[[axis]]"),
+    );
+    w(
+        "ton_axis.toml",
+        "[fixed]\nk_d = 20000.0\nv_d = 1.5e-3\nu0 = 1e-7\n[[axis]]\nname = \"t_on\"\nvalues = [0.1, 0.5]\n[run]\nt_end = 0.5\n",
+    );
+    w(
+        "slowgrid.toml",
+        "[fixed]\nk_d = 1e4\n[[axis]]\nname = \"v_d\"\nvalues = [1e-3, 1e-9]\n",
+    );
+    w(
+        "periods.toml",
+        "[fixed]\nk_d = 1e4\nv_d = 1e-3\nf = 4000\n[[axis]]\nname = \"u0\"\nvalues = [1e-7]\n[run]\nt_end = 1e5\n",
+    );
+    w(
+        "refine_cap.toml",
+        "max_runs = 12\n[fixed]\nk_d = 11700.0\nv_d = 0.5e-3\n[[axis]]\nname = \"f\"\nvalues = [1000.0, 2000.0]\n[[axis]]\nname = \"u0\"\nlogspace = [5e-9, 2e-6, 4]\n[refine]\nalong = \"u0\"\nacross = \"f\"\nresolution = 0.02\n",
+    );
+    w("case_ton.toml", "k_d = 1e4\nv_d = 1e-3\nt_on = 1.0\n");
+    w(
+        "case_ton_end.toml",
+        "k_d = 1e4\nv_d = 1e-3\nu0 = 1e-7\nt_on = 1.0\n",
+    );
+    // Campaigns: one plausible recording beside each broken one.
+    let good = recording(400, 1e-3);
+    let cond = "v_d = 1e-3\nk_d = 1e4\nf = 0\nu0 = 0\n";
+    let camp = |dir: &str, csv: Option<&str>, toml: &str| {
+        if let Some(csv) = csv {
+            w(&format!("{dir}/a.csv"), csv);
+        }
+        w(&format!("{dir}/a.toml"), toml);
+        w(&format!("{dir}/b.csv"), &good);
+        w(&format!("{dir}/b.toml"), cond);
+    };
+    camp(
+        "c_ton_after",
+        Some(&good),
+        "v_d = 1e-3\nk_d = 1e4\nf = 1500\nu0 = 1e-7\nt_on = 1000\n",
+    );
+    camp("c_ton_novib", Some(&good), &format!("{cond}t_on = 0.1\n"));
+    // The force twice what the spring gives (a gain of 2 on the load cell).
+    let spring = |gain: f64| {
+        let mut s = String::from("t,F_d,x_s,x_d\n");
+        for i in 0..400 {
+            let t = i as f64 * 1e-3;
+            let ext = 8e-4 + 3e-4 * (t * 2.0).fract();
+            let x_d = 1e-3 * t;
+            s += &format!("{t},{},{},{x_d}\n", gain * 1e4 * ext, x_d - ext);
+        }
+        s
+    };
+    camp("c_gain2", Some(&spring(2.0)), cond);
+    let xs_only: String = good
+        .lines()
+        .map(|l| {
+            let c: Vec<&str> = l.split(',').collect();
+            format!("{},{},{}", c[0], c[1], c[2])
+        })
+        .collect::<Vec<_>>()
+        .join("\n");
+    camp(
+        "c_noxd_slope",
+        Some(&xs_only),
+        "v_d = 5e-3\nk_d = 1e4\nf = 0\nu0 = 0\n",
+    );
+    camp("c_fifo", None, cond);
+    fifo(&d.join("c_fifo/a.csv"));
+    camp("c_zero", None, cond);
+    std::os::unix::fs::symlink("/dev/zero", d.join("c_zero/a.csv")).unwrap();
+    let wide = format!(
+        "{}\n",
+        (0..300_000)
+            .map(|i| format!("c{i}"))
+            .collect::<Vec<_>>()
+            .join(",")
+    );
+    camp("c_wide", Some(&wide), cond);
+    camp("c_big", Some(&good), cond);
+    std::fs::File::options()
+        .write(true)
+        .open(d.join("c_big/a.csv"))
+        .unwrap()
+        .set_len(3 << 30)
+        .unwrap();
+    // Streams and devices as inputs.
+    fifo(&d.join("fifo.toml"));
+    fifo(&d.join("fifo.h5"));
+    std::os::unix::fs::symlink("/dev/zero", d.join("zero.toml")).unwrap();
+    std::os::unix::fs::symlink("/dev/zero", d.join("zero.h5")).unwrap();
+    w("big.toml", "");
+    std::fs::File::options()
+        .write(true)
+        .open(d.join("big.toml"))
+        .unwrap()
+        .set_len(100 << 20)
+        .unwrap();
+    w("camp/a.csv", &good);
+    w("camp/a.toml", cond);
+    w("camp/b.csv", &good);
+    w("camp/b.toml", cond);
+
+    let s = |a: &[&str]| a.iter().map(|x| x.to_string()).collect::<Vec<String>>();
+    // (args, exit code, words of the message, may leave a checkpoint)
+    let mut cases: Vec<(Vec<String>, i32, Vec<&str>, bool)> = vec![];
+    // shard, merge, status: records that lack runs.
+    for (v, word) in [
+        ("cut", "lacks"),
+        ("hdr", "lacks"),
+        ("dup", "lacks"),
+        ("dmg", "1 damaged"),
+        ("torn", "1 damaged"),
+    ] {
+        let out = format!("{v}.h5");
+        cases.push((
+            s(&["merge", &out, "--no-plot"]),
+            1,
+            vec!["1/2", word],
+            false,
+        ));
+        cases.push((
+            s(&["merge", &out, "--sweep", "s.toml", "--no-plot"]),
+            1,
+            vec!["1/2", word, "--partial"],
+            false,
+        ));
+        cases.push((
+            s(&["status", &out]),
+            0,
+            vec!["1/2: finished but", word],
+            false,
+        ));
+        cases.push((
+            s(&[
+                "sweep",
+                "s.toml",
+                "-o",
+                &out,
+                "--shard",
+                "1/2",
+                "-q",
+                "--no-plot",
+            ]),
+            1,
+            vec!["shard 1/2", "--resume"],
+            false,
+        ));
+    }
+    cases.push((
+        s(&["merge", "foreign.h5", "--no-plot"]),
+        1,
+        vec!["1/2", "another sweep"],
+        false,
+    ));
+    cases.push((
+        s(&["status", "foreign.h5"]),
+        1,
+        vec!["1/2", "another sweep"],
+        false,
+    ));
+    cases.push((
+        s(&[
+            "sweep",
+            "s.toml",
+            "-o",
+            "foreign.h5",
+            "--shard",
+            "1/2",
+            "--resume",
+            "-q",
+        ]),
+        1,
+        vec!["another sweep"],
+        false,
+    ));
+    // merge: its inputs are never its output.
+    cases.push((
+        s(&["merge", "s.toml", "--sweep", "s.toml"]),
+        2,
+        vec!["s.toml", "input"],
+        false,
+    ));
+    for f in ["0-of-2.runs", "0-of-2.h5", "1-of-2.h5.journal", "new.h5"] {
+        let p = format!("sh.h5.shards/{f}");
+        cases.push((
+            s(&["merge", &p, "--shards", "sh.h5.shards", "--no-plot"]),
+            2,
+            vec!["shards' folder", "outside"],
+            false,
+        ));
+    }
+    cases.push((
+        s(&[
+            "merge",
+            "sh.h5.shards/x/deeper.h5",
+            "--shards",
+            "sh.h5.shards",
+        ]),
+        2,
+        vec!["shards' folder"],
+        false,
+    ));
+    cases.push((
+        s(&["merge", "/dev/full"]),
+        2,
+        vec!["/dev/full", "regular file"],
+        false,
+    ));
+    cases.push((
+        s(&["merge", "m.h5", "--sweep", "fifo.toml"]),
+        2,
+        vec!["fifo.toml", "not a regular file"],
+        false,
+    ));
+    // slurm: nothing a user types runs as a command or breaks a directive.
+    for (out, word) in [
+        ("a\nb.h5", "control character"),
+        ("a\rb.h5", "control character"),
+        ("a\tb.h5", "control character"),
+        ("a\u{1b}b.h5", "control character"),
+        ("a\\b.h5", "backslash"),
+        ("x\\/y.h5", "backslash"),
+    ] {
+        cases.push((
+            s(&["slurm", "s.toml", "--tasks", "2", "-o", out]),
+            2,
+            vec!["output (-o)", word],
+            false,
+        ));
+    }
+    cases.push((
+        s(&["slurm", "n\nl.toml", "--tasks", "2", "-o", "nl.h5"]),
+        2,
+        vec!["sweep file", "control character"],
+        false,
+    ));
+    cases.push((
+        s(&["slurm", "s.toml", "--tasks", "2", "-o", "/dev/full"]),
+        2,
+        vec!["/dev/full", "regular file"],
+        false,
+    ));
+    cases.push((
+        s(&["slurm", "s.toml", "--tasks", "2", "--partition", "a b"]),
+        2,
+        vec!["partition", "no spaces"],
+        false,
+    ));
+    cases.push((
+        s(&["slurm", "s.toml", "--tasks", "2", "--partition", "a#b"]),
+        2,
+        vec!["partition"],
+        false,
+    ));
+    cases.push((
+        s(&["slurm", "s.toml", "--tasks", "2", "--time", "2h"]),
+        2,
+        vec!["time", "2h"],
+        false,
+    ));
+    cases.push((
+        s(&["slurm", "s.toml", "--tasks", "0"]),
+        2,
+        vec!["tasks", "0"],
+        false,
+    ));
+    cases.push((
+        s(&["slurm", "s.toml", "--tasks", "2", "--cpus-per-task", "0"]),
+        2,
+        vec!["cpus-per-task", "0"],
+        false,
+    ));
+    cases.push((
+        s(&["slurm", "fifo.toml", "--tasks", "2"]),
+        2,
+        vec!["fifo.toml", "not a regular file"],
+        false,
+    ));
+    // refine: max_runs bounds the refinement too.
+    cases.push((
+        s(&["sweep", "refine_cap.toml", "-o", "rc.h5", "-q", "--no-plot"]),
+        1,
+        vec!["max_runs = 12", "--resume", "journal"],
+        true,
+    ));
+    // t_on and the work budget, checked before anything runs, by every route.
+    cases.push((
+        s(&["sweep", "ton_after.toml", "-o", "t.h5", "-q"]),
+        2,
+        vec!["t_on", "t_end = 0.5"],
+        false,
+    ));
+    cases.push((
+        s(&["sweep", "ton_axis.toml", "-o", "t.h5", "-q"]),
+        2,
+        vec!["grid point 1", "t_on"],
+        false,
+    ));
+    cases.push((
+        s(&["slurm", "ton_after.toml", "--tasks", "2"]),
+        2,
+        vec!["t_on"],
+        false,
+    ));
+    cases.push((
+        s(&["sweep", "ton_after.toml", "-o", "t.h5", "--estimate"]),
+        2,
+        vec!["t_on"],
+        false,
+    ));
+    cases.push((
+        s(&[
+            "run", "--u0", "1e-7", "--t-on", "2", "--t-end", "1", "-o", "prev.h5",
+        ]),
+        2,
+        vec!["t_on", "t_end = 1"],
+        false,
+    ));
+    cases.push((
+        s(&["run", "--t-on", "1", "-o", "prev.h5"]),
+        2,
+        vec!["--t-on", "needs vibration"],
+        false,
+    ));
+    cases.push((
+        s(&["run", "--case", "case_ton.toml", "-o", "prev.h5"]),
+        2,
+        vec!["t-on", "needs vibration"],
+        false,
+    ));
+    cases.push((
+        s(&[
+            "run",
+            "--case",
+            "case_ton_end.toml",
+            "--t-end",
+            "0.5",
+            "-o",
+            "prev.h5",
+        ]),
+        2,
+        vec!["t_on", "t_end = 0.5"],
+        false,
+    ));
+    cases.push((
+        s(&["run", "--k-d", "1e-2", "--v-d", "1e-9", "-o", "prev.h5"]),
+        2,
+        vec!["budget", "k_d = 0.01", "v_d"],
+        false,
+    ));
+    cases.push((
+        s(&[
+            "run",
+            "--k-d",
+            "100",
+            "--v-d",
+            "1e-6",
+            "--va-ratio",
+            "0.5",
+            "-o",
+            "prev.h5",
+        ]),
+        2,
+        vec!["budget", "k_d = 100"],
+        false,
+    ));
+    cases.push((
+        s(&[
+            "run", "--u0", "1e-7", "--f", "1000", "--t-end", "1e5", "-o", "prev.h5",
+        ]),
+        2,
+        vec!["forcing periods", "f = 1000"],
+        false,
+    ));
+    cases.push((
+        s(&["sweep", "slowgrid.toml", "-o", "t.h5", "-q"]),
+        2,
+        vec!["grid point 1", "budget"],
+        false,
+    ));
+    cases.push((
+        s(&["sweep", "periods.toml", "-o", "t.h5", "-q"]),
+        2,
+        vec!["forcing periods"],
+        false,
+    ));
+    // A run that is not a success writes nothing.
+    cases.push((
+        s(&[
+            "run", "--k-d", "1e4", "--v-d", "1e-3", "--t-end", "0.5", "-o", "prev.h5",
+        ]),
+        1,
+        vec!["unsettled", "t_end >=", "prev.h5 left untouched"],
+        false,
+    ));
+    cases.push((
+        s(&[
+            "run", "--k-d", "1e4", "--v-d", "1e-3", "--t-end", "0.5", "-o", "prev.h5", "--csv",
+            "prev.csv",
+        ]),
+        1,
+        vec!["unsettled", "prev.csv"],
+        false,
+    ));
+    // Campaigns.
+    for c in ["c_ton_after", "c_ton_novib", "c_gain2", "c_noxd_slope"] {
+        let word = match c {
+            "c_ton_after" => "after the recording's end",
+            "c_ton_novib" => "no vibration",
+            "c_gain2" => "spring",
+            _ => "x_s rises",
+        };
+        cases.push((s(&["calibrate", c]), 2, vec!["recording a", word], false));
+        cases.push((
+            s(&["diagnose", c, "--no-plots"]),
+            2,
+            vec!["recording a", word],
+            false,
+        ));
+    }
+    for (c, word) in [
+        ("c_fifo", "not a regular file"),
+        ("c_zero", "not a regular file"),
+        ("c_big", "over the limit"),
+    ] {
+        cases.push((s(&["calibrate", c]), 1, vec!["a.csv", word], false));
+        cases.push((
+            s(&["diagnose", c, "--no-plots"]),
+            1,
+            vec!["a.csv", word],
+            false,
+        ));
+    }
+    cases.push((
+        s(&["calibrate", "c_wide"]),
+        2,
+        vec!["a.csv:1", "at most 256"],
+        false,
+    ));
+    // Streams and devices.
+    for f in ["fifo.toml", "zero.toml"] {
+        cases.push((
+            s(&["sweep", f, "-o", "t.h5"]),
+            2,
+            vec![f, "not a regular file"],
+            false,
+        ));
+        cases.push((
+            s(&["run", "--case", f, "-o", "t.h5"]),
+            2,
+            vec![f, "not a regular file"],
+            false,
+        ));
+    }
+    cases.push((
+        s(&["sweep", "big.toml", "-o", "t.h5"]),
+        2,
+        vec!["big.toml", "over the limit"],
+        false,
+    ));
+    for f in ["fifo.h5", "zero.h5"] {
+        cases.push((s(&["plot", f]), 1, vec![f, "not a regular file"], false));
+        cases.push((s(&["boundary", f]), 1, vec![f, "not a regular file"], false));
+        cases.push((s(&["status", f]), 1, vec![f, "not a regular file"], false));
+    }
+    for (args, flag) in [
+        (vec!["run", "--no-trace", "-o", "/dev/full"], "--out"),
+        (vec!["run", "-o", "t.h5", "--csv", "/dev/full"], "--csv"),
+        (vec!["sweep", "s.toml", "-o", "/dev/full"], "--out"),
+        (vec!["calibrate", "camp", "--json", "/dev/full"], "--json"),
+        (vec!["diagnose", "camp", "--json", "/dev/full"], "--json"),
+    ] {
+        cases.push((s(&args), 2, vec![flag, "/dev/full", "regular file"], false));
+    }
+
+    let mut failures = vec![];
+    let mut by_code = std::collections::BTreeMap::<i32, usize>::new();
+    for (args, code, needles, writes) in &cases {
+        let before = snapshot(d);
+        let mut child = Command::new(env!("CARGO_BIN_EXE_stickslip"))
+            .args(args)
+            .current_dir(d)
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        // No case may hang: a blocked read of a pipe is killed and counted.
+        let t0 = std::time::Instant::now();
+        while child.try_wait().unwrap().is_none() && t0.elapsed().as_secs() < 60 {
+            std::thread::sleep(std::time::Duration::from_millis(20));
+        }
+        let hung = child.try_wait().unwrap().is_none();
+        if hung {
+            let _ = child.kill();
+        }
+        let out = child.wait_with_output().unwrap();
+        let err = format!(
+            "{}{}",
+            String::from_utf8_lossy(&out.stderr),
+            String::from_utf8_lossy(&out.stdout)
+        );
+        let got = out.status.code().unwrap_or(-1);
+        *by_code.entry(got).or_default() += 1;
+        let mut why = vec![];
+        if hung {
+            why.push("hung".to_string());
+        }
+        if got != *code {
+            why.push(format!("exit code {got}, expected {code}"));
+        }
+        for n in needles {
+            if !err.contains(n) {
+                why.push(format!("`{n}` missing"));
+            }
+        }
+        if err.contains("panicked") {
+            why.push("panicked".into());
+        }
+        if err.contains("every shard is complete") || err.contains("sweep_status = complete") {
+            why.push("reported complete".into());
+        }
+        let after = snapshot(d);
+        if *writes {
+            // Nothing there before may change; a checkpoint may be added.
+            let changed = before
+                .iter()
+                .filter(|(p, b)| {
+                    after
+                        .iter()
+                        .find(|(q, _)| q == p)
+                        .is_none_or(|(_, a)| a != b)
+                })
+                .count();
+            if changed > 0 {
+                why.push(format!("changed {changed} file(s)"));
+            }
+        } else if after != before {
+            why.push("changed a file".into());
+        }
+        if d.join("pwned").exists() {
+            why.push("ran a command".into());
+        }
+        if !why.is_empty() {
+            failures.push(format!("{args:?}: {}\n    {}", why.join("; "), err.trim()));
+        }
+    }
+    eprintln!(
+        "census of files and processes: {} cases; exit codes {:?}; {} as expected",
+        cases.len(),
+        by_code,
+        cases.len() - failures.len()
+    );
+    assert!(cases.len() >= 80, "{} cases", cases.len());
+    assert!(
+        failures.is_empty(),
+        "{} of {} cases:\n{}",
+        failures.len(),
+        cases.len(),
+        failures.join("\n")
+    );
+}
+
+/// Writers that meet, as real processes: while a sweep runs, the same sweep again, with
+/// `--overwrite`, with `--resume`, and the same shard twice are refused at once with the
+/// holder's process id, and the running sweep's journal is left whole; after `kill -9` of the
+/// holder no lock is left, and `--resume` completes the sweep with every recorded run kept.
+#[test]
+fn concurrent_writers_are_refused_and_kill_9_leaves_no_lock() {
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    std::fs::write(
+        d.join("slow.toml"),
+        "[fixed]\nk_d = 11700.0\nv_d = 0.5e-3\n[[axis]]\nname = \"u0\"\nlogspace = [1e-8, 1e-6, 60]\n[[axis]]\nname = \"f\"\nvalues = [800.0, 1500.0, 3000.0]\n",
+    )
+    .unwrap();
+    let bin = env!("CARGO_BIN_EXE_stickslip");
+    let start = |args: &[&str]| {
+        Command::new(bin)
+            .args(args)
+            .current_dir(d)
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .unwrap()
+    };
+    let journal = d.join("slow.h5.journal");
+    let records = || {
+        std::fs::read_to_string(&journal)
+            .map(|t| t.lines().count().saturating_sub(1))
+            .unwrap_or(0)
+    };
+    let wait_for = |what: &str, done: &dyn Fn() -> bool| {
+        let t0 = std::time::Instant::now();
+        while !done() {
+            assert!(t0.elapsed().as_secs() < 120, "timed out waiting for {what}");
+            std::thread::sleep(std::time::Duration::from_millis(20));
+        }
+    };
+    let mut a = start(&[
+        "sweep",
+        "slow.toml",
+        "-o",
+        "slow.h5",
+        "--threads",
+        "1",
+        "-q",
+    ]);
+    wait_for("the first records", &|| records() >= 3);
+    let holder = a.id().to_string();
+    for extra in [&[][..], &["--overwrite"][..], &["--resume"][..]] {
+        let mut args = vec!["sweep", "slow.toml", "-o", "slow.h5", "-q"];
+        args.extend_from_slice(extra);
+        let o = run(d, &args.iter().map(|s| s.to_string()).collect::<Vec<_>>());
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{args:?}: {err}");
+        assert!(
+            err.contains(&format!("process {holder}")) && err.contains("slow.h5.lock"),
+            "{args:?}: {err}"
+        );
+    }
+    let before = records();
+    wait_for("the holder to go on", &|| records() > before);
+    // kill -9: the kernel drops the lock with the process.
+    a.kill().unwrap();
+    a.wait().unwrap();
+    let kept = records();
+    let o = run(
+        d,
+        &[
+            "sweep",
+            "slow.toml",
+            "-o",
+            "slow.h5",
+            "--resume",
+            "-q",
+            "--no-plot",
+        ]
+        .map(String::from),
+    );
+    let log = String::from_utf8_lossy(&o.stdout).into_owned() + &String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{log}");
+    assert!(
+        log.contains(&format!("{kept} resumed"))
+            || log.contains(&format!("{} resumed", kept.saturating_sub(1))),
+        "{kept}: {log}"
+    );
+    assert!(
+        !d.join("slow.h5.lock").exists(),
+        "a clean exit removes its lock file"
+    );
+    // The same shard twice at once.
+    let mut s1 = start(&[
+        "sweep",
+        "slow.toml",
+        "-o",
+        "sh.h5",
+        "--shard",
+        "0/2",
+        "--threads",
+        "1",
+        "-q",
+    ]);
+    let j = d.join("sh.h5.shards/0-of-2.h5.journal");
+    wait_for("the shard's first record", &|| {
+        std::fs::read_to_string(&j).is_ok_and(|t| t.lines().count() > 1)
+    });
+    let o = run(
+        d,
+        &[
+            "sweep",
+            "slow.toml",
+            "-o",
+            "sh.h5",
+            "--shard",
+            "0/2",
+            "--resume",
+            "-q",
+        ]
+        .map(String::from),
+    );
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains(&format!("process {}", s1.id())), "{err}");
+    // A merge onto the output while the shard runs refuses the unfinished shard; one onto a
+    // shard's file is refused as an input.
+    let o = run(d, &["merge", "sh.h5", "--no-plot"].map(String::from));
+    assert_eq!(o.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("not complete"));
+    s1.kill().unwrap();
+    s1.wait().unwrap();
 }

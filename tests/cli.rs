@@ -699,7 +699,7 @@ fn resume_and_failed_runs_never_replace_what_is_there() {
     let err = String::from_utf8_lossy(&bad.stderr);
     assert_eq!(bad.status.code(), Some(1), "{err}");
     assert!(
-        err.contains("max_steps") && err.contains("not written"),
+        err.contains("max_steps") && err.contains("nothing written"),
         "{err}"
     );
     assert_eq!(std::fs::read(&h5).unwrap(), before);
@@ -800,10 +800,66 @@ fn implausible_recordings_are_refused_by_name_or_set_aside() {
         .iter()
         .map(|s| s["recording"].as_str().unwrap())
         .collect();
-    assert_eq!(skipped, ["d0_v1", "d1_v0", "d1_v1", "d2_v0", "d2_v0"]);
+    // d1_v0 fails the force scale and the spring (a gain of 1e6), d2_v0 the spikes and the scale.
+    assert_eq!(
+        skipped,
+        ["d0_v1", "d1_v0", "d1_v0", "d1_v1", "d2_v0", "d2_v0"]
+    );
     let after = walk(&camp)
         .into_iter()
         .map(|f| std::fs::read(f).unwrap())
         .collect::<Vec<_>>();
     assert_eq!(before, after, "the campaign changed");
+}
+
+/// Standard output redirected to a full disk (`/dev/full`) or a pipe closed by its reader:
+/// the command finishes its work, writes its files, and ends with exit code 1 and a message,
+/// never a panic.
+#[test]
+fn a_full_or_closed_standard_output_is_an_error_not_a_panic() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("r.h5");
+    let full = std::fs::OpenOptions::new()
+        .write(true)
+        .open("/dev/full")
+        .unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_stickslip"))
+        .args([
+            "run",
+            "--k-d",
+            "1e4",
+            "--v-d",
+            "1e-3",
+            "--no-trace",
+            "--json",
+            "-o",
+        ])
+        .arg(&out)
+        .stdout(full)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("standard output") && !err.contains("panicked"),
+        "{err}"
+    );
+    assert!(out.exists(), "the run's file is written all the same");
+    // A reader that closes the pipe at once.
+    let mut child = Command::new(env!("CARGO_BIN_EXE_stickslip"))
+        .args(["run", "--k-d", "1e4", "--v-d", "1e-3", "--no-trace", "-o"])
+        .arg(dir.path().join("p.h5"))
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let o = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("standard output") && !err.contains("panicked"),
+        "{err}"
+    );
+    assert!(dir.path().join("p.h5").exists());
 }

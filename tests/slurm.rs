@@ -156,12 +156,16 @@ fn complete(p: &Path) -> bool {
     stickslip::sweep::is_complete(p)
 }
 
+/// One test cluster at a time (they share the ports of `cluster.sh`).
+static ONE_CLUSTER: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
 #[test]
 fn quick_sweep_as_a_job_array_merges_bit_for_bit_and_survives_a_cancelled_task() {
     if std::env::var_os("STICKSLIP_SKIP_SLURM").is_some_and(|v| v == "1") {
         eprintln!("skipped: STICKSLIP_SKIP_SLURM=1");
         return;
     }
+    let _one = ONE_CLUSTER.lock().unwrap_or_else(|e| e.into_inner());
     let quick = Path::new(env!("CARGO_MANIFEST_DIR")).join("sweeps/quick.toml");
     let quick = quick.to_str().unwrap();
     let cluster = Cluster::start();
@@ -295,4 +299,117 @@ fn quick_sweep_as_a_job_array_merges_bit_for_bit_and_survives_a_cancelled_task()
         resumed + 1 >= recorded && resumed >= 5,
         "{recorded}: {task_log}"
     );
+}
+
+/// The shards' folder's Slurm logs: (array task logs, merge logs).
+fn logs(shards: &Path) -> (Vec<String>, Vec<String>) {
+    let mut names: Vec<String> = std::fs::read_dir(shards)
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| n.starts_with("slurm-") && n.ends_with(".out"))
+        .collect();
+    names.sort();
+    let (merge, tasks): (Vec<String>, Vec<String>) = names
+        .into_iter()
+        .partition(|n| n.starts_with("slurm-merge-"));
+    (tasks, merge)
+}
+
+/// Paths with a space, `#`, `%`, `$`, quotes and backticks, and a sweep file whose name would
+/// run a command in a shell: the generated scripts, submitted by `stickslip slurm --submit` and
+/// by pasting the printed hint into bash, give one log per task in the folder asked for, a
+/// complete sweep, and run nothing.
+#[test]
+fn hostile_paths_give_one_log_per_task_and_run_nothing() {
+    if std::env::var_os("STICKSLIP_SKIP_SLURM").is_some_and(|v| v == "1") {
+        eprintln!("skipped: STICKSLIP_SKIP_SLURM=1");
+        return;
+    }
+    let _one = ONE_CLUSTER.lock().unwrap_or_else(|e| e.into_inner());
+    let cluster = Cluster::start();
+    let work = tempfile::tempdir().unwrap();
+    let dir = work.path().join("a b#c%d$e'f\"g`h");
+    std::fs::create_dir(&dir).unwrap();
+    let file = dir.join("$(touch pwned) `touch pwned2` x.toml");
+    std::fs::write(
+        &file,
+        "[fixed]\nk_d = 20000.0\nv_d = 1.5e-3\n[[axis]]\nname = \"u0\"\nlogspace = [1e-8, 1e-6, 4]\n[run]\nt_end = 0.5\n",
+    )
+    .unwrap();
+    let pwned = |w: &Path| {
+        ["pwned", "pwned2"]
+            .iter()
+            .any(|n| w.join(n).exists() || dir.join(n).exists() || Path::new(n).exists())
+    };
+    // Submitted by stickslip.
+    let a = dir.join("out %j %A #1.h5");
+    let (ok, log) = cluster.stickslip(&[
+        "slurm",
+        file.to_str().unwrap(),
+        "--tasks",
+        "2",
+        "-o",
+        a.to_str().unwrap(),
+        "--submit",
+    ]);
+    assert!(ok, "{log}");
+    let (array, merge) = job_ids(&log);
+    cluster.wait("the array and its merge", 300.0, || {
+        complete(&a) && cluster.queue(&merge).trim().is_empty()
+    });
+    let (tasks, merges) = logs(&shard_dir(&a));
+    assert_eq!(
+        tasks,
+        vec![
+            format!("slurm-{array}_0.out"),
+            format!("slurm-{array}_1.out")
+        ],
+        "one log per task, in the shards' folder"
+    );
+    assert_eq!(merges, vec![format!("slurm-merge-{merge}.out")]);
+    assert!(!pwned(work.path()), "a command in a path ran");
+    // Written only, then submitted by the printed hint pasted into a shell.
+    let b = dir.join("hint $HOME '1'.h5");
+    let (ok, log) = cluster.stickslip(&[
+        "slurm",
+        file.to_str().unwrap(),
+        "--tasks",
+        "2",
+        "-o",
+        b.to_str().unwrap(),
+    ]);
+    assert!(ok, "{log}");
+    let hint = log
+        .lines()
+        .find_map(|l| l.strip_prefix("submit with: "))
+        .and_then(|l| l.split("   (or:").next())
+        .unwrap_or_else(|| panic!("no hint in:\n{log}"))
+        .to_string();
+    let o = cluster.cmd("bash").args(["-c", &hint]).output().unwrap();
+    assert!(
+        o.status.success(),
+        "{hint}: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    cluster.wait("the hint's array and merge", 300.0, || complete(&b));
+    let (tasks, merges) = logs(&shard_dir(&b));
+    assert_eq!(tasks.len(), 2, "{tasks:?}");
+    assert!(
+        tasks
+            .iter()
+            .all(|t| t.ends_with("_0.out") || t.ends_with("_1.out"))
+    );
+    assert_eq!(merges.len(), 1, "{merges:?}");
+    assert!(!pwned(work.path()), "a command in a path ran");
+    // The merged files hold every point.
+    let (ok, st) = cluster.stickslip(&["status", a.to_str().unwrap()]);
+    assert!(ok && st.contains(": complete"), "{st}");
+}
+
+/// `OUT.shards/` of a sweep output.
+fn shard_dir(out: &Path) -> PathBuf {
+    let mut s = out.as_os_str().to_owned();
+    s.push(".shards");
+    PathBuf::from(s)
 }

@@ -345,7 +345,10 @@ mod tests {
         // A record damaged anywhere fails its checksum, though every field still parses.
         let flipped = format_record(Task::Ref(0), &r).replacen(" 8.4 ", " 8.5 ", 1);
         assert!(flipped.contains(" 8.5 ") && parse_record(&flipped).is_none());
-        assert!(parse_record(body).is_none(), "a record without its checksum");
+        assert!(
+            parse_record(body).is_none(),
+            "a record without its checksum"
+        );
         {
             let mut j = Journal::create(&p, "abc").unwrap();
             j.record(Task::Ref(0), &r).unwrap();

@@ -10,8 +10,9 @@
 //!
 //! Every shard must carry the fingerprint of the sweep file and program version the merge is
 //! made for (`--sweep FILE`, or else the sweep text stored in the shards' HDF5 files), and every
-//! shard `0..N` must be complete; otherwise the merge names what is missing, unfinished or
-//! foreign. With `partial`, it writes what there is: missing points NaN, status −1,
+//! shard `0..N` must be complete, judged from its record ([`judge`]): every run the shard must
+//! make there, each line whole by its checksum. Otherwise the merge names what is missing,
+//! unfinished, lacking or foreign. With `partial`, it writes what there is: missing points NaN, status −1,
 //! `sweep_status = "partial"`.
 
 use super::journal;
@@ -291,10 +292,7 @@ pub fn merge(opts: &MergeOptions) -> Result<MergeOutcome, SweepError> {
             })
         })
         .collect::<Result<_, _>>()?;
-    let found = Found {
-        count: n,
-        states,
-    };
+    let found = Found { count: n, states };
     let incomplete: Vec<(Shard, &ShardState)> = shards
         .iter()
         .zip(&found.states)

@@ -151,7 +151,11 @@ impl Results {
 
     /// Runs stored (references and points).
     fn count(&self) -> usize {
-        self.refs.iter().chain(&self.points).filter(|r| r.is_some()).count()
+        self.refs
+            .iter()
+            .chain(&self.points)
+            .filter(|r| r.is_some())
+            .count()
     }
 
     fn has(&self, t: Task) -> bool {

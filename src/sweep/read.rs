@@ -50,7 +50,9 @@ impl SweepData {
         if let Ok(m) = std::fs::metadata(path)
             && !m.is_file()
         {
-            return Err(bad("not a regular file (a device, pipe, socket or folder)".into()));
+            return Err(bad(
+                "not a regular file (a device, pipe, socket or folder)".into()
+            ));
         }
         let f = H5File::open(path).map_err(|x| {
             bad(format!(

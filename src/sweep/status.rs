@@ -59,6 +59,15 @@ fn planned(spec: &SweepSpec, plan: &Plan, owned: impl Fn(usize) -> bool) -> usiz
 
 /// Reads the status of sweep output `out` (module docs).
 pub fn status(out: &Path) -> Result<SweepStatus, SweepError> {
+    // A device or pipe would block the HDF5 reader or be read for ever.
+    if let Ok(m) = std::fs::metadata(out)
+        && !m.is_file()
+    {
+        return Err(SweepError::State(format!(
+            "{} is not a regular file (a device, pipe, socket or folder); give a sweep output",
+            out.display()
+        )));
+    }
     let file_status = rust_hdf5::H5File::open(out)
         .ok()
         .and_then(|f| f.attr_string("sweep_status").ok());
