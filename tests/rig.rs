@@ -312,7 +312,7 @@ fn independent_rig_panel() {
 
 /// The second rig's whole panel.
 #[test]
-#[ignore = "the whole panel takes about 15 minutes on 2 cores; .ci/run runs three of it"]
+#[ignore = "the whole panel takes about 15 minutes on 2 cores; .ci/run runs two of it"]
 fn second_rig_panel() {
     panel(RIG2, &PANEL2);
 }
@@ -335,8 +335,10 @@ fn rig2_random_drive_velocity_is_no_confident_screw_error() {
 /// The second rig's mimic of an actuator resonance: the substrate moves 0.55 times its command at
 /// every frequency, which no resonance gives. Whatever the verdict, no effect is named without
 /// `partial` (at the last run: a sensor, then the actuator with its damping on the bound of 2,
-/// both as partial; the verdict counts as wrong on the panel, not as confident).
+/// both as partial; the verdict counts as wrong on the panel, not as confident). Left out of
+/// `.ci/run` for its time (about 280 s); `second_rig_panel` checks it among the twelve.
 #[test]
+#[ignore = "about 280 s on 2 cores; left out of .ci/run for its time budget, in second_rig_panel"]
 fn rig2_constant_actuator_gain_names_no_confident_cause() {
     let (_, wrong, rows) = run_with(RIG2, &["mimic-gain"]);
     assert_eq!(wrong, 0, "\n{}", rows.join("\n"));

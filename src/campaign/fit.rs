@@ -1320,7 +1320,8 @@ fn fit_range(kind: EffectKind, param: &str) -> Option<(f64, f64)> {
 /// The values the global scan of [`starts`] tries for one fitted effect parameter, over its
 /// plausible range: the sensor's resonance at ten frequencies from 20 Hz to 20 kHz (a load cell
 /// carrying the frame rings at tens of hertz), each at a light, a moderate and a
-/// critical-like damping (0.05, 0.3, 0.7); the others at four or five points of their range.
+/// critical-like damping (0.05, 0.3, 0.7); the load modulation's phase with the velocity and
+/// against it (±90°); the others at four or five points of their range.
 /// The actuator's resonance has a scan of its own ([`actuator_scan`]).
 fn scan_values(kind: EffectKind, param: &str) -> Vec<f64> {
     use EffectKind as K;
@@ -1329,7 +1330,9 @@ fn scan_values(kind: EffectKind, param: &str) -> Vec<f64> {
         (K::SensorDynamics, "f_n") => logspace(20.0, 2e4, 10),
         (K::SensorDynamics, "zeta") => vec![0.05, 0.3, 0.7],
         (K::NormalCoupling, "k_n") => logspace(1e6, 1e8, 5),
-        (K::NormalCoupling, "phase") => vec![-90.0, 0.0, 90.0, 180.0],
+        // With the velocity or against it: the sign of the mean friction change; the fit
+        // then turns the phase towards the displacement.
+        (K::NormalCoupling, "phase") => vec![-90.0, 90.0],
         (K::Viscous, "h_v") => vec![20.0, 50.0, 100.0, 200.0],
         (K::StribeckShape, "delta") => vec![0.5, 1.0, 1.5, 3.0],
         (K::Presliding, "spread") => vec![0.3, 0.6, 0.9],
