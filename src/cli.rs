@@ -735,9 +735,7 @@ pub fn check_output(flag: &str, path: &Path, inputs: &[&Path]) -> Result<(), Cli
     if path.is_dir() {
         return bad("is a directory; give a file name".into());
     }
-    if let Ok(m) = std::fs::metadata(path)
-        && !m.is_file()
-    {
+    if crate::output::special(path) {
         return bad("is not a regular file (a device, pipe or socket); give a file name".into());
     }
     let mut up = path.parent();

@@ -53,13 +53,17 @@ pub fn temp_path(path: &Path) -> PathBuf {
     PathBuf::from(s)
 }
 
+/// Whether `path` names something that is there and is not a regular file (following links):
+/// a device, pipe, socket or folder, which no command reads as a file or replaces.
+pub fn special(path: &Path) -> bool {
+    std::fs::metadata(path).is_ok_and(|m| !m.is_file())
+}
+
 /// Moves the finished `tmp` onto `path` (atomically, in one directory), unless `path` is there
 /// and is not a regular file: a device, pipe, socket or folder is never replaced (`tmp` is
 /// removed and an error of kind `InvalidInput` returned).
 pub fn replace(tmp: &Path, path: &Path) -> std::io::Result<()> {
-    if let Ok(m) = std::fs::metadata(path)
-        && !m.is_file()
-    {
+    if special(path) {
         let _ = std::fs::remove_file(tmp);
         return Err(std::io::Error::new(
             std::io::ErrorKind::InvalidInput,

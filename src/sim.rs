@@ -455,13 +455,13 @@ pub fn end_time(p: &Params, opts: &RunOptions) -> Result<f64, SimError> {
         });
     }
     if p.vibrates() {
-        let periods = p.f * (t_end - if p.two_stage() { p.t_on } else { 0.0 });
+        let vibrated = t_end - if p.two_stage() { p.t_on } else { 0.0 };
+        let periods = p.f * vibrated;
         if !(periods <= PERIODS_MAX) {
             return Err(SimError::Budget(format!(
-                "{periods:.3e} forcing periods (f = {} Hz over {:.3e} s of vibration) are over \
-                 the budget of {PERIODS_MAX:.0e} periods; lower f or t_end",
-                p.f,
-                t_end - if p.two_stage() { p.t_on } else { 0.0 }
+                "{periods:.3e} forcing periods (f = {} Hz over {vibrated:.3e} s of vibration) \
+                 are over the budget of {PERIODS_MAX:.0e} periods; lower f or t_end",
+                p.f
             )));
         }
     }

@@ -342,18 +342,24 @@ fn hostile_paths_give_one_log_per_task_and_run_nothing() {
             .iter()
             .any(|n| w.join(n).exists() || dir.join(n).exists() || Path::new(n).exists())
     };
+    // `stickslip slurm FILE --tasks 2 -o OUT [extra]`: its output, once it succeeded.
+    let slurm = |out: &Path, extra: &[&str]| {
+        let mut args = vec![
+            "slurm",
+            file.to_str().unwrap(),
+            "--tasks",
+            "2",
+            "-o",
+            out.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        let (ok, log) = cluster.stickslip(&args);
+        assert!(ok, "{log}");
+        log
+    };
     // Submitted by stickslip.
     let a = dir.join("out %j %A #1.h5");
-    let (ok, log) = cluster.stickslip(&[
-        "slurm",
-        file.to_str().unwrap(),
-        "--tasks",
-        "2",
-        "-o",
-        a.to_str().unwrap(),
-        "--submit",
-    ]);
-    assert!(ok, "{log}");
+    let log = slurm(&a, &["--submit"]);
     let (array, merge) = job_ids(&log);
     cluster.wait("the array and its merge", 300.0, || {
         complete(&a) && cluster.queue(&merge).trim().is_empty()
@@ -371,15 +377,7 @@ fn hostile_paths_give_one_log_per_task_and_run_nothing() {
     assert!(!pwned(work.path()), "a command in a path ran");
     // Written only, then submitted by the printed hint pasted into a shell.
     let b = dir.join("hint $HOME '1'.h5");
-    let (ok, log) = cluster.stickslip(&[
-        "slurm",
-        file.to_str().unwrap(),
-        "--tasks",
-        "2",
-        "-o",
-        b.to_str().unwrap(),
-    ]);
-    assert!(ok, "{log}");
+    let log = slurm(&b, &[]);
     let hint = log
         .lines()
         .find_map(|l| l.strip_prefix("submit with: "))

@@ -47,9 +47,7 @@ impl SweepData {
             msg,
         };
         // A device or pipe would be read for ever or block.
-        if let Ok(m) = std::fs::metadata(path)
-            && !m.is_file()
-        {
+        if crate::output::special(path) {
             return Err(bad(
                 "not a regular file (a device, pipe, socket or folder)".into()
             ));

@@ -60,9 +60,7 @@ fn planned(spec: &SweepSpec, plan: &Plan, owned: impl Fn(usize) -> bool) -> usiz
 /// Reads the status of sweep output `out` (module docs).
 pub fn status(out: &Path) -> Result<SweepStatus, SweepError> {
     // A device or pipe would block the HDF5 reader or be read for ever.
-    if let Ok(m) = std::fs::metadata(out)
-        && !m.is_file()
-    {
+    if crate::output::special(out) {
         return Err(SweepError::State(format!(
             "{} is not a regular file (a device, pipe, socket or folder); give a sweep output",
             out.display()
