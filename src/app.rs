@@ -147,6 +147,33 @@ pub fn synth_cmd(a: &SynthArgs) -> Result<(), AppError> {
 
 /// `stickslip calibrate`.
 pub fn calibrate_cmd(a: &CalibrateArgs) -> Result<(), AppError> {
+    let cal = calibrate(a)?;
+    crate::console::print(format_args!("{}", cal.summary));
+    print_skipped(&cal.skipped);
+    if let Some(path) = &a.json {
+        output::ensure_parent(path)?;
+        let text = serde_json::to_string_pretty(&cal.json).unwrap_or_default();
+        std::fs::write(path, text).map_err(|e| CampaignError::Io {
+            path: path.display().to_string(),
+            msg: e.to_string(),
+        })?;
+        crate::say!("wrote {}", path.display());
+    }
+    Ok(())
+}
+
+/// A calibration's results: what `stickslip calibrate` prints and writes.
+pub struct Calibrated {
+    /// The estimates as `--json` writes them.
+    pub json: serde_json::Value,
+    /// The printed summary.
+    pub summary: String,
+    /// Recordings set aside as implausible (`--skip-implausible`).
+    pub skipped: Vec<campaign::check::Implausible>,
+}
+
+/// The calibration of `stickslip calibrate`, without printing or writing anything.
+pub fn calibrate(a: &CalibrateArgs) -> Result<Calibrated, AppError> {
     let effect = a.resolve()?;
     let (c, skipped) = checked(Campaign::load(&a.campaign)?, a.skip_implausible)?;
     let target = campaign::fit::Target::new(c.recordings.iter().collect());
@@ -162,23 +189,13 @@ pub fn calibrate_cmd(a: &CalibrateArgs) -> Result<(), AppError> {
             campaign::fit::fit(&target, &start, &[k], opts)
         }
     };
-    crate::console::print(format_args!(
-        "{}",
-        campaign::report::calibration_summary(&c, &f)
-    ));
-    print_skipped(&skipped);
-    if let Some(path) = &a.json {
-        output::ensure_parent(path)?;
-        let mut j = campaign::report::calibration_json(&c, &f);
-        j["skipped_implausible"] = skipped_json(&skipped);
-        let text = serde_json::to_string_pretty(&j).unwrap_or_default();
-        std::fs::write(path, text).map_err(|e| CampaignError::Io {
-            path: path.display().to_string(),
-            msg: e.to_string(),
-        })?;
-        crate::say!("wrote {}", path.display());
-    }
-    Ok(())
+    let mut json = campaign::report::calibration_json(&c, &f);
+    json["skipped_implausible"] = skipped_json(&skipped);
+    Ok(Calibrated {
+        json,
+        summary: campaign::report::calibration_summary(&c, &f),
+        skipped,
+    })
 }
 
 /// Checks every recording before any fit ([`campaign::check`]): refuses the campaign when one
@@ -247,6 +264,32 @@ fn skipped_json(skipped: &[campaign::check::Implausible]) -> serde_json::Value {
 
 /// `stickslip diagnose`.
 pub fn diagnose_cmd(a: &DiagnoseArgs) -> Result<(), AppError> {
+    let d = diagnose(a)?;
+    crate::console::print(format_args!("{}", d.summary));
+    print_skipped(&d.skipped);
+    for w in d.written {
+        crate::say!("wrote {}", w.display());
+    }
+    Ok(())
+}
+
+/// A diagnosis's results: what `stickslip diagnose` prints and writes.
+pub struct Diagnosed {
+    /// The verdict as written to `diagnosis.json`.
+    pub json: serde_json::Value,
+    /// The printed report.
+    pub summary: String,
+    /// Recordings set aside as implausible (`--skip-implausible`).
+    pub skipped: Vec<campaign::check::Implausible>,
+    /// The output folder.
+    pub out: std::path::PathBuf,
+    /// Files written: the JSON, `diagnosis.h5` and the figures.
+    pub written: Vec<std::path::PathBuf>,
+}
+
+/// The diagnosis of `stickslip diagnose`: the verdict, its files in the output folder, and the
+/// report, returned rather than printed.
+pub fn diagnose(a: &DiagnoseArgs) -> Result<Diagnosed, AppError> {
     let opts = a.resolve()?;
     let (c, skipped) = checked(Campaign::load(&a.campaign)?, a.skip_implausible)?;
     let name = a
@@ -278,12 +321,13 @@ pub fn diagnose_cmd(a: &DiagnoseArgs) -> Result<(), AppError> {
     if !a.no_plots {
         written.extend(campaign::report::plots(&out, &c, &d)?);
     }
-    crate::console::print(format_args!("{}", campaign::report::summary(&c, &d)));
-    print_skipped(&skipped);
-    for w in written {
-        crate::say!("wrote {}", w.display());
-    }
-    Ok(())
+    Ok(Diagnosed {
+        json: j,
+        summary: campaign::report::summary(&c, &d),
+        skipped,
+        out,
+        written,
+    })
 }
 
 /// `stickslip bench`.
@@ -424,7 +468,7 @@ pub fn sweep_cmd(a: &SweepArgs) -> Result<(), AppError> {
 }
 
 /// Draws a complete sweep file's figures and, with amplitude and frequency axes, its boundary.
-fn figures_and_boundary(out: &std::path::Path) -> Result<(), AppError> {
+pub fn figures_and_boundary(out: &std::path::Path) -> Result<(), AppError> {
     let d = sweep::read::SweepData::read(out).map_err(SweepError::from)?;
     if let Err(e) = d.require_results() {
         // The sweep itself is complete: its statuses say what failed.
@@ -438,6 +482,17 @@ fn figures_and_boundary(out: &std::path::Path) -> Result<(), AppError> {
     if has_amplitude && d.dim("f").is_some() {
         let (csv, _) = sweep::boundary::run(out)?;
         crate::say!("wrote {} (elimination boundary)", csv.display());
+    }
+    Ok(())
+}
+
+/// Writes a complete sweep file's elimination boundary (group `boundary` and the CSV beside
+/// it) where it has amplitude and frequency axes and results; draws no figure.
+pub fn boundary_into(out: &std::path::Path) -> Result<(), AppError> {
+    let d = sweep::read::SweepData::read(out).map_err(SweepError::from)?;
+    let has_amplitude = ["u0", "v_a", "va_ratio"].iter().any(|n| d.dim(n).is_some());
+    if d.require_results().is_ok() && has_amplitude && d.dim("f").is_some() {
+        sweep::boundary::run(out)?;
     }
     Ok(())
 }
@@ -740,14 +795,9 @@ pub fn run(a: &RunArgs) -> Result<(), AppError> {
     }
     let mut out = crate::console::stdout();
     if a.json {
-        let mut v = case_json(&res, &case.run);
-        let obj = v.as_object_mut().expect("object");
-        obj.insert("effects".into(), effects_json(&case.effects));
-        obj.insert(
-            "effects_described".into(),
-            serde_json::json!(case.effects.describe()),
-        );
+        let mut v = run_report_json(&res, &case);
         if let Some((median, min)) = timing {
+            let obj = v.as_object_mut().expect("object");
             obj.insert("repeats".into(), serde_json::json!(a.repeats));
             obj.insert("wall_time_median".into(), serde_json::json!(median));
             obj.insert("wall_time_min".into(), serde_json::json!(min));
@@ -772,25 +822,43 @@ pub fn run(a: &RunArgs) -> Result<(), AppError> {
         }
     }
     if status != crate::ode::Status::Success {
-        let why = match (status, case.run.t_end) {
-            (crate::ode::Status::Unsettled, Some(t)) => {
-                let auto = sim::planned_time(&case.params, case.run.min_cycles);
-                format!(
-                    "unsettled: t_end = {t} s is too short for the stick-slip to settle and be \
-                     measured over {} cycles of about {:.3} s each; give t_end >= {auto:.3} s, \
-                     or leave t_end out to have it chosen",
-                    case.run.min_cycles,
-                    case.params.cycle_estimate()
-                )
-            }
-            (crate::ode::Status::Unsettled, None) => "unsettled: the stick-slip did not settle \
-                 within the automatic time; give a longer t_end"
-                .to_string(),
-            (s, _) => s.name().to_string(),
-        };
+        let why = failure_reason(&res, &case);
         return Err(failed(why));
     }
     Ok(())
+}
+
+/// Why a run that did not succeed failed, as `stickslip run` says it: the status, and for an
+/// unsettled run the simulated time it would need.
+pub fn failure_reason(res: &CaseResult, case: &crate::config::Case) -> String {
+    match (res.status(), case.run.t_end) {
+        (crate::ode::Status::Unsettled, Some(t)) => {
+            let auto = sim::planned_time(&case.params, case.run.min_cycles);
+            format!(
+                "unsettled: t_end = {t} s is too short for the stick-slip to settle and be \
+                 measured over {} cycles of about {:.3} s each; give t_end >= {auto:.3} s, \
+                 or leave t_end out to have it chosen",
+                case.run.min_cycles,
+                case.params.cycle_estimate()
+            )
+        }
+        (crate::ode::Status::Unsettled, None) => "unsettled: the stick-slip did not settle \
+             within the automatic time; give a longer t_end"
+            .to_string(),
+        (s, _) => s.name().to_string(),
+    }
+}
+
+/// What `stickslip run --json` prints for a case: [`case_json`] with the effects that were on.
+pub fn run_report_json(res: &CaseResult, case: &crate::config::Case) -> serde_json::Value {
+    let mut v = case_json(res, &case.run);
+    let obj = v.as_object_mut().expect("object");
+    obj.insert("effects".into(), effects_json(&case.effects));
+    obj.insert(
+        "effects_described".into(),
+        serde_json::json!(case.effects.describe()),
+    );
+    v
 }
 
 fn finite(x: f64) -> serde_json::Value {

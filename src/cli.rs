@@ -817,6 +817,7 @@ impl SweepArgs {
                 progress: !self.quiet,
                 checkpoint_every: self.checkpoint_every,
                 shard: self.shard,
+                tally: None,
             },
         ))
     }

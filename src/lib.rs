@@ -20,6 +20,7 @@ pub mod cli;
 pub mod config;
 pub mod console;
 pub mod cycle;
+pub mod interrupt;
 pub mod measures;
 pub mod model;
 pub mod ode;

@@ -3,17 +3,43 @@
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::io::IsTerminal;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+/// The counts of a [`Progress`], shared with a host that draws its own bar (the Python
+/// package's tqdm): runs done (resumed ones included), runs in all so far, runs failed.
+#[derive(Debug, Default)]
+pub struct Tally {
+    /// Runs finished.
+    pub done: AtomicU64,
+    /// Runs planned so far (a refinement adds its rounds as it asks for them).
+    pub total: AtomicU64,
+    /// Runs that did not succeed.
+    pub failed: AtomicU64,
+}
+
+impl Tally {
+    /// `(done, total, failed)` at this moment.
+    pub fn read(&self) -> (u64, u64, u64) {
+        (
+            self.done.load(Ordering::Relaxed),
+            self.total.load(Ordering::Relaxed),
+            self.failed.load(Ordering::Relaxed),
+        )
+    }
+}
 
 /// A progress bar for a batch of runs: done of total, rate, ETA, failures so far.
 pub struct Progress {
     bar: ProgressBar,
     failures: u64,
+    tally: Option<Arc<Tally>>,
 }
 
 impl Progress {
     /// A bar over `total` runs of which `done` are already finished (resume); hidden unless
     /// `enabled` and stderr is a terminal.
-    pub fn new(total: u64, done: u64, enabled: bool) -> Progress {
+    pub fn new(total: u64, done: u64, enabled: bool, tally: Option<Arc<Tally>>) -> Progress {
         let target = if enabled && std::io::stderr().is_terminal() {
             ProgressDrawTarget::stderr()
         } else {
@@ -29,7 +55,16 @@ impl Progress {
         );
         bar.set_position(done);
         bar.set_message("0 failed");
-        Progress { bar, failures: 0 }
+        if let Some(t) = &tally {
+            t.total.store(total, Ordering::Relaxed);
+            t.done.store(done, Ordering::Relaxed);
+            t.failed.store(0, Ordering::Relaxed);
+        }
+        Progress {
+            bar,
+            failures: 0,
+            tally,
+        }
     }
 
     /// One run finished.
@@ -39,13 +74,19 @@ impl Progress {
             self.bar.set_message(format!("{} failed", self.failures));
         }
         self.bar.inc(1);
+        if let Some(t) = &self.tally {
+            t.done.fetch_add(1, Ordering::Relaxed);
+            t.failed.fetch_add(u64::from(failed), Ordering::Relaxed);
+        }
     }
 
-    /// Ends the bar.
     /// Adds `n` runs to the total (a refinement's next level).
     pub fn grow(&mut self, n: u64) {
         if let Some(len) = self.bar.length() {
             self.bar.set_length(len + n);
+        }
+        if let Some(t) = &self.tally {
+            t.total.fetch_add(n, Ordering::Relaxed);
         }
     }
 

@@ -88,6 +88,7 @@ fn opts(out: &Path, threads: usize) -> SweepOptions {
         progress: false,
         checkpoint_every: 30.0,
         shard: None,
+        tally: None,
     }
 }
 

@@ -555,6 +555,15 @@ pub fn write_h5(path: &Path, c: &Campaign, d: &Diagnosis) -> Result<(), OutputEr
         }
         let cg = root.create_group("calibration").map_err(h5err(&tmp))?;
         write_estimates(&cg, &d.base.estimates, &tmp)?;
+        // The traces figure's data, for hosts that draw their own (the Python package).
+        if let Some(o) = overlay(c, d) {
+            let fg = root.create_group("figure_traces").map_err(h5err(&tmp))?;
+            fg.set_attr_string("title", &o.title).map_err(h5err(&tmp))?;
+            write_vec(&fg, "t", o.t, "s", "time", &tmp)?;
+            for ((label, y, _), key) in o.series.iter().zip(["measured", "base", "best"]) {
+                write_vec(&fg, key, y, "N", label, &tmp)?;
+            }
+        }
         f.close().map_err(h5err(&tmp))?;
     }
     crate::output::replace(&tmp, path).map_err(output::ioerr(path))
@@ -593,6 +602,48 @@ fn simulated_force(rec: &Recording, m: &Model) -> Vec<f64> {
     )
     .map(|t| t.f_d)
     .unwrap_or_default()
+}
+
+/// The traces figure: the measured, base-model and best-candidate drive force of the held-out
+/// recording the base model misses most (any recording where none is held out).
+fn overlay<'a>(c: &'a Campaign, d: &Diagnosis) -> Option<Overlay<'a>> {
+    let w = &d.location.recordings;
+    let i = (0..w.len())
+        .filter(|&i| w[i].held_out)
+        .max_by(|&a, &b| w[a].gap_base.total_cmp(&w[b].gap_base))
+        .or_else(|| (0..w.len()).max_by(|&a, &b| w[a].gap_base.total_cmp(&w[b].gap_base)))?;
+    let rec = &c.recordings[i];
+    let mut series = vec![
+        (
+            "measured".to_string(),
+            rec.f_d.clone(),
+            RGBColor(160, 160, 160),
+        ),
+        (
+            format!("base model (gap {:.2})", w[i].gap_base),
+            simulated_force(rec, &d.base.model),
+            BLUE,
+        ),
+    ];
+    if let Some(b) = d.ranking.first() {
+        series.push((
+            format!("with {} (gap {:.2})", b.effect.name(), w[i].gap_best),
+            simulated_force(rec, &b.fit.model),
+            RED,
+        ));
+    }
+    Some(Overlay {
+        title: format!(
+            "{} (held out): v_d = {} mm/s, k_d = {} N/m, f = {} Hz, v_a/v_d = {:.2}",
+            rec.name,
+            rec.params.v_d * 1e3,
+            rec.params.k_d,
+            if rec.vibrates() { rec.params.f } else { 0.0 },
+            rec.params.v_a() / rec.params.v_d
+        ),
+        t: &rec.t,
+        series,
+    })
 }
 
 struct Overlay<'a> {
@@ -710,47 +761,8 @@ impl Figure for GapMap<'_> {
 /// Draws the overlay of the held-out recording with the largest base gap and the gap map.
 pub fn plots(dir: &Path, c: &Campaign, d: &Diagnosis) -> Result<Vec<PathBuf>, PlotError> {
     let mut written = render(&dir.join("gap_conditions"), &GapMap { d })?;
-    let w = &d.location.recordings;
-    let pick = (0..w.len())
-        .filter(|&i| w[i].held_out)
-        .max_by(|&a, &b| w[a].gap_base.total_cmp(&w[b].gap_base))
-        .or_else(|| (0..w.len()).max_by(|&a, &b| w[a].gap_base.total_cmp(&w[b].gap_base)));
-    if let Some(i) = pick {
-        let rec = &c.recordings[i];
-        let mut series = vec![
-            (
-                "measured".to_string(),
-                rec.f_d.clone(),
-                RGBColor(160, 160, 160),
-            ),
-            (
-                format!("base model (gap {:.2})", w[i].gap_base),
-                simulated_force(rec, &d.base.model),
-                BLUE,
-            ),
-        ];
-        if let Some(b) = d.ranking.first() {
-            series.push((
-                format!("with {} (gap {:.2})", b.effect.name(), w[i].gap_best),
-                simulated_force(rec, &b.fit.model),
-                RED,
-            ));
-        }
-        written.extend(render(
-            &dir.join("traces"),
-            &Overlay {
-                title: format!(
-                    "{} (held out): v_d = {} mm/s, k_d = {} N/m, f = {} Hz, v_a/v_d = {:.2}",
-                    rec.name,
-                    rec.params.v_d * 1e3,
-                    rec.params.k_d,
-                    if rec.vibrates() { rec.params.f } else { 0.0 },
-                    rec.params.v_a() / rec.params.v_d
-                ),
-                t: &rec.t,
-                series,
-            },
-        )?);
+    if let Some(o) = overlay(c, d) {
+        written.extend(render(&dir.join("traces"), &o)?);
     }
     Ok(written)
 }

@@ -107,6 +107,7 @@ pub fn estimate(
         progress: true,
         checkpoint_every: 1e9,
         shard: Some(sh),
+        tally: None,
     };
     let outcome = super::run(spec, &opts);
     let sample_wall = t0.elapsed().as_secs_f64();

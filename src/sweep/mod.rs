@@ -231,6 +231,9 @@ pub struct SweepOptions {
     /// Run only this part of the sweep, into its own file beside `out` ([`shard`]). Default
     /// `None`: the whole sweep into `out`.
     pub shard: Option<Shard>,
+    /// Counts of runs done, planned and failed, shared with a host that shows its own
+    /// progress (the Python package). Default `None`.
+    pub tally: Option<std::sync::Arc<crate::progress::Tally>>,
 }
 
 impl SweepOptions {
@@ -255,6 +258,15 @@ pub enum SweepError {
     /// Bad run options.
     #[error(transparent)]
     Sim(#[from] sim::SimError),
+    /// Stopped on request ([`crate::interrupt`]): every finished run is in the journal and the
+    /// checkpoint; resuming continues.
+    #[error("interrupted: {recorded} runs recorded in {journal}; resume to continue")]
+    Interrupted {
+        /// Runs in the journal (this invocation's and earlier ones').
+        recorded: usize,
+        /// The journal.
+        journal: String,
+    },
 }
 
 /// Summary of a finished sweep.
@@ -325,6 +337,8 @@ struct Executor<'a> {
     last_checkpoint: Instant,
     /// Runs made so far.
     made: usize,
+    /// A run came back interrupted ([`crate::interrupt`]): ask for no more.
+    interrupted: bool,
 }
 
 impl Executor<'_> {
@@ -373,6 +387,12 @@ impl Executor<'_> {
         progress: &mut Progress,
         io_error: &mut Option<String>,
     ) {
+        // An interrupted run has no result: it is neither journaled nor stored, and is made
+        // again on resuming.
+        if r.status == Status::Interrupted {
+            self.interrupted = true;
+            return;
+        }
         if let Err(e) = self.journal.record(t, &r) {
             io_error.get_or_insert(format!("{}: {e}", self.journal.path().display()));
         }
@@ -457,6 +477,9 @@ impl Executor<'_> {
                     .into_iter()
                     .filter(|t| !results.has(*t) && !asked_by.contains_key(t))
                     .collect();
+                if crate::interrupt::requested() {
+                    return 0;
+                }
                 let asked = results.count() + asked_by.len() + tasks.len();
                 if asked > spec.max_runs || over.get().is_some() {
                     over.set(Some(over.get().unwrap_or(0).max(asked)));
@@ -668,6 +691,7 @@ pub fn run(spec: &SweepSpec, opts: &SweepOptions) -> Result<SweepOutcome, SweepE
         started: &started,
         last_checkpoint: Instant::now(),
         made: 0,
+        interrupted: false,
     };
     // The tasks of the first round: the whole grid, or the coarse grid of a refinement (the
     // shard's part of either).
@@ -677,14 +701,36 @@ pub fn run(spec: &SweepSpec, opts: &SweepOptions) -> Result<SweepOutcome, SweepE
         first.len() as u64,
         (first.len() - todo.len()) as u64,
         opts.progress,
+        opts.tally.clone(),
     );
     exec.round(&todo, &mut results, &mut progress)?;
-    if spec.refine.is_some() {
+    if spec.refine.is_some() && !exec.interrupted {
         exec.refine(&mut results, &mut progress, &mine)?;
     }
     progress.finish();
     let runs_made = exec.made;
+    let interrupted = exec.interrupted || crate::interrupt::requested();
     let _ = journal.sync();
+    if interrupted {
+        // Everything finished so far is journaled; the checkpoint shows it to `status`.
+        h5::write(
+            &target,
+            spec,
+            &plan,
+            &results,
+            &[],
+            h5::Stamp {
+                started: &started,
+                finished: None,
+                partial: false,
+                shard: opts.shard,
+            },
+        )?;
+        return Err(SweepError::Interrupted {
+            recorded: results.count(),
+            journal: jpath.display().to_string(),
+        });
+    }
 
     // Points that keep traces are run once more with tracing on (deterministic: same numbers).
     // A shard leaves them to the merge.
