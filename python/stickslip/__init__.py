@@ -298,10 +298,13 @@ def open(path: PathLike) -> xr.Dataset:  # noqa: A001 - the package's verb, as x
         ds = _open_file(p)
     except (ValueError, OSError, KeyError, TypeError):
         return _open_groups(p)
-    if "traces" in _groups(p) and not ds.data_vars:
-        # A run's file: the traces are the data.
-        with xr.open_dataset(os.fspath(p), engine="h5netcdf", group="traces") as tr:
-            out = tr.load()
+    if "trace" in _groups(p) and not ds.data_vars:
+        # A run's file: its results are the root's attributes, its traces the data, over t.
+        import h5py
+
+        with h5py.File(p, "r") as f:
+            arrays = {k: v[()] for k, v in f["trace"].items()}
+        out = _trace_dataset(arrays)
         out.attrs.update(ds.attrs)
         out.encoding["source"] = os.fspath(p)
         return out
@@ -315,21 +318,27 @@ def _groups(path: Path) -> list[str]:
         return [k for k in f.keys() if isinstance(f[k], h5py.Group)]
 
 
-def _progress_bar(enabled: bool) -> tuple[Optional[Callable[[int, int, int], None]], Any]:
-    if not enabled:
-        return None, None
-    from tqdm.auto import tqdm
+class _Bar:
+    """A tqdm bar (notebook or terminal) drawn from the sweep's counts, created on the first
+    count, so that a sweep refused before it starts shows none."""
 
-    bar = tqdm(total=0, unit="run", desc="sweep", dynamic_ncols=True)
+    def __init__(self) -> None:
+        self.bar: Any = None
 
-    def update(done: int, total: int, failed: int) -> None:
-        if bar.total != total:
-            bar.total = total
-        bar.n = done
-        bar.set_postfix_str(f"{failed} failed", refresh=False)
-        bar.refresh()
+    def __call__(self, done: int, total: int, failed: int) -> None:
+        if self.bar is None:
+            from tqdm.auto import tqdm
 
-    return update, bar
+            self.bar = tqdm(total=total, initial=done, unit="run", desc="sweep", dynamic_ncols=True)
+        if self.bar.total != total:
+            self.bar.total = total
+        self.bar.n = done
+        self.bar.set_postfix_str(f"{failed} failed", refresh=False)
+        self.bar.refresh()
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
 
 
 def sweep(
@@ -388,10 +397,10 @@ def sweep(
         target = os.path.join(tmp.name, "sweep.h5")
     else:
         target = os.fspath(out)
-    update, bar = _progress_bar(progress)
+    bar = _Bar() if progress else None
     try:
         _native.sweep(
-            file, toml_text, target, threads, resume, overwrite, figures, update
+            file, toml_text, target, threads, resume, overwrite, figures, bar
         )
         ds = _open_file(target)
         if tmp is not None:
