@@ -620,7 +620,7 @@ pub struct RunArgs {
     /// Integration method: radau5 (implicit Radau IIA, order 5), rodas4 (Rosenbrock, order 4),
     /// dopri5 (explicit Dormand-Prince 5(4)) or auto (dopri5, switching to radau5 where
     /// stability rather than accuracy limits its step). Default auto, with envelope following
-    /// at 1e-4: the fastest setting that meets MODEL.md's accuracy in `stickslip bench`.
+    /// at 1e-4: the fastest setting that meets docs/model.md's accuracy in `stickslip bench`.
     #[arg(long, value_name = "METHOD")]
     pub solver: Option<Method>,
 

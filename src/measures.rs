@@ -1,4 +1,4 @@
-//! The measures of MODEL.md, computed on the fly from a uniformly sampled drive force, so that a
+//! The measures of docs/model.md, computed on the fly from a uniformly sampled drive force, so that a
 //! run of any length needs only a buffer of one vibration period.
 //!
 //! - **Smoothed drive force**: a moving average of `F_d` over exactly one vibration period
@@ -256,7 +256,7 @@ impl Analyzer {
     }
 
     /// Whether the force, sliding without stick-slip, settles so plainly along one exponential
-    /// that its settled level follows from the window from `start` to now (MODEL.md: the
+    /// that its settled level follows from the window from `start` to now (docs/model.md: the
     /// measures describe the settled state).
     ///
     /// Sliding under vibration makes the friction viscous-like, so the drive force approaches
@@ -360,7 +360,7 @@ impl Analyzer {
     }
 
     /// Whether the window from `start` to now (whole blocks) holds stick-slip, a settled force,
-    /// or a force still on its way to its level (MODEL.md: such a window does not count).
+    /// or a force still on its way to its level (docs/model.md: such a window does not count).
     ///
     /// A drop of the smoothed force whose peak lies in the window is stick-slip. Otherwise the
     /// window is cut into thirds with mean forces `m_0, m_1, m_2`: the force is settled when the
@@ -529,7 +529,7 @@ fn thirds(w: &[Block]) -> [f64; 3] {
 }
 
 /// The measures of a window without stick-slip: dF is the max − min `hi − lo` of the smoothed
-/// force (MODEL.md), peak and trough its extremes.
+/// force (docs/model.md), peak and trough its extremes.
 fn sliding_measures(lo: f64, hi: f64, mean_force: f64, stick_fraction: f64) -> Measures {
     Measures {
         d_f: hi - lo,
@@ -562,7 +562,7 @@ fn near_level(m0: f64, m1: f64, m2: f64, mean: f64, drift: f64) -> bool {
 }
 
 /// [`Analyzer::settling`] extrapolates a level at most this relative distance beyond the mean
-/// of the window's last sixth (0.5 %, MODEL.md's accuracy of the mean force) ...
+/// of the window's last sixth (0.5 %, docs/model.md's accuracy of the mean force) ...
 pub const SETTLING_REACH: f64 = 0.005;
 /// ... and states at least this share of that distance as its error bound. At v_d = 0.5 mm/s,
 /// k_d = 11 700 N/m, f = 1500 Hz, v_a/v_d = 1.7 the force approaches 4.838 N along an

@@ -16,7 +16,7 @@ use std::time::Instant;
 pub struct RunOptions {
     /// Integration method. Default [`Method::Auto`] (Dopri5 that hands the stretches where
     /// stiffness, not accuracy, limits its step to Radau5): with envelope following it is the
-    /// fastest setting of `stickslip bench` that meets MODEL.md's accuracy on its cases
+    /// fastest setting of `stickslip bench` that meets docs/model.md's accuracy on its cases
     /// ([`DEFAULT_ENVELOPE`]).
     pub method: Method,
     /// Integrator options (tolerances, step limits). Default `rtol = 1e-6`, `atol = 1e-6`
@@ -89,7 +89,7 @@ pub const EARLY_STOP_RANGE: f64 = 0.005;
 pub const EARLY_STOP_DRIFT: f64 = 0.001;
 /// Early stop of a settling sliding run ([`Analyzer::settling`]): two exponential fits must
 /// predict the planned window's max − min of the smoothed force to this share of the nominal
-/// amplitude `2 (F_s − F_c)` (`r` to about 0.002, a fifth of MODEL.md's 0.01), and the ripple
+/// amplitude `2 (F_s − F_c)` (`r` to about 0.002, a fifth of docs/model.md's 0.01), and the ripple
 /// about the exponential must stay below it too.
 pub const SETTLING_TOL: f64 = 0.002;
 /// ... and the force may change by at most this share of `k_d v_d` per second: the body slides
@@ -128,7 +128,7 @@ pub const ENVELOPE_BASELINE: u32 = 4;
 /// Early stop with stick-slip: the window `[t/2, t]` must be at least `min_cycles` cycle
 /// estimates long, start after the first loading and one more cycle, hold at least `min_cycles`
 /// drops, and give their mean with a standard error of at most this share of the nominal
-/// amplitude `2 (F_s − F_c)`: a standard error of `r` of about 0.005, MODEL.md's allowance for
+/// amplitude `2 (F_s − F_c)`: a standard error of `r` of about 0.005, docs/model.md's allowance for
 /// the convergence of `r` (so `r` within about 0.01 at two standard errors). The window's mean
 /// force must also agree with the mean over its whole cycles to [`EARLY_STOP_DRIFT`].
 pub const EARLY_STOP_STDERR: f64 = 0.005;
@@ -225,7 +225,7 @@ pub fn simulated_time(p: &Params, min_cycles: u32) -> f64 {
 }
 
 /// Simulated time of a run chosen automatically \[s\]: [`simulated_time`], after the first
-/// stage of a two-stage run (`t_on > 0`, MODEL.md), so that the steady window, the second half
+/// stage of a two-stage run (`t_on > 0`, docs/model.md), so that the steady window, the second half
 /// of the second stage, holds as many cycles as a run vibrated from the start.
 pub fn planned_time(p: &Params, min_cycles: u32) -> f64 {
     let stage = simulated_time(p, min_cycles);
@@ -233,7 +233,7 @@ pub fn planned_time(p: &Params, min_cycles: u32) -> f64 {
 }
 
 /// Start of the steady window of a run ending at `t_end` \[s\]: the second half of the run, or
-/// of its second stage where the vibration is switched on at `t_on > 0` (MODEL.md).
+/// of its second stage where the vibration is switched on at `t_on > 0` (docs/model.md).
 pub fn window_start(p: &Params, t_end: f64) -> f64 {
     if p.two_stage() && p.t_on < t_end {
         p.t_on + 0.5 * (t_end - p.t_on)
@@ -586,7 +586,7 @@ impl Recorder<'_> {
     }
 }
 
-/// A run whose window still holds a trend (MODEL.md: the measures describe the settled state)
+/// A run whose window still holds a trend (docs/model.md: the measures describe the settled state)
 /// goes on by this share of its time so far at a time, judged after each step ...
 pub const SETTLE_GROWTH: f64 = 0.25;
 /// ... up to this many times its planned simulated time; a run that has not settled then ends
@@ -595,10 +595,10 @@ pub const SETTLE_GROWTH: f64 = 0.25;
 pub const SETTLE_CAP: f64 = 8.0;
 /// A window without stick-slip is settled when its smoothed force changes across it by at most
 /// this share of the nominal amplitude `2 (F_s − F_c)` (so `r` by about 0.0025, half of
-/// MODEL.md's allowance) ...
+/// docs/model.md's allowance) ...
 pub const SETTLED_TREND: f64 = 0.0025;
 /// ... and its mean lies within this relative distance of the level its thirds approach (a
-/// fifth of MODEL.md's 0.5 %).
+/// fifth of docs/model.md's 0.5 %).
 pub const SETTLED_MEAN: f64 = 0.001;
 
 fn integrate(rig: &Rig, t_end: f64, opts: &RunOptions, solver: &mut Solver) -> RunResult {
@@ -696,7 +696,7 @@ fn integrate(rig: &Rig, t_end: f64, opts: &RunOptions, solver: &mut Solver) -> R
         count,
     };
     let mut rep = if two_stage {
-        // The substrate velocity jumps from 0 to u0 ω at t_on (MODEL.md): integrate the stages
+        // The substrate velocity jumps from 0 to u0 ω at t_on (docs/model.md): integrate the stages
         // apart, so the step control restarts at the jump instead of rejecting its way down to it.
         integrate_stages(solver, rig, p.t_on, t_end, &mut y, &ode, grid, |t, y| {
             rec.observe(t, y)
@@ -714,7 +714,7 @@ fn integrate(rig: &Rig, t_end: f64, opts: &RunOptions, solver: &mut Solver) -> R
         c.replay(&grid, rec.idx, t_end, |i, t, f, y| rec.record(i, t, f, y));
         rec.cycle = Some(c);
     }
-    // MODEL.md: a window that still holds a trend does not count. Extrapolate the level where
+    // docs/model.md: a window that still holds a trend does not count. Extrapolate the level where
     // the force plainly settles along one exponential (not in a run asked to run in full), else
     // go on, up to the cap.
     let mut t_stop = t_end;
@@ -816,7 +816,7 @@ fn extend(
 
 /// Integrates from 0 to `t_on` and from `t_on` to `t_end` one after the other, restarting the
 /// step control at the switch-on, where the substrate velocity jumps from 0 to `u0 ω`
-/// (MODEL.md); the output times of `grid` (at or after 0) are shared out by index: those up to
+/// (docs/model.md); the output times of `grid` (at or after 0) are shared out by index: those up to
 /// `t_on` to the first stage. The work is added up.
 pub fn integrate_stages(
     solver: &mut Solver,

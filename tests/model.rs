@@ -311,7 +311,7 @@ fn envelope_against_full_run(
 
 /// Envelope following on the rig (k_d = 11 700 N/m, v_d = 0.5 mm/s, f = 1500 Hz, 4 s): where
 /// vibration removes stick-slip (v_a = 2 v_d) and where it only reduces it (v_a = 0.4 v_d), r and
-/// the mean force stay within the accuracy of MODEL.md of the run that integrates every period
+/// the mean force stay within the accuracy of docs/model.md of the run that integrates every period
 /// (r within 0.01 plus the spread over cycles, the mean force within 0.5 %), while most periods
 /// are skipped.
 #[test]
@@ -340,7 +340,7 @@ fn envelope_following_keeps_r_and_the_mean_force_of_the_full_run() {
 
 /// Where a stick-slip cycle spans tens of thousands of vibration periods (v_d = 0.1 mm/s), the
 /// envelope's long settings (`sim::ENVELOPE_LONG_JUMP`) skip nine periods in ten and keep r and
-/// the mean force of the run that integrates every period within MODEL.md's accuracy: a sliding
+/// the mean force of the run that integrates every period within docs/model.md's accuracy: a sliding
 /// run whose force still creeps toward its level (v_a = 1.58 v_d; with the short settings the
 /// jumps stayed near five periods and half were skipped) and a stick-slip run (v_a = 0.4 v_d).
 #[test]
@@ -590,14 +590,14 @@ fn auto_follows_the_stiff_phases_of_the_rig() {
     }
 }
 
-/// The paper's two-stage protocol (MODEL.md, Figs. 3 to 5): the substrate rests until `t_on`,
+/// The paper's two-stage protocol (docs/model.md, Figs. 3 to 5): the substrate rests until `t_on`,
 /// then vibrates as `u0 sin(ω (t − t_on))`. Before `t_on` the run is the run without vibration
 /// (to 5e-3 N, 0.08 % of dF: linear interpolation between the two sample grids errs by up to
 /// `h² F''/8 ≈ 1e-3 N` in the slips, h = 0.32 ms); after it the measures of the
 /// second stage's settled window are those of a run vibrated from the start: elimination at
-/// v_a = 1.1 v_d (Fig. 4) and the same mean force within MODEL.md's 0.5 %, and at v_a = 0.2 v_d
+/// v_a = 1.1 v_d (Fig. 4) and the same mean force within docs/model.md's 0.5 %, and at v_a = 0.2 v_d
 /// (Fig. 3) the same r within the two standard errors plus 0.03 (the partial-reduction regime
-/// is chaos-like, MODEL.md).
+/// is chaos-like, docs/model.md).
 #[test]
 fn two_stage_runs_switch_the_vibration_on_at_t_on() {
     use stickslip::sim::simulate;

@@ -1,7 +1,7 @@
-//! The paper's results (MODEL.md, "What the paper's results say the model must show") on the
+//! The paper's results (docs/model.md, "What the paper's results say the model must show") on the
 //! Fig. 10 cases: k_d = 11 700 N/m, v_d = 0.5, 1.0, 1.5 mm/s, f = 1500 Hz; and Fig. 11's
 //! low-frequency exception at f = 100 Hz, v_d = 0.5 mm/s. Plus the convergence criterion of
-//! MODEL.md at the default tolerances.
+//! docs/model.md at the default tolerances.
 
 use rayon::prelude::*;
 use stickslip::model::Params;
@@ -133,7 +133,7 @@ fn fig11_low_frequency_large_amplitude_does_not_eliminate() {
     assert!(high < 0.05, "r = {high} at 1500 Hz");
 }
 
-/// MODEL.md, Numerics: tightening the tolerance tenfold moves r by less than the standard errors
+/// docs/model.md, Numerics: tightening the tolerance tenfold moves r by less than the standard errors
 /// plus 0.005, and the mean force by less than its standard error plus 0.5 %.
 #[test]
 fn default_tolerances_are_converged() {
@@ -173,7 +173,7 @@ fn default_tolerances_are_converged() {
     });
 }
 
-/// Early stop changes r by less than MODEL.md's convergence allowance (0.005 plus the standard
+/// Early stop changes r by less than docs/model.md's convergence allowance (0.005 plus the standard
 /// errors of both runs) and does less work. Steady sliding (v_a > v_d): the mean force within
 /// 0.1 %. Stick-slip (v_a < v_d, the run ends once its window holds the cycles and gives dF to
 /// the standard error asked for): the mean force within the bias of a window that cuts a
@@ -248,7 +248,7 @@ fn early_stop_agrees_with_the_full_run() {
 }
 
 /// Eliminated stick-slip whose force still creeps towards its sliding level at the end of the
-/// planned time (v_a a little above v_d). MODEL.md: the measures describe the settled state. The
+/// planned time (v_a a little above v_d). docs/model.md: the measures describe the settled state. The
 /// early stop extrapolates the level once the approach is plainly exponential and near its
 /// end; a run without early stop goes on until its window has settled. The two must agree to
 /// r within 0.003 and the mean force within 0.1 % plus the stated error bound, the
@@ -287,7 +287,7 @@ fn settled_level_extrapolated_agrees_with_the_run_continued_until_it_settles() {
         });
 }
 
-/// The creep of MODEL.md. At v_d = 0.5 mm/s, k_d = 11 700 N/m, f = 1500 Hz, v_a/v_d = 1.7
+/// The creep of docs/model.md. At v_d = 0.5 mm/s, k_d = 11 700 N/m, f = 1500 Hz, v_a/v_d = 1.7
 /// (Fig. 10a) and at f = 1487 Hz, v_a/v_d = 1.69 (a creep island of the 32 × 32 Fig. 11 map) the
 /// smoothed force creeps for some 20 s towards its sliding level; the planned time is 9.8 s.
 /// Settled references: runs of 60 s (window 30 to 60 s) with Radau5 at rtol = atol = 1e-8,
@@ -296,7 +296,7 @@ fn settled_level_extrapolated_agrees_with_the_run_continued_until_it_settles() {
 /// (the same at rtol 1e-6 with `--solver auto`: 4.837872 N and 5.002388 N). Radau5 integrating
 /// every period, the defaults (auto with envelope following) and Dopri5 without early stop must
 /// give r below 0.005 (elimination, not the 0.10 and 0.13 of the creep)
-/// and the mean force within 0.1 % (0.5 % is MODEL.md's accuracy).
+/// and the mean force within 0.1 % (0.5 % is docs/model.md's accuracy).
 #[test]
 fn creep_towards_the_sliding_level_is_not_stick_slip() {
     let settings: Vec<(f64, f64, f64, RunOptions)> =

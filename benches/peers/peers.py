@@ -1,4 +1,4 @@
-"""Peer benchmark: the rig of MODEL.md solved by the tools a user would pick instead of
+"""Peer benchmark: the rig of docs/model.md solved by the tools a user would pick instead of
 stickslip, side by side with stickslip in one run, on the same machine.
 
 Peers: SciPy solve_ivp (Radau, BDF, LSODA; right-hand side and Jacobian compiled with numba),
@@ -7,7 +7,7 @@ SUNDIALS CVODE (BDF, through scikit-sundae), numbalsoda (LSODA, DOP853) and the 
 `auto` and Dopri5 with envelope following (`stickslip-envelope`); a `+early` suffix (`stickslip-envelope+early`) lets
 stickslip end once the answer is known (`--early-stop`). Every peer integrates the same equations in the same scaled
 variables z = y / w (w = F_s/k_d, v_d + v_a, F_s/k_t, the scales stickslip's atol uses), is
-sampled on stickslip's output grid, and is measured with the same definitions (MODEL.md): dF over
+sampled on stickslip's output grid, and is measured with the same definitions (docs/model.md): dF over
 the second half of the run, r against a tight run without vibration, the mean drive force.
 
 For each peer and case a ladder of tolerances (rtol = atol) is timed (median of --repeats in one
@@ -34,7 +34,7 @@ ROOT = Path(__file__).resolve().parents[2]
 STICKSLIP = ROOT / "target" / "release" / "stickslip"
 DIFFSOL = Path(__file__).resolve().parent / "diffsol" / "target" / "release" / "stickslip-peer-diffsol"
 
-# MODEL.md defaults and the Fig. 10 drive.
+# docs/model.md defaults and the Fig. 10 drive.
 M = 6.52 / 9.81
 K_T, H_T, H_V, F_C, F_S, V_S = 71.318e6, 1.377e4, 0.0, 8.3, 11.5, 0.35e-3
 K_D, H_D, V_D, FREQ = 11700.0, 0.0, 0.5e-3, 1500.0
@@ -95,7 +95,7 @@ def jac_scaled(t, z, p, jac):
 
 @njit(cache=True)
 def analyse(t, z, p, k, window_start):
-    """MODEL.md's measures, as stickslip's Analyzer computes them: dF, mean force."""
+    """docs/model.md's measures, as stickslip's Analyzer computes them: dF, mean force."""
     m, k_t, h_t, h_v, f_c, f_s, v_s, k_d, h_d, v_d, u0, om, w0, w1, w2 = p
     thr = 0.02 * (f_s - f_c)
     n = t.shape[0]

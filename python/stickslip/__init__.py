@@ -586,8 +586,9 @@ class Campaign:
     def _folder(self) -> str:
         """The campaign on disk, in a temporary folder kept as long as the object."""
         if self._dir is None:
-            self._dir = tempfile.TemporaryDirectory(prefix="stickslip-campaign-")
-            self.to_dir(Path(self._dir.name) / "campaign")
+            tmp = tempfile.TemporaryDirectory(prefix="stickslip-campaign-")
+            self.to_dir(Path(tmp.name) / "campaign")
+            self._dir = tmp
         return os.path.join(self._dir.name, "campaign")
 
 

@@ -236,7 +236,7 @@ pub fn check(r: &Recording) -> Vec<Implausible> {
             );
         }
     }
-    // The drive force is the spring's: F_d = k_d (x_d - x_s) + h_d (v_d - v) (MODEL.md).
+    // The drive force is the spring's: F_d = k_d (x_d - x_s) + h_d (v_d - v) (docs/model.md).
     if let (Some(x_s), Some(x_d)) = (&r.x_s, &r.x_d)
         && !flat.iter().any(|c| ["F_d", "x_s", "x_d"].contains(c))
     {

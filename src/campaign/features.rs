@@ -1,7 +1,7 @@
 //! Features of a recorded or simulated stick-slip trace, computed the same way for both, and
 //! the phases of the stick-slip cycle they belong to.
 //!
-//! The steady window is the second half of the trace (MODEL.md). The force is smoothed by a
+//! The steady window is the second half of the trace (docs/model.md). The force is smoothed by a
 //! moving average over one vibration period `1/f` (1 ms without vibration, against sensor
 //! noise), with fractional-sample ends so that any sampling rate removes the ripple alike.
 //! Cycles are found on the smoothed force by a zig-zag detector whose hysteresis is
@@ -613,7 +613,7 @@ pub struct Stage {
 pub const MIN_STAGE_SAMPLES: usize = 200;
 
 /// The stages of a recording sampled at times `t` under conditions `p`: one (the whole
-/// recording), or two where the vibration is switched on at `t_on > 0` within it (MODEL.md):
+/// recording), or two where the vibration is switched on at `t_on > 0` within it (docs/model.md):
 /// the resting substrate before, the vibrated one after. A stage too short to give features
 /// ([`MIN_STAGE_SAMPLES`]) is left out.
 pub fn stages(t: &[f64], p: &crate::model::Params) -> Vec<Stage> {

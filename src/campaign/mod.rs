@@ -11,7 +11,7 @@
 //!   a missing column are skipped, and the reports say so.
 //! - `NAME.toml`: the conditions in SI units: `v_d`, `k_d`, `f` and `u0` (or `v_a`, or
 //!   `va_ratio` = v_a/v_d), and optionally any other model parameter (`F_N`, `h_d`, ...).
-//!   `f = 0` with `u0 = 0` is a run without vibration. `t_on` \[s\] (MODEL.md) is the time
+//!   `f = 0` with `u0 = 0` is a run without vibration. `t_on` \[s\] (docs/model.md) is the time
 //!   the vibration is switched on within the recording (the paper's two-stage tests): the
 //!   substrate rests before it; absent or 0, it vibrates from the start.
 //!

@@ -1,9 +1,9 @@
-//! Physical effects the base model of MODEL.md leaves out, as switchable model extensions.
+//! Physical effects the base model of docs/model.md leaves out, as switchable model extensions.
 //!
 //! Each effect has a name (part of the file and command interface: `[effects.aging]` in a case
 //! or sweep file), a few parameters with units, defaults and physical bounds, and a precise
 //! place in the equations of [`crate::model`]. With no effect switched on the model is exactly
-//! MODEL.md's. With effects on, the state grows after `[x, v, s]` and the equations read
+//! docs/model.md's. With effects on, the state grows after `[x, v, s]` and the equations read
 //! (`ν` the normal-load factor, `A` the actuator gain; every symbol below is an effect parameter):
 //!
 //! ```text

@@ -1,9 +1,9 @@
-//! The rig model of MODEL.md: a body dragged over a tangentially vibrating substrate by a
+//! The rig model of docs/model.md: a body dragged over a tangentially vibrating substrate by a
 //! spring-damper drive, with LuGre friction in the contact.
 //!
 //! ```text
-//! ω      = 2π f                                   (4.1, with MODEL.md's correction)
-//! u'(t)  = u0 ω cos(ω (t − t_on)) for t ≥ t_on, else 0   substrate velocity (MODEL.md)
+//! ω      = 2π f                                   (4.1, with docs/model.md's correction)
+//! u'(t)  = u0 ω cos(ω (t − t_on)) for t ≥ t_on, else 0   substrate velocity (docs/model.md)
 //! v_r    = v − u'(t)                              (4.7)
 //! g(v_r) = (F_c + (F_s − F_c) exp(−(v_r/v_s)²)) / k_t      (4.7)
 //! s'     = v_r − |v_r| s / g(v_r)                 (4.6)
@@ -111,13 +111,13 @@ pub struct Rig {
     omega: f64,
     /// Actuated amplitude `A u0` \[m\] (`u0` without the actuator effect).
     u0: f64,
-    /// Switch-on time of the vibration \[s\] (MODEL.md; 0: from the start).
+    /// Switch-on time of the vibration \[s\] (docs/model.md; 0: from the start).
     t_on: f64,
     fx: Resolved,
 }
 
 impl Rig {
-    /// A rig from validated parameters: MODEL.md's model.
+    /// A rig from validated parameters: docs/model.md's model.
     pub fn new(p: Params) -> Result<Self, ParamError> {
         p.validate()?;
         Ok(Rig {
@@ -162,7 +162,7 @@ impl Rig {
     }
 
     /// Substrate displacement `u(t) = u0 sin(ω (t − t_on))` for `t ≥ t_on`, 0 before \[m\]
-    /// (4.1; MODEL.md's two stages).
+    /// (4.1; docs/model.md's two stages).
     #[inline]
     pub fn substrate_displacement(&self, t: f64) -> f64 {
         if self.u0 == 0.0 || t < self.t_on {

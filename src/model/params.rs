@@ -4,7 +4,7 @@
 use serde::{Deserialize, Serialize};
 use std::fmt;
 
-/// All parameters of the rig model (`../shared/MODEL.md`, Table 1 of the paper), in SI units.
+/// All parameters of the rig model (`docs/model.md`, Table 1 of the paper), in SI units.
 ///
 /// Defaults: Table 1 with `F_s = 11.5 N`; the drive of the Fig. 10 study
 /// (`k_d = 11 700 N/m`, `v_d = 0.5 mm/s`) and no vibration (`u0 = 0`, `f = 1500 Hz`).
@@ -42,7 +42,7 @@ pub struct Params {
     #[serde(rename = "F_N")]
     pub f_n: f64,
     /// Time the vibration is switched on `t_on` \[s\]: `u(t) = u0 sin(ω (t − t_on))` for
-    /// `t ≥ t_on` and `u = 0` before (MODEL.md, the paper's two-stage tests of Figs. 3 to 5).
+    /// `t ≥ t_on` and `u = 0` before (docs/model.md, the paper's two-stage tests of Figs. 3 to 5).
     /// Default 0: vibrating from the start.
     #[serde(default)]
     pub t_on: f64,
@@ -92,7 +92,7 @@ pub struct ParamInfo {
     /// Lower bound (all parameters must also be finite).
     pub bound: Bound,
     /// The physically plausible range for a rig of this kind (a mass on a drive spring over a
-    /// vibrating substrate, MODEL.md), wide by orders of magnitude around the paper's values:
+    /// vibrating substrate, docs/model.md), wide by orders of magnitude around the paper's values:
     /// a value outside it is a unit mistake, and would only meet a Newton failure or a run
     /// that never ends. Checked after `bound`.
     pub plausible: (f64, f64),
@@ -115,7 +115,7 @@ macro_rules! p {
     };
 }
 
-/// Every parameter, in the order of MODEL.md.
+/// Every parameter, in the order of docs/model.md.
 pub const PARAMS: &[ParamInfo] = &[
     p!(
         "m",
@@ -370,7 +370,7 @@ impl Params {
         Ok(())
     }
 
-    /// Angular frequency `ω = 2π f` [rad/s] (MODEL.md: the paper's Eq. 4.1 misprints `π f`).
+    /// Angular frequency `ω = 2π f` [rad/s] (docs/model.md: the paper's Eq. 4.1 misprints `π f`).
     pub fn omega(&self) -> f64 {
         2.0 * std::f64::consts::PI * self.f
     }
@@ -405,7 +405,7 @@ impl Params {
         self.u0 = if v_a == 0.0 { 0.0 } else { v_a / self.omega() };
     }
 
-    /// MODEL.md's estimate of one stick-slip cycle without vibration, `2 (F_s − F_c) / (k_d v_d)` \[s\].
+    /// docs/model.md's estimate of one stick-slip cycle without vibration, `2 (F_s − F_c) / (k_d v_d)` \[s\].
     pub fn cycle_estimate(&self) -> f64 {
         2.0 * (self.f_s - self.f_c) / (self.k_d * self.v_d)
     }

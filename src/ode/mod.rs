@@ -406,7 +406,7 @@ pub enum Status {
     /// The state or the right-hand side became NaN or infinite.
     NonFinite,
     /// A run of the rig (never the integrator itself) reached its longest simulated time with
-    /// the smoothed force still on its way to its level (MODEL.md: the measures describe the
+    /// the smoothed force still on its way to its level (docs/model.md: the measures describe the
     /// settled state); the measures are those of its last window.
     Unsettled,
     /// Stopped on request ([`crate::interrupt`]): no measures, never recorded by a sweep.

@@ -10,7 +10,7 @@ use rust_hdf5::H5File;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-/// `r` below this counts as eliminated (MODEL.md).
+/// `r` below this counts as eliminated (docs/model.md).
 pub const ELIMINATED: f64 = 0.05;
 
 /// One boundary point.

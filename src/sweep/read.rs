@@ -35,7 +35,7 @@ pub struct SweepData {
     pub v_a: ArrayD<f64>,
     /// Drive velocity per point [m/s] (from the axis or the fixed value).
     pub v_d: ArrayD<f64>,
-    /// Run status per point (0 success, −1 not run, others failures; MODEL.md).
+    /// Run status per point (0 success, −1 not run, others failures; docs/model.md).
     pub status: ArrayD<f64>,
 }
 

@@ -79,7 +79,7 @@ pub struct Axis {
 /// ```toml
 /// [refine]
 /// measure = "r"          # default "r"; any kept measure
-/// level = 0.05           # default 0.05 (elimination, MODEL.md)
+/// level = 0.05           # default 0.05 (elimination, docs/model.md)
 /// along = "u0"           # the axis refined: a linspace or logspace axis, not zipped
 /// across = "f"           # the dimension whose values stay as given (the plane's other side)
 /// resolution = 0.01      # finest step along `along`: relative on a logspace axis (0.01: 1 %),

@@ -82,7 +82,7 @@ def test_run_gives_the_numbers_of_run_json(tmp_path: Path) -> None:
     ref.pop("wall_time"), ref_cli.pop("wall_time")
     assert ref == ref_cli
     assert py.stats == j["stats"]
-    # Partial reduction (MODEL.md: v_a < v_d shrinks stick-slip): r strictly between 0 and 1.
+    # Partial reduction (docs/model.md: v_a < v_d shrinks stick-slip): r strictly between 0 and 1.
     assert 0.05 < py.r < 1.0
     # The trace is the file's: the CLI's run file opened by the package holds the same samples.
     f = stickslip.open(tmp_path / "run.h5")
@@ -100,7 +100,7 @@ def test_trace_is_a_dataset_with_units() -> None:
     # x_d = v_d t exactly (the drive's far end).
     np.testing.assert_allclose(tr["x_d"].values, 0.5e-3 * tr["t"].values, rtol=1e-12, atol=1e-18)
     assert r.effects == {"viscous": {"h_v": 20.0}}
-    # v_a = 2 v_d eliminates stick-slip at 1500 Hz (MODEL.md, result 3).
+    # v_a = 2 v_d eliminates stick-slip at 1500 Hz (docs/model.md, result 3).
     assert r.r < 0.05
     assert stickslip.run(k_d=11_700, v_d=0.5e-3, trace=False).trace is None
 
@@ -190,7 +190,7 @@ def test_sweep_to_a_file_and_bad_sweeps(tmp_path: Path) -> None:
     assert "stickslip" in cli("status", str(out)).stdout or cli("status", str(out)).returncode == 0
     reopened = stickslip.open(out)
     assert reopened.drop_vars("wall_time").equals(ds.drop_vars("wall_time"))
-    # r falls with the amplitude; 2 v_d eliminates (MODEL.md results 2 and 3).
+    # r falls with the amplitude; 2 v_d eliminates (docs/model.md results 2 and 3).
     r = ds["r"].values
     assert r[0] == pytest.approx(1.0) and r[1] < r[0] and r[2] < 0.05
     with pytest.raises(ValueError, match="max_runs"):

@@ -1,7 +1,7 @@
 """An independent simulation of the test stand of the paper, to check `stickslip diagnose` on
 campaigns that stickslip did not make.
 
-It shares no code with the crate: the stand is written again from MODEL.md (numpy, numba), with a
+It shares no code with the crate: the stand is written again from docs/model.md (numpy, numba), with a
 fixed-step classical Runge-Kutta method instead of the crate's adaptive integrators, and every
 effect in a form of its own, unlike `src/model/effects.rs`:
 
@@ -34,7 +34,7 @@ import sys
 import numpy as np
 from numba import njit
 
-# MODEL.md, Table 1: mass, contact stiffness and damping, viscous damping, Coulomb and static
+# docs/model.md, Table 1: mass, contact stiffness and damping, viscous damping, Coulomb and static
 # force, Stribeck velocity, normal load.
 BASE = dict(m=6.52 / 9.81, k_t=71.318e6, h_t=1.377e4, h_v=0.0, F_c=8.3, F_s=11.5, v_s=0.35e-3,
             h_d=0.0, F_N=36.52)
@@ -99,7 +99,7 @@ def rhs(t, y, p, dy):
         dy[11] = 0.0
     fc = p[P_FC] * nu
     fs *= nu
-    # LuGre: g(v_r), s', F_F (MODEL.md, Eqs. 4.5 to 4.9).
+    # LuGre: g(v_r), s', F_F (docs/model.md, Eqs. 4.5 to 4.9).
     g = (fc + (fs - fc) * math.exp(-(vr / p[P_VS]) ** 2)) / p[P_KT]
     sd = vr - abs(vr) * y[2] / g
     ht = p[P_HT] * math.exp(-(vr / p[P_VD]) ** 2)

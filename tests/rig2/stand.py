@@ -1,7 +1,7 @@
 """A second independent simulation of the sliding stand, to check `stickslip diagnose` on
 campaigns neither the crate nor the first rig (`tests/rig/rig.py`) made.
 
-Written apart from both: the stand from MODEL.md again, integrated by the three-stage
+Written apart from both: the stand from docs/model.md again, integrated by the three-stage
 strong-stability-preserving Runge-Kutta method of Shu and Osher at a fixed step of 2.5 us (the
 crate uses adaptive Rosenbrock/Radau and Dormand-Prince methods, the first rig classical RK4), and
 every effect in a form that is neither the library's (`src/model/effects.rs`) nor the first rig's:
@@ -45,7 +45,7 @@ import sys
 import numpy as np
 from numba import njit
 
-# MODEL.md, Table 1.
+# docs/model.md, Table 1.
 M = 6.52 / 9.81
 K_T = 71.318e6
 H_T = 1.377e4

@@ -1,4 +1,4 @@
-//! The diffsol peer: the rig of MODEL.md solved with diffsol's BDF (analytic Jacobian-vector
+//! The diffsol peer: the rig of docs/model.md solved with diffsol's BDF (analytic Jacobian-vector
 //! product) or Tsit5, sampled on stickslip's output grid and measured with stickslip's own
 //! analyser, so that only the integrator differs.
 //!
