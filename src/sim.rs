@@ -859,7 +859,7 @@ pub fn integrate_stages(
 /// [`ENVELOPE_LONG_SETTLE`] and [`ENVELOPE_LONG_INNER`]. On the overnight sample
 /// `benches/overnight/even.toml` long settings from a longest jump of 100 on cost 2.3 times the
 /// right-hand sides at 100–200, 1.33 times at 200–400, 0.80 at 400–800, 0.48 at 800–1600 and
-/// 0.34 above (README, "Speed").
+/// 0.34 above (docs/methods.md).
 pub const ENVELOPE_LONG_JUMP: u64 = 400;
 /// Periods integrated after each landing where jumps may be long ([`ENVELOPE_LONG_JUMP`]).
 /// While the body slides under vibration the period map of the rig has a pair of complex

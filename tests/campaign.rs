@@ -91,7 +91,7 @@ macro_rules! identification_tests {
 // `.ci/run` keeps to 30 minutes: here it checks the effect-free and the unexplained verdicts and
 // one identification, the sensor's (its narrow valley along `f_n`, `fit::line_search`, under
 // 2 min), and leaves the other eight to `cargo test --release --test campaign --
-// --include-ignored` (README); the independent rig (`tests/rig.rs`) names effects in CI on data
+// --include-ignored` (docs/campaigns.md); the independent rig (`tests/rig.rs`) names effects in CI on data
 // this crate did not make.
 identification_tests! {
     #[ignore = "1 to 3 min each on 2 cores (10 min for the nine); run with --include-ignored"]
