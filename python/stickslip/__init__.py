@@ -257,8 +257,9 @@ def _open_file(path: PathLike) -> xr.Dataset:
 
 
 def _open_groups(path: PathLike) -> xr.Dataset:
-    """A file whose datasets carry no dimension scales (a run's traces, a diagnosis): every
-    dataset under its path, dimensions named after the dataset, attributes kept."""
+    """A file whose datasets carry no dimension scales (a diagnosis, a benchmark): every dataset
+    under its path (``recordings/gap_base`` as ``recordings/gap_base``), the datasets of one
+    group with the same shape sharing their dimensions, attributes kept."""
     import h5py
 
     def text(v: Any) -> Any:
@@ -270,12 +271,12 @@ def _open_groups(path: PathLike) -> xr.Dataset:
 
         def visit(name: str, obj: Any) -> None:
             if isinstance(obj, h5py.Dataset):
-                key = name.replace("/", "__")
                 value = obj[()]
                 if isinstance(value, bytes):
                     value = value.decode()
-                dims = tuple(f"{key}_dim{i}" for i in range(np.ndim(value)))
-                data[key] = xr.Variable(dims, value, {k: text(v) for k, v in obj.attrs.items()})
+                group = name.rpartition("/")[0] or "root"
+                dims = tuple(f"{group}_dim{i}_{n}" for i, n in enumerate(np.shape(value)))
+                data[name] = xr.Variable(dims, value, {k: text(v) for k, v in obj.attrs.items()})
 
         f.visititems(visit)
     ds = xr.Dataset(data, attrs=attrs)
@@ -298,7 +299,9 @@ def open(path: PathLike) -> xr.Dataset:  # noqa: A001 - the package's verb, as x
         ds = _open_file(p)
     except (ValueError, OSError, KeyError, TypeError):
         return _open_groups(p)
-    if "trace" in _groups(p) and not ds.data_vars:
+    if ds.data_vars:
+        return ds
+    if "trace" in _groups(p):
         # A run's file: its results are the root's attributes, its traces the data, over t.
         import h5py
 
@@ -308,7 +311,8 @@ def open(path: PathLike) -> xr.Dataset:  # noqa: A001 - the package's verb, as x
         out.attrs.update(ds.attrs)
         out.encoding["source"] = os.fspath(p)
         return out
-    return ds
+    # Groups only (a diagnosis, a benchmark): every dataset by its path.
+    return _open_groups(p)
 
 
 def _groups(path: Path) -> list[str]:

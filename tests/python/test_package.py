@@ -342,3 +342,6 @@ def test_diagnose_from_frames_gives_the_cli_verdict(small_campaign: Path, tmp_pa
     assert len(figs["traces"].axes[0].lines) >= 2
     h5 = stickslip.open(tmp_path / "py" / "diagnosis.h5")
     assert h5.attrs["verdict"] == by_cli["verdict"]
+    # Its datasets by path, those of one group over shared dimensions.
+    gaps = h5["recordings/gap_base"]
+    assert gaps.dims == h5["recordings/gap_best"].dims and gaps.size == len(camp)
