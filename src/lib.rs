@@ -14,6 +14,7 @@
     clippy::type_complexity
 )]
 pub mod app;
+pub mod averaged;
 pub mod bench;
 pub mod campaign;
 pub mod cli;

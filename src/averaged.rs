@@ -1,0 +1,599 @@
+//! The vibration averaged out: the effective friction law `F_eff(V)` of body and contact.
+//!
+//! Where the forcing period `1/f` is short against the stick-slip (the drive oscillator
+//! `√(k_d/m)` runs 20 to 600 times slower than `ω = 2π f` in the paper's ranges), the drive force
+//! hardly moves over one period. Freeze it at `F` and ask for the periodic orbit of the **body
+//! and the contact together** (the contact resonance `√(k_t/m)/2π ≈ 1649 Hz` lies inside the
+//! paper's band, so the body's mass belongs to the fast subsystem) whose mean velocity is `V`:
+//!
+//! ```text
+//! m v' = F − F_F(v − u'(t), s),   s' = LuGre (docs/model.md),   u'(t) = v_a cos(ω t),
+//! v(T) = v(0),   s(T) = s(0),   (1/T) ∫₀ᵀ v dt = V,                T = 1/f.
+//! ```
+//!
+//! Over one period `m (v(T) − v(0)) = F T − ∫ F_F dt = 0`, so `F` is the period mean of the
+//! friction force along the orbit: `F_eff(V) = F`. The unknowns `(v(0), s(0), F)` are found by
+//! Newton shooting: one period of the variational equations (the 3 states `v`, `s`,
+//! `w = ∫ v dt` and their 9 sensitivities to the unknowns) integrated by the project's Radau IIA
+//! with error control on the sensitivities, then a 3 × 3 Newton step. The same Jacobian gives
+//! the exact slope `dF_eff/dV` (implicit-function theorem) and the orbit's **fast Floquet
+//! multipliers**, the eigenvalues of the monodromy matrix of `(v, s)` at fixed `F`: an orbit
+//! whose multipliers approach −1 is about to period-double, where averaging is not valid.
+//!
+//! [`Table::build`] continues the orbit in `V` from 0 (where symmetry gives `F = 0`) to a
+//! chosen `V_max`, with nodes added by bisection until cubic Hermite interpolation on the exact
+//! slopes predicts every midpoint to the force tolerance. Each node keeps its orbit's state and
+//! multipliers, so a caller can tell where the table may serve (a contracting period-1 orbit)
+//! and where it may not.
+//!
+//! References and checks: the rigid Coulomb limit `(2 F_c/π) asin(V/v_a)` (Littmann, Storck
+//! and Wallaschek, Arch. Appl. Mech. 71 (2001) 549) for `u0 ≫ F_c/k_t`; the small-amplitude
+//! creep slope `(π/2) F_s / v̂_r`, `v̂_r = v_a |mω² / (k_t − mω² + iωh_t)|`; and the settled
+//! sliding force of full runs where vibration eliminates stick-slip (`tests/averaged.rs`).
+
+use crate::model::{Params, contact};
+use crate::ode::{Method, OdeSystem, Options, OutputGrid, Solver, Status};
+
+/// The fast subsystem with its variational equations: state
+/// `[v, s, w, S_vv, S_vs, S_vF, S_sv, S_ss, S_sF, S_wv, S_ws, S_wF]`, where `S_ij = ∂y_i/∂p_j`
+/// for `y = (v, s, w)` and `p = (v(0), s(0), F)`.
+struct Fast<'a> {
+    p: &'a Params,
+    /// Frozen drive force \[N\].
+    force: f64,
+    /// Velocity amplitude of the substrate \[m/s\].
+    v_a: f64,
+    /// Angular frequency \[1/s\].
+    omega: f64,
+    /// Characteristic sizes of `v`, `s`, `w` and of the unknowns, for the error norm.
+    scale_y: [f64; 3],
+    scale_p: [f64; 3],
+}
+
+impl Fast<'_> {
+    /// `∂f/∂y` of the base 3-state system at `(t, v, s)`, row-major 3 × 3, and `f` itself.
+    #[inline]
+    fn base(&self, t: f64, v: f64, s: f64) -> ([f64; 3], [f64; 9]) {
+        let v_r = v - self.v_a * (self.omega * t).cos();
+        let c = contact(self.p, v_r, s);
+        let m = self.p.m;
+        let f = [(self.force - c.force) / m, c.s_dot, v];
+        let a = [
+            -c.dforce_dvr / m,
+            -c.dforce_ds / m,
+            0.0,
+            c.ds_dot_dvr,
+            c.ds_dot_ds,
+            0.0,
+            1.0,
+            0.0,
+            0.0,
+        ];
+        (f, a)
+    }
+}
+
+impl OdeSystem for Fast<'_> {
+    fn dim(&self) -> usize {
+        12
+    }
+
+    fn rhs(&self, t: f64, y: &[f64], dy: &mut [f64]) {
+        let (f, a) = self.base(t, y[0], y[1]);
+        dy[..3].copy_from_slice(&f);
+        // S' = A S + ∂f/∂p, with ∂f/∂F = (1/m, 0, 0) and the initial values not in f.
+        for i in 0..3 {
+            for j in 0..3 {
+                let mut acc = 0.0;
+                for k in 0..3 {
+                    acc += a[i * 3 + k] * y[3 + k * 3 + j];
+                }
+                if i == 0 && j == 2 {
+                    acc += 1.0 / self.p.m;
+                }
+                dy[3 + i * 3 + j] = acc;
+            }
+        }
+    }
+
+    fn jacobian(&self, t: f64, y: &[f64], jac: &mut [f64]) {
+        // The base block, and A on the diagonal of each sensitivity column; the second
+        // derivatives (∂A/∂y · S) are left out: the simplified Newton iteration of Radau IIA
+        // needs an iteration matrix, not the exact Jacobian.
+        let (_, a) = self.base(t, y[0], y[1]);
+        jac.fill(0.0);
+        for i in 0..3 {
+            for k in 0..3 {
+                jac[i * 12 + k] = a[i * 3 + k];
+            }
+        }
+        for j in 0..3 {
+            for i in 0..3 {
+                for k in 0..3 {
+                    jac[(3 + i * 3 + j) * 12 + 3 + k * 3 + j] = a[i * 3 + k];
+                }
+            }
+        }
+    }
+
+    fn scale(&self, i: usize) -> f64 {
+        if i < 3 {
+            self.scale_y[i]
+        } else {
+            let (r, c) = ((i - 3) / 3, (i - 3) % 3);
+            self.scale_y[r] / self.scale_p[c]
+        }
+    }
+}
+
+/// How to find orbits and build a table. Fields document their defaults and ranges.
+#[derive(Clone, Debug, PartialEq)]
+pub struct AveragingOptions {
+    /// Tolerances of the one-period integration (relative and absolute in units of each
+    /// component's scale). Default 1e-9; range 1e-12 to 1e-5.
+    pub rtol: f64,
+    /// Newton iterations per orbit at most. Default 30; range 1 to 200.
+    pub max_newton: usize,
+    /// Force tolerance of the table's interpolation \[N\]: every interval's midpoint is
+    /// predicted by the Hermite cubic to within it. Default 1e-3 N; range 1e-9 to 1.
+    pub force_tol: f64,
+    /// Most nodes in a table. Default 400; range 3 to 100 000.
+    pub max_nodes: usize,
+}
+
+impl Default for AveragingOptions {
+    fn default() -> Self {
+        AveragingOptions {
+            rtol: 1e-9,
+            max_newton: 30,
+            force_tol: 1e-3,
+            max_nodes: 400,
+        }
+    }
+}
+
+impl AveragingOptions {
+    /// Checks every field against its documented range, naming the one violated.
+    pub fn validate(&self) -> Result<(), String> {
+        if !(1e-12..=1e-5).contains(&self.rtol) {
+            return Err(format!("rtol = {}: must lie within 1e-12 to 1e-5", self.rtol));
+        }
+        if !(1..=200).contains(&self.max_newton) {
+            return Err(format!("max_newton = {}: must be from 1 to 200", self.max_newton));
+        }
+        if !(1e-9..=1.0).contains(&self.force_tol) {
+            return Err(format!("force_tol = {} N: must lie within 1e-9 to 1 N", self.force_tol));
+        }
+        if !(3..=100_000).contains(&self.max_nodes) {
+            return Err(format!("max_nodes = {}: must be from 3 to 100000", self.max_nodes));
+        }
+        Ok(())
+    }
+}
+
+/// A periodic orbit of the fast subsystem at mean velocity `V`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Orbit {
+    /// Mean body velocity \[m/s\].
+    pub v_mean: f64,
+    /// The averaged friction force `F_eff(V)` \[N\] (the frozen drive force of the orbit).
+    pub force: f64,
+    /// Its slope `dF_eff/dV` \[N s/m\], exact through the shooting Jacobian.
+    pub slope: f64,
+    /// Body velocity \[m/s\] and contact deformation \[m\] at the period's start (phase 0 of
+    /// `u'(t) = v_a cos ωt`): the orbit's fast state, for a hand-over to the full model.
+    pub start: [f64; 2],
+    /// The Floquet multipliers (eigenvalues of the monodromy of `(v, s)` at fixed `F`), as
+    /// (real, imaginary) pairs, largest modulus first. One of them belongs to the mean velocity,
+    /// which the averaged law itself governs (`≈ exp(−F_eff' T / m)`, near 1 for short periods);
+    /// the other is the fast one, [`Orbit::fast`].
+    pub multipliers: [(f64, f64); 2],
+    /// The fast multiplier: the contact's mode along the orbit (the one of [`Orbit::multipliers`]
+    /// farther from the mean velocity's `exp(−F_eff' T / m)`; a complex pair, where the two
+    /// modes mix, counts as fast).
+    pub fast: (f64, f64),
+    /// Newton iterations taken.
+    pub iterations: usize,
+    /// Right-hand sides of the variational system evaluated.
+    pub rhs_evals: u64,
+}
+
+impl Orbit {
+    /// Modulus of the fast multiplier.
+    pub fn fast_modulus(&self) -> f64 {
+        self.fast.0.hypot(self.fast.1)
+    }
+
+    /// Whether averaging may use this orbit: its fast multiplier lies inside the circle of
+    /// radius 0.95, so the contact settles onto the orbit within a few periods after any
+    /// disturbance, and is far from −1 (a period doubling ahead) and from +1 (a fold).
+    pub fn contracting(&self) -> bool {
+        self.fast_modulus() < 0.95
+    }
+}
+
+/// Why no orbit was found.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum AveragingError {
+    /// Bad options or parameters.
+    #[error("{0}")]
+    Invalid(String),
+    /// The one-period integration failed.
+    #[error("the one-period integration ended with {0}")]
+    Integration(&'static str),
+    /// Newton did not converge.
+    #[error("no periodic orbit at V = {v_mean} m/s: Newton did not converge in {iterations} iterations (residual {residual:.3e})")]
+    NoOrbit {
+        /// Mean velocity asked for \[m/s\].
+        v_mean: f64,
+        /// Iterations taken.
+        iterations: usize,
+        /// Scaled residual at the end.
+        residual: f64,
+    },
+}
+
+/// Finds periodic orbits of the fast subsystem of one set of parameters (its `f`, `u0`, `v_d`
+/// and contact; `k_d` and `h_d` do not enter).
+pub struct Shooter<'a> {
+    p: &'a Params,
+    opts: AveragingOptions,
+    solver: Solver,
+    v_a: f64,
+    omega: f64,
+    period: f64,
+    scale_y: [f64; 3],
+    scale_p: [f64; 3],
+}
+
+impl<'a> Shooter<'a> {
+    /// A shooter for `p` (validated; it must vibrate).
+    pub fn new(p: &'a Params, opts: AveragingOptions) -> Result<Shooter<'a>, AveragingError> {
+        opts.validate().map_err(AveragingError::Invalid)?;
+        p.validate().map_err(|e| AveragingError::Invalid(e.to_string()))?;
+        if !p.vibrates() {
+            return Err(AveragingError::Invalid(
+                "the averaged law needs vibration: give f > 0 and u0 > 0".into(),
+            ));
+        }
+        let v_a = p.v_a();
+        let omega = p.omega();
+        let period = 1.0 / p.f;
+        let vs = v_a.max(p.v_s);
+        let ss = p.f_c / p.k_t;
+        Ok(Shooter {
+            p,
+            opts,
+            solver: Solver::new(Method::Radau5),
+            v_a,
+            omega,
+            period,
+            scale_y: [vs, ss, vs * period],
+            scale_p: [vs, ss, p.f_c],
+        })
+    }
+
+    /// One period from `(v0, s0)` at force `force`: the end state `(v, s, w)` and the 3 × 3
+    /// sensitivities (row-major: rows `v, s, w`, columns `v0, s0, F`).
+    fn period_map(
+        &mut self,
+        v0: f64,
+        s0: f64,
+        force: f64,
+        rhs: &mut u64,
+    ) -> Result<([f64; 3], [f64; 9]), AveragingError> {
+        let sys = Fast {
+            p: self.p,
+            force,
+            v_a: self.v_a,
+            omega: self.omega,
+            scale_y: self.scale_y,
+            scale_p: self.scale_p,
+        };
+        let mut y = [0.0; 12];
+        y[0] = v0;
+        y[1] = s0;
+        y[3] = 1.0; // ∂v/∂v0
+        y[3 + 4] = 1.0; // ∂s/∂s0
+        let opts = Options {
+            rtol: self.opts.rtol,
+            atol: self.opts.rtol,
+            // A few steps per period at least: the forcing must be resolved.
+            h_max: self.period / 8.0,
+            ..Options::default()
+        };
+        let rep = self
+            .solver
+            .solve(&sys, 0.0, self.period, &mut y, &opts, OutputGrid::NONE, |_, _| {});
+        *rhs += rep.stats.rhs_evals;
+        if rep.status != Status::Success {
+            return Err(AveragingError::Integration(rep.status.name()));
+        }
+        let mut s = [0.0; 9];
+        s.copy_from_slice(&y[3..]);
+        Ok(([y[0], y[1], y[2]], s))
+    }
+
+    /// The periodic orbit with mean velocity `v_mean`, by Newton from `guess = (v0, s0, F)`.
+    pub fn orbit(&mut self, v_mean: f64, guess: [f64; 3]) -> Result<Orbit, AveragingError> {
+        let mut x = guess;
+        let mut rhs = 0u64;
+        let t = self.period;
+        let sc = self.scale_p;
+        let mut last = f64::INFINITY;
+        for it in 1..=self.opts.max_newton {
+            let (end, s) = self.period_map(x[0], x[1], x[2], &mut rhs)?;
+            let r = [end[0] - x[0], end[1] - x[1], end[2] / t - v_mean];
+            let rs = [r[0] / sc[0], r[1] / sc[1], r[2] / sc[0]];
+            let norm = rs.iter().fold(0.0f64, |a, b| a.max(b.abs()));
+            let j = [
+                s[0] - 1.0,
+                s[1],
+                s[2],
+                s[3],
+                s[4] - 1.0,
+                s[5],
+                s[6] / t,
+                s[7] / t,
+                s[8] / t,
+            ];
+            let dx = solve3(&j, &[-r[0], -r[1], -r[2]]).ok_or(AveragingError::NoOrbit {
+                v_mean,
+                iterations: it,
+                residual: norm,
+            })?;
+            let step = [dx[0] / sc[0], dx[1] / sc[1], dx[2] / sc[2]]
+                .iter()
+                .fold(0.0f64, |a, b| a.max(b.abs()));
+            for k in 0..3 {
+                x[k] += dx[k];
+            }
+            // Converged: the step and the residual both at the integration's own accuracy.
+            if step < 1e3 * self.opts.rtol && norm < 1e3 * self.opts.rtol.max(1e-12) {
+                let (_, s) = self.period_map(x[0], x[1], x[2], &mut rhs)?;
+                let j = [
+                    s[0] - 1.0,
+                    s[1],
+                    s[2],
+                    s[3],
+                    s[4] - 1.0,
+                    s[5],
+                    s[6] / t,
+                    s[7] / t,
+                    s[8] / t,
+                ];
+                // dx/dV solves J dx = (0, 0, 1): the tangent of the family of orbits.
+                let slope = solve3(&j, &[0.0, 0.0, 1.0]).map_or(f64::NAN, |d| d[2]);
+                let multipliers = eig2([s[0], s[1], s[3], s[4]]);
+                let drift = (-slope * t / self.p.m).exp();
+                let fast = if multipliers[0].1 != 0.0 {
+                    multipliers[0]
+                } else if (multipliers[0].0 - drift).abs() < (multipliers[1].0 - drift).abs() {
+                    multipliers[1]
+                } else {
+                    multipliers[0]
+                };
+                return Ok(Orbit {
+                    v_mean,
+                    force: x[2],
+                    slope,
+                    start: [x[0], x[1]],
+                    multipliers,
+                    fast,
+                    iterations: it,
+                    rhs_evals: rhs,
+                });
+            }
+            if !(norm.is_finite()) || (it > 8 && norm > last) {
+                return Err(AveragingError::NoOrbit {
+                    v_mean,
+                    iterations: it,
+                    residual: norm,
+                });
+            }
+            last = norm;
+        }
+        Err(AveragingError::NoOrbit {
+            v_mean,
+            iterations: self.opts.max_newton,
+            residual: last,
+        })
+    }
+}
+
+/// `J x = b` for a 3 × 3 `J` (row-major) by Gaussian elimination with partial pivoting; `None`
+/// when singular.
+fn solve3(j: &[f64; 9], b: &[f64; 3]) -> Option<[f64; 3]> {
+    let mut a = [[j[0], j[1], j[2], b[0]], [j[3], j[4], j[5], b[1]], [j[6], j[7], j[8], b[2]]];
+    for c in 0..3 {
+        let piv = (c..3).max_by(|&x, &y| a[x][c].abs().total_cmp(&a[y][c].abs()))?;
+        if a[piv][c] == 0.0 || !a[piv][c].is_finite() {
+            return None;
+        }
+        a.swap(c, piv);
+        for r in c + 1..3 {
+            let f = a[r][c] / a[c][c];
+            for k in c..4 {
+                a[r][k] -= f * a[c][k];
+            }
+        }
+    }
+    let mut x = [0.0; 3];
+    for r in (0..3).rev() {
+        let mut acc = a[r][3];
+        for k in r + 1..3 {
+            acc -= a[r][k] * x[k];
+        }
+        x[r] = acc / a[r][r];
+    }
+    Some(x)
+}
+
+/// Eigenvalues of a 2 × 2 matrix `[a, b; c, d]`, largest modulus first.
+fn eig2(m: [f64; 4]) -> [(f64, f64); 2] {
+    let (a, b, c, d) = (m[0], m[1], m[2], m[3]);
+    let tr = a + d;
+    let det = a * d - b * c;
+    let disc = tr * tr / 4.0 - det;
+    let mut e = if disc >= 0.0 {
+        let r = disc.sqrt();
+        [(tr / 2.0 + r, 0.0), (tr / 2.0 - r, 0.0)]
+    } else {
+        let i = (-disc).sqrt();
+        [(tr / 2.0, i), (tr / 2.0, -i)]
+    };
+    if e[1].0.hypot(e[1].1) > e[0].0.hypot(e[0].1) {
+        e.swap(0, 1);
+    }
+    e
+}
+
+/// `F_eff(V)` tabulated on `0 ≤ V ≤ V_max` (odd in `V`: `F_eff(−V) = −F_eff(V)`), with the orbit
+/// at every node.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Table {
+    /// The nodes, by increasing `V`.
+    pub nodes: Vec<Orbit>,
+    /// Where continuation stopped before `V_max` (no converged orbit beyond): the first `V` it
+    /// could not reach \[m/s\].
+    pub stopped_at: Option<f64>,
+}
+
+impl Table {
+    /// Builds the table for `p` from `V = 0` to `v_max`: continuation along the family of
+    /// orbits (each node starts from the last one's orbit moved along its tangent), nodes
+    /// bisected until every midpoint agrees with the Hermite cubic of its neighbours to
+    /// `force_tol`.
+    pub fn build(p: &Params, v_max: f64, opts: AveragingOptions) -> Result<Table, AveragingError> {
+        if !(v_max > 0.0 && v_max.is_finite()) {
+            return Err(AveragingError::Invalid(format!(
+                "v_max = {v_max} m/s: must be finite and > 0"
+            )));
+        }
+        let tol = opts.force_tol;
+        let max_nodes = opts.max_nodes;
+        let mut sh = Shooter::new(p, opts)?;
+        // V = 0: by symmetry the orbit has F = 0; Newton starts from rest.
+        let first = sh.orbit(0.0, [0.0, 0.0, 0.0])?;
+        let mut nodes = vec![first];
+        let mut stopped_at = None;
+        // Coarse continuation: 16 steps, each halved where Newton fails.
+        let coarse = 16usize;
+        let mut k = 1;
+        while k <= coarse {
+            let v = v_max * k as f64 / coarse as f64;
+            match reach(&mut sh, nodes.last().expect("one node"), v) {
+                Ok(o) => {
+                    nodes.push(o);
+                    k += 1;
+                }
+                Err(_) => {
+                    stopped_at = Some(v);
+                    break;
+                }
+            }
+        }
+        // Refinement: split every interval whose midpoint the cubic misses.
+        loop {
+            let mut inserted = false;
+            let mut i = 0;
+            while i + 1 < nodes.len() {
+                if nodes.len() >= max_nodes {
+                    break;
+                }
+                let (a, b) = (nodes[i], nodes[i + 1]);
+                let mid = 0.5 * (a.v_mean + b.v_mean);
+                let o = match reach(&mut sh, &a, mid) {
+                    Ok(o) => o,
+                    Err(_) => {
+                        i += 1;
+                        continue;
+                    }
+                };
+                if (hermite(&a, &b, mid) - o.force).abs() > tol {
+                    nodes.insert(i + 1, o);
+                    inserted = true;
+                    // Look at the left half again before moving on.
+                    continue;
+                }
+                i += 1;
+            }
+            if !inserted || nodes.len() >= max_nodes {
+                break;
+            }
+        }
+        Ok(Table { nodes, stopped_at })
+    }
+
+    /// `F_eff(V)` \[N\] by cubic Hermite interpolation on the exact slopes; odd in `V`. `None`
+    /// beyond the table.
+    pub fn force(&self, v: f64) -> Option<f64> {
+        let a = v.abs();
+        let last = self.nodes.last()?;
+        if a > last.v_mean {
+            return None;
+        }
+        let i = self.nodes.partition_point(|o| o.v_mean < a).max(1);
+        let f = hermite(&self.nodes[i - 1], &self.nodes[i.min(self.nodes.len() - 1)], a);
+        Some(if v < 0.0 { -f } else { f })
+    }
+}
+
+/// The orbit at `v`, continued from `from` along its tangent; halves the stride on failure.
+fn reach(sh: &mut Shooter<'_>, from: &Orbit, v: f64) -> Result<Orbit, AveragingError> {
+    let mut base = *from;
+    let mut err = None;
+    for _ in 0..6 {
+        let dv = v - base.v_mean;
+        // The tangent of (v0, s0) is not kept; F moves along its slope.
+        let guess = [base.start[0] + dv, base.start[1], base.force + base.slope * dv];
+        match sh.orbit(v, guess) {
+            Ok(o) => return Ok(o),
+            Err(e) => {
+                err = Some(e);
+                // A half step first, then on from there.
+                let half = base.v_mean + 0.5 * dv;
+                let g = [base.start[0] + 0.5 * dv, base.start[1], base.force + base.slope * 0.5 * dv];
+                match sh.orbit(half, g) {
+                    Ok(o) => base = o,
+                    Err(e) => return Err(e),
+                }
+            }
+        }
+    }
+    Err(err.expect("tried"))
+}
+
+/// Cubic Hermite interpolation of the force between two orbits at `v`.
+fn hermite(a: &Orbit, b: &Orbit, v: f64) -> f64 {
+    let h = b.v_mean - a.v_mean;
+    if h <= 0.0 {
+        return a.force;
+    }
+    let s = (v - a.v_mean) / h;
+    let (h00, h10, h01, h11) = (
+        (1.0 + 2.0 * s) * (1.0 - s) * (1.0 - s),
+        s * (1.0 - s) * (1.0 - s),
+        s * s * (3.0 - 2.0 * s),
+        s * s * (s - 1.0),
+    );
+    h00 * a.force + h10 * h * a.slope + h01 * b.force + h11 * h * b.slope
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn small_linear_algebra() {
+        let j = [2.0, 1.0, 0.0, 1.0, 3.0, 1.0, 0.0, 1.0, 4.0];
+        let x = solve3(&j, &[3.0, 5.0, 5.0]).expect("regular");
+        for (a, b) in x.iter().zip([1.0, 1.0, 1.0]) {
+            assert!((a - b).abs() < 1e-14);
+        }
+        let e = eig2([0.0, -1.0, 1.0, 0.0]);
+        assert!((e[0].1.abs() - 1.0).abs() < 1e-15 && e[0].0 == 0.0);
+        let e = eig2([0.5, 0.0, 0.0, -0.9]);
+        assert_eq!(e[0], (-0.9, 0.0));
+    }
+}
