@@ -539,6 +539,129 @@ impl Table {
     }
 }
 
+impl Table {
+    /// `dF_eff/dV` \[N s/m\] of the interpolant; even in `V`. `None` beyond the table.
+    pub fn slope(&self, v: f64) -> Option<f64> {
+        let a = v.abs();
+        let last = self.nodes.last()?;
+        if a > last.v_mean {
+            return None;
+        }
+        let i = self.nodes.partition_point(|o| o.v_mean < a).max(1);
+        let (l, r) = (&self.nodes[i - 1], &self.nodes[i.min(self.nodes.len() - 1)]);
+        let h = r.v_mean - l.v_mean;
+        if h <= 0.0 {
+            return Some(l.slope);
+        }
+        let s = (a - l.v_mean) / h;
+        let d00 = 6.0 * s * s - 6.0 * s;
+        let d10 = 3.0 * s * s - 4.0 * s + 1.0;
+        let d01 = -d00;
+        let d11 = 3.0 * s * s - 2.0 * s;
+        Some((d00 * l.force + d01 * r.force) / h + d10 * l.slope + d11 * r.slope)
+    }
+
+    /// Whether every node's orbit is [`Orbit::contracting`]: the table may stand for the fast
+    /// vibration everywhere it reaches.
+    pub fn valid(&self) -> bool {
+        self.stopped_at.is_none() && self.nodes.iter().all(Orbit::contracting)
+    }
+}
+
+/// The slow model of the averaged rig: the spring's stretch `z = v_d t − x` and the body's
+/// mean velocity `V`, with the vibration replaced by `F_eff`:
+/// `z' = v_d − V`, `m V' = k_d z + h_d (v_d − V) − F_eff(V)`.
+struct Slow<'a> {
+    p: &'a Params,
+    table: &'a Table,
+}
+
+impl Slow<'_> {
+    fn law(&self, v: f64) -> (f64, f64) {
+        // Beyond the table the orbit no longer reverses the slip: the law is flat there.
+        let last = self.table.nodes.last().expect("a table has nodes");
+        match (self.table.force(v), self.table.slope(v)) {
+            (Some(f), Some(d)) => (f, d),
+            _ => (last.force.copysign(v), 0.0),
+        }
+    }
+}
+
+impl OdeSystem for Slow<'_> {
+    fn dim(&self) -> usize {
+        2
+    }
+    fn rhs(&self, _t: f64, y: &[f64], dy: &mut [f64]) {
+        let p = self.p;
+        let (f, _) = self.law(y[1]);
+        dy[0] = p.v_d - y[1];
+        dy[1] = (p.k_d * y[0] + p.h_d * (p.v_d - y[1]) - f) / p.m;
+    }
+    fn jacobian(&self, _t: f64, y: &[f64], jac: &mut [f64]) {
+        let p = self.p;
+        let (_, d) = self.law(y[1]);
+        jac.copy_from_slice(&[0.0, -1.0, p.k_d / p.m, (-p.h_d - d) / p.m]);
+    }
+    fn time_derivative(&self, _t: f64, _y: &[f64], dfdt: &mut [f64], _scratch: &mut [f64]) {
+        dfdt.fill(0.0);
+    }
+    fn scale(&self, i: usize) -> f64 {
+        if i == 0 {
+            (self.p.f_s / self.p.k_d).max(1e-12)
+        } else {
+            self.p.v_d
+        }
+    }
+}
+
+/// A run of the averaged slow model: the measures of docs/model.md from its drive force, and
+/// its work.
+#[derive(Clone, Debug)]
+pub struct SlowRun {
+    /// The measures over the steady window (the drive force needs no smoothing: it carries no
+    /// ripple at `f`).
+    pub measures: crate::measures::Measures,
+    /// How the integration ended.
+    pub status: Status,
+    /// The slow integration's work.
+    pub stats: crate::ode::Stats,
+}
+
+/// Integrates the averaged slow model of `p` from rest to `t_end` with Radau IIA at `rtol`,
+/// sampling the drive force every `dt` seconds for the measures (window: the second half, as a
+/// full run's).
+pub fn simulate_slow(p: &Params, table: &Table, t_end: f64, dt: f64, rtol: f64) -> SlowRun {
+    use crate::measures::{Analyzer, DROP_THRESHOLD, STICK_VELOCITY};
+    let sys = Slow { p, table };
+    let mut an = Analyzer::new(
+        1,
+        crate::sim::window_start(p, t_end),
+        DROP_THRESHOLD * (p.f_s - p.f_c),
+        STICK_VELOCITY * p.v_d,
+    );
+    let mut y = [0.0, 0.0];
+    let opts = Options {
+        rtol,
+        atol: rtol,
+        ..Options::default()
+    };
+    let grid = OutputGrid {
+        start: 0.0,
+        step: dt,
+        count: (t_end / dt).floor() as u64 + 1,
+    };
+    let mut solver = Solver::new(Method::Radau5);
+    let rep = solver.solve(&sys, 0.0, t_end, &mut y, &opts, grid, |t, y| {
+        let f = p.k_d * y[0] + p.h_d * (p.v_d - y[1]);
+        an.push(t, f, y[1]);
+    });
+    SlowRun {
+        measures: an.finish(),
+        status: rep.status,
+        stats: rep.stats,
+    }
+}
+
 /// The orbit at `v`, continued from `from` along its tangent; halves the stride on failure.
 fn reach(sh: &mut Shooter<'_>, from: &Orbit, v: f64) -> Result<Orbit, AveragingError> {
     let mut base = *from;

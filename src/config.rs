@@ -467,6 +467,42 @@ pub fn load_case(path: &Path) -> Result<Case, ConfigError> {
     })
 }
 
+/// The TOML text of a case or sweep given as JSON (a Python dict): tables and arrays of tables
+/// as in a file; `null` is refused, since TOML has no such value.
+pub fn toml_of_json(v: &serde_json::Value) -> Result<String, String> {
+    fn convert(v: &serde_json::Value, at: &str) -> Result<toml::Value, String> {
+        Ok(match v {
+            serde_json::Value::Null => {
+                return Err(format!("{at}: None has no TOML form; leave the key out"));
+            }
+            serde_json::Value::Bool(b) => toml::Value::Boolean(*b),
+            serde_json::Value::Number(n) => match n.as_i64() {
+                Some(i) => toml::Value::Integer(i),
+                None => toml::Value::Float(n.as_f64().unwrap_or(f64::NAN)),
+            },
+            serde_json::Value::String(s) => toml::Value::String(s.clone()),
+            serde_json::Value::Array(a) => toml::Value::Array(
+                a.iter()
+                    .enumerate()
+                    .map(|(i, x)| convert(x, &format!("{at}[{i}]")))
+                    .collect::<Result<_, _>>()?,
+            ),
+            serde_json::Value::Object(o) => toml::Value::Table(
+                o.iter()
+                    .map(|(k, x)| {
+                        let here = if at.is_empty() { k.clone() } else { format!("{at}.{k}") };
+                        convert(x, &here).map(|t| (k.clone(), t))
+                    })
+                    .collect::<Result<_, _>>()?,
+            ),
+        })
+    }
+    match convert(v, "")? {
+        toml::Value::Table(t) => toml::to_string(&t).map_err(|e| e.to_string()),
+        _ => Err("a sweep or case is a table (a dict) of keys and values".into()),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -528,38 +564,3 @@ mod tests {
     }
 }
 
-/// The TOML text of a case or sweep given as JSON (a Python dict): tables and arrays of tables
-/// as in a file; `null` is refused, since TOML has no such value.
-pub fn toml_of_json(v: &serde_json::Value) -> Result<String, String> {
-    fn convert(v: &serde_json::Value, at: &str) -> Result<toml::Value, String> {
-        Ok(match v {
-            serde_json::Value::Null => {
-                return Err(format!("{at}: None has no TOML form; leave the key out"));
-            }
-            serde_json::Value::Bool(b) => toml::Value::Boolean(*b),
-            serde_json::Value::Number(n) => match n.as_i64() {
-                Some(i) => toml::Value::Integer(i),
-                None => toml::Value::Float(n.as_f64().unwrap_or(f64::NAN)),
-            },
-            serde_json::Value::String(s) => toml::Value::String(s.clone()),
-            serde_json::Value::Array(a) => toml::Value::Array(
-                a.iter()
-                    .enumerate()
-                    .map(|(i, x)| convert(x, &format!("{at}[{i}]")))
-                    .collect::<Result<_, _>>()?,
-            ),
-            serde_json::Value::Object(o) => toml::Value::Table(
-                o.iter()
-                    .map(|(k, x)| {
-                        let here = if at.is_empty() { k.clone() } else { format!("{at}.{k}") };
-                        convert(x, &here).map(|t| (k.clone(), t))
-                    })
-                    .collect::<Result<_, _>>()?,
-            ),
-        })
-    }
-    match convert(v, "")? {
-        toml::Value::Table(t) => toml::to_string(&t).map_err(|e| e.to_string()),
-        _ => Err("a sweep or case is a table (a dict) of keys and values".into()),
-    }
-}

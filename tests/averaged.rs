@@ -133,3 +133,52 @@ fn settled_sliding_force_of_full_runs() {
         }
     }
 }
+
+/// Above the contact resonance (3 and 4 kHz), where the fast orbit contracts everywhere, the
+/// averaged slow model reproduces the full model's stick-slip: r within 0.01 and the mean force
+/// within 0.5 % (docs/model.md's convergence rule), from v_a/v_d = 0.4 (partial reduction) to 2
+/// (eliminated). The work of both is printed: right-hand sides of the full run against the
+/// table's (12-state) and the slow model's.
+#[test]
+fn slow_model_reproduces_full_runs_above_the_resonance() {
+    use stickslip::averaged::simulate_slow;
+    let v_d = 0.5e-3;
+    for f in [3000.0, 4000.0] {
+        for ratio in [0.4, 1.0, 2.0] {
+            let p = Params {
+                k_d: 11_700.0,
+                ..params(f, ratio * v_d / (2.0 * std::f64::consts::PI * f), v_d)
+            };
+            let opts = RunOptions::default();
+            let mut solver = Solver::new(opts.method);
+            let full = run_case_with(&p, &stickslip::model::Effects::none(), &opts, &mut solver)
+                .expect("a run");
+            let table = Table::build(&p, 40.0 * v_d, AveragingOptions::default()).expect("a table");
+            assert!(table.valid(), "{f} Hz, {ratio}: the table is not valid everywhere");
+            // A long window (some 30 cycles): a window's mean force is biased by up to
+            // dF / (8 n) over n cycles by the part-cycles at its ends, and the slow model is cheap.
+            let t_end = 20.0 * stickslip::sim::planned_time(&p, 3);
+            let slow = simulate_slow(&p, &table, t_end, 1.0 / f, 1e-8);
+            assert_eq!(slow.status, stickslip::ode::Status::Success);
+            let d_ref = full.reference.as_ref().expect("a reference").measures.d_f;
+            let r = slow.measures.d_f / d_ref;
+            let table_rhs: u64 = table.nodes.iter().map(|n| n.rhs_evals).sum();
+            eprintln!(
+                "{f} Hz, v_a/v_d = {ratio}: r {r:.4} (full {:.4} ± {:.4}), mean force {:.4} N \
+                 (full {:.4} N), rhs: full {} against table {table_rhs} + slow {} ({} nodes)",
+                full.r,
+                full.r_stderr,
+                slow.measures.mean_force,
+                full.run.measures.mean_force,
+                full.run.stats.rhs_evals,
+                slow.stats.rhs_evals,
+                table.nodes.len()
+            );
+            assert!((r - full.r).abs() <= 0.01 + full.r_stderr, "{f} Hz, {ratio}: r {r} against {}", full.r);
+            assert!(
+                (slow.measures.mean_force / full.run.measures.mean_force - 1.0).abs() < 5e-3,
+                "{f} Hz, {ratio}: mean force"
+            );
+        }
+    }
+}

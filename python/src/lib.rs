@@ -168,6 +168,7 @@ fn trace_channels() -> Vec<(&'static str, &'static str, &'static str)> {
 /// when `text` is `None`); writes `out` with its boundary (and figures with `figures`), calls
 /// `progress(done, total, failed)` every 100 ms, and returns the run counts.
 #[pyfunction]
+#[allow(clippy::too_many_arguments)] // a Python signature with keywords
 #[pyo3(signature = (file, text, out, threads=None, resume=false, overwrite=false, figures=false, progress=None))]
 fn sweep<'py>(
     py: Python<'py>,
@@ -180,7 +181,6 @@ fn sweep<'py>(
     figures: bool,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let path = PathBuf::from(&file);
     let out = PathBuf::from(out);
     // A file goes through the CLI's own resolution; a dict's TOML through the same checks.
     let (spec, mut opts) = match text {
@@ -230,7 +230,6 @@ fn sweep<'py>(
             (spec, opts)
         }
     };
-    let _ = path;
     let tally = Arc::new(stickslip::progress::Tally::default());
     opts.tally = Some(tally.clone());
     opts.progress = false;

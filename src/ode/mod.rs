@@ -861,7 +861,7 @@ fn drive<M: Stepper, S: OdeSystem>(
             return finish(Status::MaxSteps, t, y0, m.y(), stats);
         }
         // A relaxed load every 256 attempts: microseconds apart, never measurable.
-        if attempts % 256 == 0 && crate::interrupt::requested() {
+        if attempts.is_multiple_of(256) && crate::interrupt::requested() {
             return finish(Status::Interrupted, t, y0, m.y(), stats);
         }
         attempts += 1;
