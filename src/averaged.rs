@@ -326,17 +326,7 @@ impl<'a> Shooter<'a> {
             let r = [end[0] - x[0], end[1] - x[1], end[2] / t - v_mean];
             let rs = [r[0] / sc[0], r[1] / sc[1], r[2] / sc[0]];
             let norm = rs.iter().fold(0.0f64, |a, b| a.max(b.abs()));
-            let j = [
-                s[0] - 1.0,
-                s[1],
-                s[2],
-                s[3],
-                s[4] - 1.0,
-                s[5],
-                s[6] / t,
-                s[7] / t,
-                s[8] / t,
-            ];
+            let j = shooting_jacobian(&s, t);
             let dx = solve3(&j, &[-r[0], -r[1], -r[2]]).ok_or(AveragingError::NoOrbit {
                 v_mean,
                 iterations: it,
@@ -351,17 +341,7 @@ impl<'a> Shooter<'a> {
             // Converged: the step and the residual both at the integration's own accuracy.
             if step < 1e3 * self.opts.rtol && norm < 1e3 * self.opts.rtol.max(1e-12) {
                 let (_, s) = self.period_map(x[0], x[1], x[2], &mut rhs)?;
-                let j = [
-                    s[0] - 1.0,
-                    s[1],
-                    s[2],
-                    s[3],
-                    s[4] - 1.0,
-                    s[5],
-                    s[6] / t,
-                    s[7] / t,
-                    s[8] / t,
-                ];
+                let j = shooting_jacobian(&s, t);
                 // dx/dV solves J dx = (0, 0, 1): the tangent of the family of orbits.
                 let slope = solve3(&j, &[0.0, 0.0, 1.0]).map_or(f64::NAN, |d| d[2]);
                 let multipliers = eig2([s[0], s[1], s[3], s[4]]);
@@ -399,6 +379,22 @@ impl<'a> Shooter<'a> {
             residual: last,
         })
     }
+}
+
+/// The Jacobian of the shooting residual `(v(T) − v0, s(T) − s0, w(T)/T − V)` with respect to
+/// `(v0, s0, F)`, from the period's sensitivities `s` (row-major, rows `v, s, w`).
+fn shooting_jacobian(s: &[f64; 9], t: f64) -> [f64; 9] {
+    [
+        s[0] - 1.0,
+        s[1],
+        s[2],
+        s[3],
+        s[4] - 1.0,
+        s[5],
+        s[6] / t,
+        s[7] / t,
+        s[8] / t,
+    ]
 }
 
 /// `J x = b` for a 3 × 3 `J` (row-major) by Gaussian elimination with partial pivoting; `None`

@@ -290,33 +290,12 @@ fn boundary(path: String) -> PyResult<(Vec<String>, Vec<Vec<f64>>)> {
         .first()
         .map(|p| p.coords.iter().map(|c| c.0.clone()).collect())
         .unwrap_or_default();
-    names.extend(
-        [
-            "u0_boundary [m]",
-            "v_a_boundary [m/s]",
-            "va_ratio_boundary",
-            "u0_rule_of_thumb [m]",
-            "below_grid",
-            "u0_upper [m]",
-            "crossings",
-            "resolution",
-        ]
-        .map(String::from),
-    );
+    names.extend(stickslip::sweep::boundary::CSV_COLUMNS.map(String::from));
     let rows = pts
         .iter()
         .map(|p| {
             let mut r: Vec<f64> = p.coords.iter().map(|c| c.1).collect();
-            r.extend([
-                p.u0,
-                p.v_a,
-                p.va_ratio,
-                p.u0_rule,
-                f64::from(u8::from(p.below_range)),
-                p.u0_upper,
-                p.crossings as f64,
-                p.resolution,
-            ]);
+            r.extend(p.csv_row());
             r
         })
         .collect();

@@ -163,6 +163,35 @@ pub fn compute(d: &SweepData) -> Result<Vec<BoundaryPoint>, String> {
     Ok(out)
 }
 
+/// The boundary CSV's columns after those of the other axes, in order (the values of
+/// [`BoundaryPoint::csv_row`]).
+pub const CSV_COLUMNS: [&str; 8] = [
+    "u0_boundary [m]",
+    "v_a_boundary [m/s]",
+    "va_ratio_boundary",
+    "u0_rule_of_thumb [m]",
+    "below_grid",
+    "u0_upper [m]",
+    "crossings",
+    "resolution",
+];
+
+impl BoundaryPoint {
+    /// The values of [`CSV_COLUMNS`] for this point (`below_grid` as 0 or 1).
+    pub fn csv_row(&self) -> [f64; 8] {
+        [
+            self.u0,
+            self.v_a,
+            self.va_ratio,
+            self.u0_rule,
+            f64::from(u8::from(self.below_range)),
+            self.u0_upper,
+            self.crossings as f64,
+            self.resolution,
+        ]
+    }
+}
+
 /// Writes the boundary as CSV beside the file (`<stem>_boundary.csv`) and into the HDF5 file as
 /// group `boundary`; returns the CSV path.
 pub fn write(d: &SweepData, pts: &[BoundaryPoint]) -> Result<PathBuf, OutputError> {
@@ -178,19 +207,7 @@ pub fn write(d: &SweepData, pts: &[BoundaryPoint]) -> Result<PathBuf, OutputErro
             .map(|p| p.coords.iter().map(|c| c.0.clone()).collect())
             .unwrap_or_default();
         let mut header: Vec<String> = names.clone();
-        header.extend(
-            [
-                "u0_boundary [m]",
-                "v_a_boundary [m/s]",
-                "va_ratio_boundary",
-                "u0_rule_of_thumb [m]",
-                "below_grid",
-                "u0_upper [m]",
-                "crossings",
-                "resolution",
-            ]
-            .map(String::from),
-        );
+        header.extend(CSV_COLUMNS.map(String::from));
         writeln!(w, "{}", header.join(",")).map_err(&e)?;
         for p in pts {
             let mut row: Vec<String> = p.coords.iter().map(|c| format!("{:e}", c.1)).collect();

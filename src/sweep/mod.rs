@@ -657,20 +657,24 @@ pub fn run(spec: &SweepSpec, opts: &SweepOptions) -> Result<SweepOutcome, SweepE
     if opts.overwrite {
         let _ = std::fs::remove_file(shard::runs_path(&target));
     }
-    // A checkpoint at once: `stickslip status` reads the sweep from it.
-    h5::write(
-        &target,
-        spec,
-        &plan,
-        &results,
-        &[],
-        h5::Stamp {
-            started: &started,
-            finished: None,
-            partial: false,
-            shard: opts.shard,
-        },
-    )?;
+    // An unfinished file of what has run so far: what `stickslip status` reads.
+    let checkpoint = |results: &Results| {
+        h5::write(
+            &target,
+            spec,
+            &plan,
+            results,
+            &[],
+            h5::Stamp {
+                started: &started,
+                finished: None,
+                partial: false,
+                shard: opts.shard,
+            },
+        )
+    };
+    // A checkpoint at once.
+    checkpoint(&results)?;
 
     let run_opts = RunOptions {
         trace: false,
@@ -713,19 +717,7 @@ pub fn run(spec: &SweepSpec, opts: &SweepOptions) -> Result<SweepOutcome, SweepE
     let _ = journal.sync();
     if interrupted {
         // Everything finished so far is journaled; the checkpoint shows it to `status`.
-        h5::write(
-            &target,
-            spec,
-            &plan,
-            &results,
-            &[],
-            h5::Stamp {
-                started: &started,
-                finished: None,
-                partial: false,
-                shard: opts.shard,
-            },
-        )?;
+        checkpoint(&results)?;
         return Err(SweepError::Interrupted {
             recorded: results.count(),
             journal: jpath.display().to_string(),
