@@ -453,6 +453,10 @@ pub struct Table {
     /// Where continuation stopped before `V_max` (no converged orbit beyond): the first `V` it
     /// could not reach \[m/s\].
     pub stopped_at: Option<f64>,
+    /// Intervals `(V_lo, V_hi)` \[m/s\] between two nodes whose midpoint has no period-1 orbit
+    /// (continued from either end): the fast motion there is not periodic with the forcing
+    /// (period doubling, chaos, a fold), and the law is undefined.
+    pub gaps: Vec<(f64, f64)>,
 }
 
 impl Table {
@@ -489,36 +493,41 @@ impl Table {
                 }
             }
         }
-        // Refinement: split every interval whose midpoint the cubic misses.
-        loop {
-            let mut inserted = false;
-            let mut i = 0;
-            while i + 1 < nodes.len() {
-                if nodes.len() >= max_nodes {
-                    break;
-                }
-                let (a, b) = (nodes[i], nodes[i + 1]);
-                let mid = 0.5 * (a.v_mean + b.v_mean);
-                let o = match reach(&mut sh, &a, mid) {
-                    Ok(o) => o,
-                    Err(_) => {
-                        i += 1;
-                        continue;
-                    }
-                };
-                if (hermite(&a, &b, mid) - o.force).abs() > tol {
-                    nodes.insert(i + 1, o);
-                    inserted = true;
-                    // Look at the left half again before moving on.
-                    continue;
-                }
-                i += 1;
+        // Refinement, left to right: an interval whose midpoint the cubic misses is split and its
+        // halves looked at in turn; one whose midpoint has no orbit (from either end) is a gap.
+        let mut gaps = vec![];
+        let mut done = vec![nodes[0]];
+        let mut pending: Vec<Orbit> = nodes[1..].iter().rev().copied().collect();
+        let mut left = nodes[0];
+        while let Some(right) = pending.pop() {
+            if done.len() + pending.len() + 1 >= max_nodes {
+                done.push(right);
+                left = right;
+                continue;
             }
-            if !inserted || nodes.len() >= max_nodes {
-                break;
+            let mid = 0.5 * (left.v_mean + right.v_mean);
+            match reach(&mut sh, &left, mid).or_else(|_| reach(&mut sh, &right, mid)) {
+                Ok(o) if (hermite(&left, &right, mid) - o.force).abs() > tol => {
+                    pending.push(right);
+                    pending.push(o);
+                }
+                Ok(_) => {
+                    done.push(right);
+                    left = right;
+                }
+                Err(_) => {
+                    gaps.push((left.v_mean, right.v_mean));
+                    done.push(right);
+                    left = right;
+                }
             }
         }
-        Ok(Table { nodes, stopped_at })
+        let nodes = done;
+        Ok(Table {
+            nodes,
+            stopped_at,
+            gaps,
+        })
     }
 
     /// `F_eff(V)` \[N\] by cubic Hermite interpolation on the exact slopes; odd in `V`. `None`
@@ -526,7 +535,7 @@ impl Table {
     pub fn force(&self, v: f64) -> Option<f64> {
         let a = v.abs();
         let last = self.nodes.last()?;
-        if a > last.v_mean {
+        if a > last.v_mean || self.in_gap(a) {
             return None;
         }
         let i = self.nodes.partition_point(|o| o.v_mean < a).max(1);
@@ -540,7 +549,7 @@ impl Table {
     pub fn slope(&self, v: f64) -> Option<f64> {
         let a = v.abs();
         let last = self.nodes.last()?;
-        if a > last.v_mean {
+        if a > last.v_mean || self.in_gap(a) {
             return None;
         }
         let i = self.nodes.partition_point(|o| o.v_mean < a).max(1);
@@ -557,10 +566,15 @@ impl Table {
         Some((d00 * l.force + d01 * r.force) / h + d10 * l.slope + d11 * r.slope)
     }
 
-    /// Whether every node's orbit is [`Orbit::contracting`]: the table may stand for the fast
-    /// vibration everywhere it reaches.
+    /// Whether `|V|` lies strictly inside one of the [`Table::gaps`].
+    fn in_gap(&self, v: f64) -> bool {
+        self.gaps.iter().any(|&(lo, hi)| v > lo && v < hi)
+    }
+
+    /// Whether every node's orbit is [`Orbit::contracting`] and the table has no gap and
+    /// reaches its `V_max`: it may stand for the fast vibration everywhere it reaches.
     pub fn valid(&self) -> bool {
-        self.stopped_at.is_none() && self.nodes.iter().all(Orbit::contracting)
+        self.stopped_at.is_none() && self.gaps.is_empty() && self.nodes.iter().all(Orbit::contracting)
     }
 }
 
@@ -625,8 +639,23 @@ pub struct SlowRun {
 
 /// Integrates the averaged slow model of `p` from rest to `t_end` with Radau IIA at `rtol`,
 /// sampling the drive force every `dt` seconds for the measures (window: the second half, as a
-/// full run's).
-pub fn simulate_slow(p: &Params, table: &Table, t_end: f64, dt: f64, rtol: f64) -> SlowRun {
+/// full run's). A table that is not [`Table::valid`] is refused: the full model must serve there.
+pub fn simulate_slow(
+    p: &Params,
+    table: &Table,
+    t_end: f64,
+    dt: f64,
+    rtol: f64,
+) -> Result<SlowRun, AveragingError> {
+    if !table.valid() {
+        return Err(AveragingError::Invalid(format!(
+            "the averaged law is not valid everywhere (gaps {:?}, stopped at {:?}, {} nodes whose \
+             fast orbit does not contract): use the full model",
+            table.gaps,
+            table.stopped_at,
+            table.nodes.iter().filter(|n| !n.contracting()).count()
+        )));
+    }
     use crate::measures::{Analyzer, DROP_THRESHOLD, STICK_VELOCITY};
     let sys = Slow { p, table };
     let mut an = Analyzer::new(
@@ -651,11 +680,11 @@ pub fn simulate_slow(p: &Params, table: &Table, t_end: f64, dt: f64, rtol: f64) 
         let f = p.k_d * y[0] + p.h_d * (p.v_d - y[1]);
         an.push(t, f, y[1]);
     });
-    SlowRun {
+    Ok(SlowRun {
         measures: an.finish(),
         status: rep.status,
         stats: rep.stats,
-    }
+    })
 }
 
 /// The orbit at `v`, continued from `from` along its tangent; halves the stride on failure.

@@ -158,7 +158,7 @@ fn slow_model_reproduces_full_runs_above_the_resonance() {
             // A long window (some 30 cycles): a window's mean force is biased by up to
             // dF / (8 n) over n cycles by the part-cycles at its ends, and the slow model is cheap.
             let t_end = 20.0 * stickslip::sim::planned_time(&p, 3);
-            let slow = simulate_slow(&p, &table, t_end, 1.0 / f, 1e-8);
+            let slow = simulate_slow(&p, &table, t_end, 1.0 / f, 1e-8).expect("a valid table");
             assert_eq!(slow.status, stickslip::ode::Status::Success);
             let d_ref = full.reference.as_ref().expect("a reference").measures.d_f;
             let r = slow.measures.d_f / d_ref;
@@ -179,6 +179,41 @@ fn slow_model_reproduces_full_runs_above_the_resonance() {
                 (slow.measures.mean_force / full.run.measures.mean_force - 1.0).abs() < 5e-3,
                 "{f} Hz, {ratio}: mean force"
             );
+        }
+    }
+}
+
+/// Below the contact resonance the fast orbit loses stability before the law's peak (it
+/// period-doubles: a multiplier through −1); the table marks those nodes, and is then not
+/// valid for averaging. At 1500 Hz, v_a/v_d = 0.4 such nodes exist; at 3000 Hz none.
+#[test]
+fn zones_where_averaging_fails_are_marked() {
+    let v_d = 0.5e-3;
+    for (f, expect_valid) in [(1500.0, false), (3000.0, true)] {
+        let p = Params {
+            k_d: 11_700.0,
+            ..params(f, 0.4 * v_d / (2.0 * std::f64::consts::PI * f), v_d)
+        };
+        let table = Table::build(&p, 40.0 * v_d, AveragingOptions::default()).expect("a table");
+        for n in table.nodes.iter().filter(|n| n.v_mean < 3.0 * v_d) {
+            eprintln!(
+                "{f} Hz: V {:.3e} F {:.4} slope {:.3e} fast ({:.3}, {:.3}) |{:.3}|",
+                n.v_mean, n.force, n.slope, n.fast.0, n.fast.1, n.fast_modulus()
+            );
+        }
+        eprintln!(
+            "{f} Hz: stopped at {:?}, gaps {:?}, valid {}",
+            table.stopped_at,
+            table.gaps,
+            table.valid()
+        );
+        assert_eq!(table.valid(), expect_valid, "{f} Hz");
+        if !expect_valid {
+            // The law is not made up across what it could not find, and the slow model refuses it.
+            for &(lo, hi) in &table.gaps {
+                assert_eq!(table.force(0.5 * (lo + hi)), None);
+            }
+            assert!(stickslip::averaged::simulate_slow(&p, &table, 1.0, 1e-3, 1e-8).is_err());
         }
     }
 }
