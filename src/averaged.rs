@@ -156,16 +156,28 @@ impl AveragingOptions {
     /// Checks every field against its documented range, naming the one violated.
     pub fn validate(&self) -> Result<(), String> {
         if !(1e-12..=1e-5).contains(&self.rtol) {
-            return Err(format!("rtol = {}: must lie within 1e-12 to 1e-5", self.rtol));
+            return Err(format!(
+                "rtol = {}: must lie within 1e-12 to 1e-5",
+                self.rtol
+            ));
         }
         if !(1..=200).contains(&self.max_newton) {
-            return Err(format!("max_newton = {}: must be from 1 to 200", self.max_newton));
+            return Err(format!(
+                "max_newton = {}: must be from 1 to 200",
+                self.max_newton
+            ));
         }
         if !(1e-9..=1.0).contains(&self.force_tol) {
-            return Err(format!("force_tol = {} N: must lie within 1e-9 to 1 N", self.force_tol));
+            return Err(format!(
+                "force_tol = {} N: must lie within 1e-9 to 1 N",
+                self.force_tol
+            ));
         }
         if !(3..=100_000).contains(&self.max_nodes) {
-            return Err(format!("max_nodes = {}: must be from 3 to 100000", self.max_nodes));
+            return Err(format!(
+                "max_nodes = {}: must be from 3 to 100000",
+                self.max_nodes
+            ));
         }
         Ok(())
     }
@@ -222,7 +234,9 @@ pub enum AveragingError {
     #[error("the one-period integration ended with {0}")]
     Integration(&'static str),
     /// Newton did not converge.
-    #[error("no periodic orbit at V = {v_mean} m/s: Newton did not converge in {iterations} iterations (residual {residual:.3e})")]
+    #[error(
+        "no periodic orbit at V = {v_mean} m/s: Newton did not converge in {iterations} iterations (residual {residual:.3e})"
+    )]
     NoOrbit {
         /// Mean velocity asked for \[m/s\].
         v_mean: f64,
@@ -250,7 +264,8 @@ impl<'a> Shooter<'a> {
     /// A shooter for `p` (validated; it must vibrate).
     pub fn new(p: &'a Params, opts: AveragingOptions) -> Result<Shooter<'a>, AveragingError> {
         opts.validate().map_err(AveragingError::Invalid)?;
-        p.validate().map_err(|e| AveragingError::Invalid(e.to_string()))?;
+        p.validate()
+            .map_err(|e| AveragingError::Invalid(e.to_string()))?;
         if !p.vibrates() {
             return Err(AveragingError::Invalid(
                 "the averaged law needs vibration: give f > 0 and u0 > 0".into(),
@@ -302,9 +317,15 @@ impl<'a> Shooter<'a> {
             h_max: self.period / 8.0,
             ..Options::default()
         };
-        let rep = self
-            .solver
-            .solve(&sys, 0.0, self.period, &mut y, &opts, OutputGrid::NONE, |_, _| {});
+        let rep = self.solver.solve(
+            &sys,
+            0.0,
+            self.period,
+            &mut y,
+            &opts,
+            OutputGrid::NONE,
+            |_, _| {},
+        );
         *rhs += rep.stats.rhs_evals;
         if rep.status != Status::Success {
             return Err(AveragingError::Integration(rep.status.name()));
@@ -400,7 +421,11 @@ fn shooting_jacobian(s: &[f64; 9], t: f64) -> [f64; 9] {
 /// `J x = b` for a 3 × 3 `J` (row-major) by Gaussian elimination with partial pivoting; `None`
 /// when singular.
 fn solve3(j: &[f64; 9], b: &[f64; 3]) -> Option<[f64; 3]> {
-    let mut a = [[j[0], j[1], j[2], b[0]], [j[3], j[4], j[5], b[1]], [j[6], j[7], j[8], b[2]]];
+    let mut a = [
+        [j[0], j[1], j[2], b[0]],
+        [j[3], j[4], j[5], b[1]],
+        [j[6], j[7], j[8], b[2]],
+    ];
     for c in 0..3 {
         let piv = (c..3).max_by(|&x, &y| a[x][c].abs().total_cmp(&a[y][c].abs()))?;
         if a[piv][c] == 0.0 || !a[piv][c].is_finite() {
@@ -539,7 +564,11 @@ impl Table {
             return None;
         }
         let i = self.nodes.partition_point(|o| o.v_mean < a).max(1);
-        let f = hermite(&self.nodes[i - 1], &self.nodes[i.min(self.nodes.len() - 1)], a);
+        let f = hermite(
+            &self.nodes[i - 1],
+            &self.nodes[i.min(self.nodes.len() - 1)],
+            a,
+        );
         Some(if v < 0.0 { -f } else { f })
     }
 }
@@ -574,7 +603,9 @@ impl Table {
     /// Whether every node's orbit is [`Orbit::contracting`] and the table has no gap and
     /// reaches its `V_max`: it may stand for the fast vibration everywhere it reaches.
     pub fn valid(&self) -> bool {
-        self.stopped_at.is_none() && self.gaps.is_empty() && self.nodes.iter().all(Orbit::contracting)
+        self.stopped_at.is_none()
+            && self.gaps.is_empty()
+            && self.nodes.iter().all(Orbit::contracting)
     }
 }
 
@@ -694,14 +725,22 @@ fn reach(sh: &mut Shooter<'_>, from: &Orbit, v: f64) -> Result<Orbit, AveragingE
     for _ in 0..6 {
         let dv = v - base.v_mean;
         // The tangent of (v0, s0) is not kept; F moves along its slope.
-        let guess = [base.start[0] + dv, base.start[1], base.force + base.slope * dv];
+        let guess = [
+            base.start[0] + dv,
+            base.start[1],
+            base.force + base.slope * dv,
+        ];
         match sh.orbit(v, guess) {
             Ok(o) => return Ok(o),
             Err(e) => {
                 err = Some(e);
                 // A half step first, then on from there.
                 let half = base.v_mean + 0.5 * dv;
-                let g = [base.start[0] + 0.5 * dv, base.start[1], base.force + base.slope * 0.5 * dv];
+                let g = [
+                    base.start[0] + 0.5 * dv,
+                    base.start[1],
+                    base.force + base.slope * 0.5 * dv,
+                ];
                 match sh.orbit(half, g) {
                     Ok(o) => base = o,
                     Err(e) => return Err(e),

@@ -490,7 +490,11 @@ pub fn toml_of_json(v: &serde_json::Value) -> Result<String, String> {
             serde_json::Value::Object(o) => toml::Value::Table(
                 o.iter()
                     .map(|(k, x)| {
-                        let here = if at.is_empty() { k.clone() } else { format!("{at}.{k}") };
+                        let here = if at.is_empty() {
+                            k.clone()
+                        } else {
+                            format!("{at}.{k}")
+                        };
                         convert(x, &here).map(|t| (k.clone(), t))
                     })
                     .collect::<Result<_, _>>()?,
@@ -563,4 +567,3 @@ mod tests {
         assert_eq!(parse("").unwrap().run.early_stop, EarlyStop::Automatic);
     }
 }
-

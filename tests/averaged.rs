@@ -34,7 +34,10 @@ fn rigid_coulomb_limit() {
         let v = frac * v_a;
         let o = sh.orbit(v, guess).expect("an orbit");
         let closed = 2.0 * p.f_c / std::f64::consts::PI * (v / v_a).asin();
-        eprintln!("V = {frac} v_a: F_eff {:.5} N, closed form {closed:.5} N", o.force);
+        eprintln!(
+            "V = {frac} v_a: F_eff {:.5} N, closed form {closed:.5} N",
+            o.force
+        );
         assert!(
             (o.force - closed).abs() <= 0.01 * p.f_c,
             "V = {frac} v_a: F_eff = {} N against the closed form {closed} N",
@@ -51,8 +54,15 @@ fn rigid_coulomb_limit() {
         // other multiplier is the mean velocity's, exp(−F_eff' T / m).
         assert!(o.contracting(), "multipliers {:?}", o.multipliers);
         let drift = (-o.slope / (p.f * p.m)).exp();
-        let slow = if o.multipliers[0] == o.fast { o.multipliers[1] } else { o.multipliers[0] };
-        assert!((slow.0 - drift).abs() < 1e-3 && slow.1 == 0.0, "{slow:?} against {drift}");
+        let slow = if o.multipliers[0] == o.fast {
+            o.multipliers[1]
+        } else {
+            o.multipliers[0]
+        };
+        assert!(
+            (slow.0 - drift).abs() < 1e-3 && slow.1 == 0.0,
+            "{slow:?} against {drift}"
+        );
         guess = [o.start[0], o.start[1], o.force];
     }
 }
@@ -64,7 +74,11 @@ fn rigid_coulomb_limit() {
 /// v_a = 0.2 mm/s the table's slope at `V = 0` must match it to 5 %.
 #[test]
 fn small_amplitude_creep_slope() {
-    let p = params(1500.0, 0.2e-3 / (2.0 * std::f64::consts::PI * 1500.0), 0.5e-3);
+    let p = params(
+        1500.0,
+        0.2e-3 / (2.0 * std::f64::consts::PI * 1500.0),
+        0.5e-3,
+    );
     let mut sh = Shooter::new(&p, AveragingOptions::default()).expect("valid");
     let o = sh.orbit(0.0, [0.0, 0.0, 0.0]).expect("the orbit at V = 0");
     assert!(o.force.abs() < 1e-9, "symmetry: F_eff(0) = {}", o.force);
@@ -73,7 +87,10 @@ fn small_amplitude_creep_slope() {
     let den = num_complex::Complex64::new(p.k_t - p.m * w * w, w * p.h_t);
     let v_r = p.v_a() * num / den.norm();
     let creep = std::f64::consts::FRAC_PI_2 * p.f_s / v_r;
-    eprintln!("creep slope {} N s/m, (π/2) F_s / v̂_r = {creep} N s/m", o.slope);
+    eprintln!(
+        "creep slope {} N s/m, (π/2) F_s / v̂_r = {creep} N s/m",
+        o.slope
+    );
     assert!(
         (o.slope / creep - 1.0).abs() < 0.05,
         "slope {} N s/m against (π/2) F_s / v̂_r = {creep} N s/m (v̂_r = {v_r} m/s)",
@@ -103,7 +120,11 @@ fn settled_sliding_force_of_full_runs() {
             },
         )
         .expect("a table");
-        assert!(table.stopped_at.is_none(), "{f} Hz: stopped at {:?}", table.stopped_at);
+        assert!(
+            table.stopped_at.is_none(),
+            "{f} Hz: stopped at {:?}",
+            table.stopped_at
+        );
         let averaged = table.force(v_d).expect("inside the table");
         let mut opts = RunOptions::default();
         opts.ode.rtol = 1e-8;
@@ -120,7 +141,11 @@ fn settled_sliding_force_of_full_runs() {
              {rhs} right-hand sides of the 12-state system; fast multiplier at v_d {:.3}",
             averaged / full - 1.0,
             table.nodes.len(),
-            table.nodes.iter().min_by(|a, b| (a.v_mean - v_d).abs().total_cmp(&(b.v_mean - v_d).abs())).map_or(f64::NAN, |n| n.fast_modulus())
+            table
+                .nodes
+                .iter()
+                .min_by(|a, b| (a.v_mean - v_d).abs().total_cmp(&(b.v_mean - v_d).abs()))
+                .map_or(f64::NAN, |n| n.fast_modulus())
         );
         assert!(
             (averaged / full - 1.0).abs() < 1e-3,
@@ -154,7 +179,10 @@ fn slow_model_reproduces_full_runs_above_the_resonance() {
             let full = run_case_with(&p, &stickslip::model::Effects::none(), &opts, &mut solver)
                 .expect("a run");
             let table = Table::build(&p, 40.0 * v_d, AveragingOptions::default()).expect("a table");
-            assert!(table.valid(), "{f} Hz, {ratio}: the table is not valid everywhere");
+            assert!(
+                table.valid(),
+                "{f} Hz, {ratio}: the table is not valid everywhere"
+            );
             // A long window (some 30 cycles): a window's mean force is biased by up to
             // dF / (8 n) over n cycles by the part-cycles at its ends, and the slow model is cheap.
             let t_end = 20.0 * stickslip::sim::planned_time(&p, 3);
@@ -174,7 +202,11 @@ fn slow_model_reproduces_full_runs_above_the_resonance() {
                 slow.stats.rhs_evals,
                 table.nodes.len()
             );
-            assert!((r - full.r).abs() <= 0.01 + full.r_stderr, "{f} Hz, {ratio}: r {r} against {}", full.r);
+            assert!(
+                (r - full.r).abs() <= 0.01 + full.r_stderr,
+                "{f} Hz, {ratio}: r {r} against {}",
+                full.r
+            );
             assert!(
                 (slow.measures.mean_force / full.run.measures.mean_force - 1.0).abs() < 5e-3,
                 "{f} Hz, {ratio}: mean force"
@@ -198,7 +230,12 @@ fn zones_where_averaging_fails_are_marked() {
         for n in table.nodes.iter().filter(|n| n.v_mean < 3.0 * v_d) {
             eprintln!(
                 "{f} Hz: V {:.3e} F {:.4} slope {:.3e} fast ({:.3}, {:.3}) |{:.3}|",
-                n.v_mean, n.force, n.slope, n.fast.0, n.fast.1, n.fast_modulus()
+                n.v_mean,
+                n.force,
+                n.slope,
+                n.fast.0,
+                n.fast.1,
+                n.fast_modulus()
             );
         }
         eprintln!(
