@@ -316,10 +316,11 @@ pub fn diagnose(a: &DiagnoseArgs) -> Result<Diagnosed, AppError> {
         msg: e.to_string(),
     })?;
     let h5 = out.join("diagnosis.h5");
-    campaign::report::write_h5(&h5, &c, &d)?;
+    let traces = campaign::report::traces_figure(&c, &d);
+    campaign::report::write_h5(&h5, &c, &d, traces.as_ref())?;
     let mut written = vec![json_path, h5];
     if !a.no_plots {
-        written.extend(campaign::report::plots(&out, &c, &d)?);
+        written.extend(campaign::report::plots(&out, &d, traces.as_ref())?);
     }
     Ok(Diagnosed {
         json: j,

@@ -558,18 +558,20 @@ impl Table {
     /// `F_eff(V)` \[N\] by cubic Hermite interpolation on the exact slopes; odd in `V`. `None`
     /// beyond the table.
     pub fn force(&self, v: f64) -> Option<f64> {
-        let a = v.abs();
+        let (l, r) = self.interval(v.abs())?;
+        let f = hermite(l, r, v.abs());
+        Some(if v < 0.0 { -f } else { f })
+    }
+
+    /// The two nodes around `|V| = a` (one node twice at `a = 0` or a single-node table);
+    /// `None` beyond the table or inside a gap.
+    fn interval(&self, a: f64) -> Option<(&Orbit, &Orbit)> {
         let last = self.nodes.last()?;
         if a > last.v_mean || self.in_gap(a) {
             return None;
         }
         let i = self.nodes.partition_point(|o| o.v_mean < a).max(1);
-        let f = hermite(
-            &self.nodes[i - 1],
-            &self.nodes[i.min(self.nodes.len() - 1)],
-            a,
-        );
-        Some(if v < 0.0 { -f } else { f })
+        Some((&self.nodes[i - 1], &self.nodes[i.min(self.nodes.len() - 1)]))
     }
 }
 
@@ -577,12 +579,7 @@ impl Table {
     /// `dF_eff/dV` \[N s/m\] of the interpolant; even in `V`. `None` beyond the table.
     pub fn slope(&self, v: f64) -> Option<f64> {
         let a = v.abs();
-        let last = self.nodes.last()?;
-        if a > last.v_mean || self.in_gap(a) {
-            return None;
-        }
-        let i = self.nodes.partition_point(|o| o.v_mean < a).max(1);
-        let (l, r) = (&self.nodes[i - 1], &self.nodes[i.min(self.nodes.len() - 1)]);
+        let (l, r) = self.interval(a)?;
         let h = r.v_mean - l.v_mean;
         if h <= 0.0 {
             return Some(l.slope);
@@ -720,31 +717,22 @@ pub fn simulate_slow(
 
 /// The orbit at `v`, continued from `from` along its tangent; halves the stride on failure.
 fn reach(sh: &mut Shooter<'_>, from: &Orbit, v: f64) -> Result<Orbit, AveragingError> {
+    // The start of the orbit at `to` from `o`: the velocity shifted with the mean, the force
+    // along its slope (the tangent of s0 is not kept).
+    let guess = |o: &Orbit, to: f64| {
+        let dv = to - o.v_mean;
+        [o.start[0] + dv, o.start[1], o.force + o.slope * dv]
+    };
     let mut base = *from;
     let mut err = None;
     for _ in 0..6 {
-        let dv = v - base.v_mean;
-        // The tangent of (v0, s0) is not kept; F moves along its slope.
-        let guess = [
-            base.start[0] + dv,
-            base.start[1],
-            base.force + base.slope * dv,
-        ];
-        match sh.orbit(v, guess) {
+        match sh.orbit(v, guess(&base, v)) {
             Ok(o) => return Ok(o),
             Err(e) => {
                 err = Some(e);
-                // A half step first, then on from there.
-                let half = base.v_mean + 0.5 * dv;
-                let g = [
-                    base.start[0] + 0.5 * dv,
-                    base.start[1],
-                    base.force + base.slope * 0.5 * dv,
-                ];
-                match sh.orbit(half, g) {
-                    Ok(o) => base = o,
-                    Err(e) => return Err(e),
-                }
+                // Half the stride, then on from there.
+                let half = 0.5 * (base.v_mean + v);
+                base = sh.orbit(half, guess(&base, half))?;
             }
         }
     }

@@ -772,6 +772,16 @@ impl SweepArgs {
         &self,
     ) -> Result<(crate::sweep::spec::SweepSpec, crate::sweep::SweepOptions), CliError> {
         let spec = crate::sweep::spec::SweepSpec::load(&self.file)?;
+        let opts = self.options(&spec)?;
+        Ok((spec, opts))
+    }
+
+    /// Validates the options for a sweep already loaded (from the file, or from text a host
+    /// gave, as the Python package's dicts).
+    pub fn options(
+        &self,
+        spec: &crate::sweep::spec::SweepSpec,
+    ) -> Result<crate::sweep::SweepOptions, CliError> {
         if let Some(t) = self.threads
             && (t == 0 || t > 1024)
         {
@@ -807,19 +817,16 @@ impl SweepArgs {
                 msg: "must be from 1 to 100000".into(),
             });
         }
-        Ok((
-            spec,
-            crate::sweep::SweepOptions {
-                out,
-                threads: self.threads,
-                resume: self.resume,
-                overwrite: self.overwrite,
-                progress: !self.quiet,
-                checkpoint_every: self.checkpoint_every,
-                shard: self.shard,
-                tally: None,
-            },
-        ))
+        Ok(crate::sweep::SweepOptions {
+            out,
+            threads: self.threads,
+            resume: self.resume,
+            overwrite: self.overwrite,
+            progress: !self.quiet,
+            checkpoint_every: self.checkpoint_every,
+            shard: self.shard,
+            tally: None,
+        })
     }
 }
 

@@ -183,56 +183,38 @@ fn sweep<'py>(
 ) -> PyResult<Bound<'py, PyDict>> {
     let out = PathBuf::from(out);
     // A file goes through the CLI's own resolution; a dict's TOML through the same checks.
+    // The CLI's own options and checks; a file is loaded as the CLI loads it, a dict's TOML
+    // parsed under the label `file`.
+    let mut args = vec![
+        "sweep".to_string(),
+        file.clone(),
+        "-o".into(),
+        out.display().to_string(),
+        "--quiet".into(),
+    ];
+    if let Some(t) = threads {
+        args.extend(["--threads".into(), t.to_string()]);
+    }
+    if resume {
+        args.push("--resume".into());
+    }
+    if overwrite {
+        args.push("--overwrite".into());
+    }
+    let Command::Sweep(a) = parse(args)? else {
+        unreachable!("the command is sweep")
+    };
     let (spec, mut opts) = match text {
-        None => {
-            let mut args = vec![
-                "sweep".to_string(),
-                file.clone(),
-                "-o".into(),
-                out.display().to_string(),
-                "--quiet".into(),
-            ];
-            if let Some(t) = threads {
-                args.extend(["--threads".into(), t.to_string()]);
-            }
-            if resume {
-                args.push("--resume".into());
-            }
-            if overwrite {
-                args.push("--overwrite".into());
-            }
-            let Command::Sweep(a) = parse(args)? else {
-                unreachable!("the command is sweep")
-            };
-            a.resolve().map_err(|e| py_err(e.into()))?
-        }
+        None => a.resolve().map_err(|e| py_err(e.into()))?,
         Some(text) => {
             let spec = stickslip::sweep::spec::SweepSpec::parse(&file, &text)
                 .map_err(|e| PyValueError::new_err(e.to_string()))?;
-            if let Some(t) = threads
-                && (t == 0 || t > 1024)
-            {
-                return Err(PyValueError::new_err(format!(
-                    "--threads = {t}: must be from 1 to 1024"
-                )));
-            }
-            stickslip::cli::check_output("out", &out, &[]).map_err(|e| py_err(e.into()))?;
-            let opts = stickslip::sweep::SweepOptions {
-                out: out.clone(),
-                threads,
-                resume,
-                overwrite,
-                progress: false,
-                checkpoint_every: 30.0,
-                shard: None,
-                tally: None,
-            };
+            let opts = a.options(&spec).map_err(|e| py_err(e.into()))?;
             (spec, opts)
         }
     };
     let tally = Arc::new(stickslip::progress::Tally::default());
     opts.tally = Some(tally.clone());
-    opts.progress = false;
     let result = compute(
         py,
         move || {

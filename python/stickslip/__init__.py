@@ -220,8 +220,7 @@ def run(
             "(u0 [m], v_a [m/s] or va_ratio = v_a / v_d)"
         )
     for name, value in given:
-        args += ["--" + _PARAMS[name][0] if name in _PARAMS else "--" + name.replace("_", "-"),
-                 _number(name, value)]
+        args += ["--" + name.replace("_", "-"), _number(name, value)]
     if method is not None:
         args += ["--solver", str(method)]
     for name, value in (("rtol", rtol), ("atol", atol), ("t-end", t_end)):
@@ -421,10 +420,12 @@ def sweep(
 
 
 def _boundary_table(path: str) -> dict[str, Any]:
+    """The boundary's columns and rows, or the reason there is none (kept for a Dataset whose
+    temporary file is gone, and raised when the boundary is asked for)."""
     try:
         names, rows = _native.boundary(path)
-    except ValueError:
-        return {"columns": [], "rows": []}
+    except ValueError as e:
+        return {"error": str(e)}
     return {"columns": names, "rows": rows}
 
 
@@ -447,9 +448,11 @@ def boundary(data: Union[xr.Dataset, PathLike]) -> pd.DataFrame:
                     "this Dataset does not come from a sweep file: give the file's path, or a "
                     "Dataset from stickslip.sweep or stickslip.open"
                 )
-            table = _boundary_table_or_raise(source)
+            table = _boundary_table(source)
     else:
-        table = _boundary_table_or_raise(os.fspath(data))
+        table = _boundary_table(os.fspath(data))
+    if "error" in table:
+        raise ValueError(table["error"])
     df = pd.DataFrame(table["rows"], columns=table["columns"])
     for col in ("below_grid",):
         if col in df:
@@ -457,11 +460,6 @@ def boundary(data: Union[xr.Dataset, PathLike]) -> pd.DataFrame:
     if "crossings" in df:
         df["crossings"] = df["crossings"].astype(int)
     return df
-
-
-def _boundary_table_or_raise(path: str) -> dict[str, Any]:
-    names, rows = _native.boundary(path)
-    return {"columns": names, "rows": rows}
 
 
 # ---------------------------------------------------------------------------------------------

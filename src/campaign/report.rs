@@ -458,7 +458,12 @@ pub fn calibration_summary(c: &Campaign, f: &FitResult) -> String {
 
 /// Writes the details to HDF5: per-recording conditions, gaps and z per feature; the ranking
 /// with fitted parameters; the calibration; the verdict as attributes.
-pub fn write_h5(path: &Path, c: &Campaign, d: &Diagnosis) -> Result<(), OutputError> {
+pub fn write_h5(
+    path: &Path,
+    c: &Campaign,
+    d: &Diagnosis,
+    traces: Option<&TracesFigure<'_>>,
+) -> Result<(), OutputError> {
     use rust_hdf5::H5File;
     output::ensure_parent(path)?;
     let tmp = output::temp_path(path);
@@ -556,7 +561,7 @@ pub fn write_h5(path: &Path, c: &Campaign, d: &Diagnosis) -> Result<(), OutputEr
         let cg = root.create_group("calibration").map_err(h5err(&tmp))?;
         write_estimates(&cg, &d.base.estimates, &tmp)?;
         // The traces figure's data, for hosts that draw their own (the Python package).
-        if let Some(o) = overlay(c, d) {
+        if let Some(o) = traces {
             let fg = root.create_group("figure_traces").map_err(h5err(&tmp))?;
             fg.set_attr_string("title", &o.title).map_err(h5err(&tmp))?;
             write_vec(&fg, "t", o.t, "s", "time", &tmp)?;
@@ -605,8 +610,9 @@ fn simulated_force(rec: &Recording, m: &Model) -> Vec<f64> {
 }
 
 /// The traces figure: the measured, base-model and best-candidate drive force of the held-out
-/// recording the base model misses most (any recording where none is held out).
-fn overlay<'a>(c: &'a Campaign, d: &Diagnosis) -> Option<Overlay<'a>> {
+/// recording the base model misses most (any recording where none is held out). Its two
+/// simulations are made once, for both [`plots`] and [`write_h5`].
+pub fn traces_figure<'a>(c: &'a Campaign, d: &Diagnosis) -> Option<TracesFigure<'a>> {
     let w = &d.location.recordings;
     let i = (0..w.len())
         .filter(|&i| w[i].held_out)
@@ -632,7 +638,7 @@ fn overlay<'a>(c: &'a Campaign, d: &Diagnosis) -> Option<Overlay<'a>> {
             RED,
         ));
     }
-    Some(Overlay {
+    Some(TracesFigure {
         title: format!(
             "{} (held out): v_d = {} mm/s, k_d = {} N/m, f = {} Hz, v_a/v_d = {:.2}",
             rec.name,
@@ -646,13 +652,14 @@ fn overlay<'a>(c: &'a Campaign, d: &Diagnosis) -> Option<Overlay<'a>> {
     })
 }
 
-struct Overlay<'a> {
+/// The data of the traces figure ([`traces_figure`]).
+pub struct TracesFigure<'a> {
     title: String,
     t: &'a [f64],
     series: Vec<(String, Vec<f64>, RGBColor)>,
 }
 
-impl Figure for Overlay<'_> {
+impl Figure for TracesFigure<'_> {
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), String> {
         let e = |x: DrawingAreaErrorKind<DB::ErrorType>| x.to_string();
         let n = self.t.len();
@@ -758,11 +765,15 @@ impl Figure for GapMap<'_> {
     }
 }
 
-/// Draws the overlay of the held-out recording with the largest base gap and the gap map.
-pub fn plots(dir: &Path, c: &Campaign, d: &Diagnosis) -> Result<Vec<PathBuf>, PlotError> {
+/// Draws the gap map and the traces figure ([`traces_figure`]).
+pub fn plots(
+    dir: &Path,
+    d: &Diagnosis,
+    traces: Option<&TracesFigure<'_>>,
+) -> Result<Vec<PathBuf>, PlotError> {
     let mut written = render(&dir.join("gap_conditions"), &GapMap { d })?;
-    if let Some(o) = overlay(c, d) {
-        written.extend(render(&dir.join("traces"), &o)?);
+    if let Some(o) = traces {
+        written.extend(render(&dir.join("traces"), o)?);
     }
     Ok(written)
 }

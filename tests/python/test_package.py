@@ -345,3 +345,17 @@ def test_diagnose_from_frames_gives_the_cli_verdict(small_campaign: Path, tmp_pa
     # Its datasets by path, those of one group over shared dimensions.
     gaps = h5["recordings/gap_base"]
     assert gaps.dims == h5["recordings/gap_best"].dims and gaps.size == len(camp)
+
+
+def test_hostile_paths_are_only_paths(tmp_path: Path) -> None:
+    """Folders with a space, a quote, `$(...)` and backticks: written where asked, nothing run."""
+    odd = tmp_path / "a b$(touch pwned) `touch pwned2` 'q'"
+    odd.mkdir()
+    ds = stickslip.sweep({"fixed": {"k_d": 11700.0, "f": 1500.0}, "axis": [{"name": "va_ratio", "values": [0.5, 2.0]}]},
+                         out=odd / "s w.h5", progress=False)
+    assert (odd / "s w.h5").is_file() and ds["r"].size == 2
+    frames = {"rec one": (pd.DataFrame({"t": [0.0, 1e-3], "F_d": [0.0, 1e-3]}), {"v_d": 1e-3, "k_d": 1e4, "f": 0.0, "u0": 0.0})}
+    with pytest.raises(ValueError):
+        stickslip.Campaign.from_frames(frames).to_dir(odd / "camp")  # too short to be a recording
+    assert (odd / "camp" / "rec one.csv").is_file()
+    assert not any(p.name.startswith("pwned") for p in tmp_path.rglob("*")) and not Path("pwned").exists()
