@@ -804,7 +804,7 @@ impl SweepArgs {
             .unwrap_or_else(|| PathBuf::from("results").join(format!("{}.h5", spec.name)));
         check_output("out", &out, &[&self.file])?;
         if let Some(sh) = self.shard {
-            crate::sweep::shard::check(&spec, sh.count).map_err(|msg| CliError::Flag {
+            crate::sweep::shard::check(spec, sh.count).map_err(|msg| CliError::Flag {
                 flag: "shard".into(),
                 value: sh.to_string(),
                 msg,
