@@ -62,7 +62,7 @@
 
 use super::features::{FEATURES, Feature, N_FEATURES, PHASES};
 use super::fit::{self, FitOptions, FitResult, Model, Target};
-use super::{Campaign, CampaignError};
+use super::{Campaign, CampaignError, Recording, fingerprint};
 use crate::model::EffectKind;
 use faer::Mat;
 use rayon::prelude::*;
@@ -256,6 +256,11 @@ pub struct Ranked {
     pub concentrated: Option<(Feature, f64, usize)>,
     /// Wall time of its scan, fit and cross-validation \[s\].
     pub wall_time: f64,
+    /// Its fingerprints checked against the recordings ([`fingerprint::check`]): for a
+    /// candidate the decision reached (named, tied or rejected), empty for the others.
+    pub fingerprints: Vec<fingerprint::Check>,
+    /// Why it is not named although its evidence would name it: a fingerprint absent.
+    pub rejected: Option<String>,
 }
 
 /// Where the gap lies, from the calibrated base model over all recordings.
@@ -765,6 +770,8 @@ fn try_candidate(
         concentrated: concentrated(from_cv),
         fit: from.clone(),
         wall_time: clock.elapsed().as_secs_f64(),
+        fingerprints: vec![],
+        rejected: None,
     };
     // The fresh Jacobian at the optimum (p more evaluations) only for a fit that passes the
     // bar: it gives the uncertainties and the folds' refits, which a candidate ranked with the
@@ -836,6 +843,8 @@ fn try_candidate(
         per_recording_n: cv.per_recording_n,
         fit: f,
         wall_time: clock.elapsed().as_secs_f64(),
+        fingerprints: vec![],
+        rejected: None,
     }
 }
 
@@ -991,19 +1000,69 @@ fn between(a: &Ranked, b: &Ranked) -> Evidence {
 /// `min_share` of the gap (`share` of its held-out gap); else the candidates the data cannot
 /// tell from the best, the best first: one alone is a named effect, more a tie. A candidate
 /// whose fit ends on a bound of its plausible range is no rival: it explains only with values
-/// the rig cannot have.
+/// the rig cannot have. Rejected candidates ([`Ranked::rejected`]) take no part.
 fn decide(ranked: &[Ranked], share: impl Fn(f64) -> f64, min_share: f64) -> Option<Vec<usize>> {
-    let b = ranked.first()?;
+    let live: Vec<usize> = (0..ranked.len())
+        .filter(|&j| ranked[j].rejected.is_none())
+        .collect();
+    let (&bi, rest) = live.split_first()?;
+    let b = &ranked[bi];
     if !b.evidence.clear() || !(share(b.gap_after) >= min_share) {
         return None;
     }
     // A rival explains with plausible parameters: one that needs a bound of its range is not.
-    let mut tie = vec![0];
+    let mut tie = vec![bi];
     tie.extend(
-        (1..ranked.len())
+        rest.iter()
+            .copied()
             .filter(|&j| ranked[j].at_bound.is_empty() && !between(b, &ranked[j]).clear()),
     );
     Some(tie)
+}
+
+/// [`decide`], with every candidate it would name or tie checked for its fingerprints against
+/// `from`, the model the candidates extend ([`fingerprint::check`]): one whose fingerprint is
+/// absent is rejected (with the reason) and the decision taken again without it. The ranking is
+/// then reordered so that the candidates not rejected come first, in their order of evidence.
+fn vetted(
+    ranked: &mut Vec<Ranked>,
+    recs: &[&Recording],
+    from: &Model,
+    share: impl Fn(f64) -> f64,
+    min_share: f64,
+) -> Option<Vec<usize>> {
+    let out = loop {
+        let t = decide(ranked, &share, min_share)?;
+        let mut any = false;
+        for &j in &t {
+            if ranked[j].fingerprints.is_empty() {
+                ranked[j].fingerprints = fingerprint::check(recs, from, &ranked[j].fit.model);
+            }
+            if let Some(c) = ranked[j]
+                .fingerprints
+                .iter()
+                .find(|c| c.seen == fingerprint::Seen::Absent)
+            {
+                ranked[j].rejected = Some(format!(
+                    "its fingerprint is absent: {}",
+                    c.line()
+                ));
+                any = true;
+            }
+        }
+        if !any {
+            break t;
+        }
+    };
+    // Stable: the live candidates first, the named (or tied) ones at the head.
+    let named: Vec<EffectKind> = out.iter().map(|&j| ranked[j].effect).collect();
+    ranked.sort_by_key(|r| (r.rejected.is_some(), !named.contains(&r.effect)));
+    let mut order: Vec<usize> = named
+        .iter()
+        .map(|k| ranked.iter().position(|r| r.effect == *k).unwrap())
+        .collect();
+    order.sort_unstable();
+    Some(order)
 }
 
 /// Diagnoses a campaign. A campaign none of whose recordings can be checked on held-out data
@@ -1070,9 +1129,6 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
             .then(a.score.total_cmp(&b.score))
     };
     ranking.sort_by(by_evidence);
-    let breadth = ranking.first().map_or(0.0, |b| {
-        breadth_of(&base_cv.per_recording, &b.per_recording)
-    });
     // Where only a concentrated feature makes the gap significant, shares are of the gap
     // beyond noise (1): a whole gap of 1.3 cannot fall by more than 23 % of itself.
     let noise = if gap_before >= SIGNIFICANT_GAP {
@@ -1089,7 +1145,7 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
     let verdict = if no_gap {
         Verdict::NoSignificantGap
     } else {
-        match decide(&ranking, share, MIN_PARTIAL) {
+        match vetted(&mut ranking, &all.recs, &base.model, share, MIN_PARTIAL) {
             None => Verdict::Unexplained,
             Some(t) if t.len() > 1 => {
                 tie = t.iter().map(|&j| ranking[j].effect).collect();
@@ -1098,6 +1154,9 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
             Some(_) => Verdict::Effect,
         }
     };
+    let breadth = ranking.first().map_or(0.0, |b| {
+        breadth_of(&base_cv.per_recording, &b.per_recording)
+    });
     let evidence_best = ranking.first().map(|b| b.evidence);
     let evidence_runner_up = match ranking.as_slice() {
         [b, r, ..] => Some((r.effect, between(b, r))),
@@ -1182,7 +1241,7 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
                 .collect();
             second.sort_by(by_evidence);
             let first_share = |e2: f64| (first_cv.gap - e2) / first_cv.gap;
-            match decide(&second, first_share, MIN_SECOND) {
+            match vetted(&mut second, &all.recs, &first_fit.model, first_share, MIN_SECOND) {
                 Some(t) if t.len() == 1 => {
                     let s2 = &second[0];
                     for b in &s2.at_bound {

@@ -269,26 +269,15 @@ pub fn smooth(y: &[f64], dt: f64, w: f64) -> Vec<f64> {
         .collect()
 }
 
-/// Features of a trace sampled every `dt` seconds: force `f` \[N\] and, where recorded, drive
-/// displacement `x_d` \[m\], at vibration frequency `freq` \[Hz\] (0 without vibration). `r`
-/// and the forcing features are left NaN ([`stage_features`] adds the latter).
-pub fn extract(f: &[f64], x_d: Option<&[f64]>, dt: f64, freq: f64) -> FeatureSet {
-    let n = f.len();
-    let i0 = n / 2;
-    let w = if freq > 0.0 { 1.0 / freq } else { 1e-3 };
-    let sm = smooth(f, dt, w);
-    let win = &sm[i0..];
-    let (lo, hi) = win
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| {
-            (a.min(x), b.max(x))
-        });
-    let h = (0.05 * (hi - lo)).max(0.1);
+/// The alternating extremes of `sm` from sample `i0` on that differ from their neighbours by
+/// more than `h`: `(index, is_peak)`, the first dropped where it is the start itself. In a
+/// stick-slip force the peaks are breakaways and the troughs re-sticks.
+pub fn zigzag(sm: &[f64], i0: usize, h: f64) -> Vec<(usize, bool)> {
     // Zig-zag: alternating extremes that differ by more than h.
     let mut ext: Vec<(usize, bool)> = vec![]; // (index, is_peak)
     let (mut cand, mut cand_is_peak) = (i0, true);
     let mut dir = 0i8;
-    for i in i0..n {
+    for i in i0..sm.len() {
         let x = sm[i];
         match dir {
             0 => {
@@ -330,6 +319,25 @@ pub fn extract(f: &[f64], x_d: Option<&[f64]>, dt: f64, freq: f64) -> FeatureSet
     if ext.first().is_some_and(|e| e.0 == i0) {
         ext.remove(0);
     }
+    ext
+}
+
+/// Features of a trace sampled every `dt` seconds: force `f` \[N\] and, where recorded, drive
+/// displacement `x_d` \[m\], at vibration frequency `freq` \[Hz\] (0 without vibration). `r`
+/// and the forcing features are left NaN ([`stage_features`] adds the latter).
+pub fn extract(f: &[f64], x_d: Option<&[f64]>, dt: f64, freq: f64) -> FeatureSet {
+    let n = f.len();
+    let i0 = n / 2;
+    let w = if freq > 0.0 { 1.0 / freq } else { 1e-3 };
+    let sm = smooth(f, dt, w);
+    let win = &sm[i0..];
+    let (lo, hi) = win
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| {
+            (a.min(x), b.max(x))
+        });
+    let h = (0.05 * (hi - lo)).max(0.1);
+    let ext = zigzag(&sm, i0, h);
     let mut per: [Vec<f64>; N_FEATURES] = Default::default();
     let t = |i: usize| i as f64 * dt;
     let mut peaks = vec![];

@@ -22,6 +22,7 @@
 pub mod check;
 pub mod diagnose;
 pub mod features;
+pub mod fingerprint;
 pub mod fit;
 pub mod report;
 pub mod synth;

@@ -106,7 +106,12 @@ pub fn json(c: &Campaign, d: &Diagnosis) -> serde_json::Value {
             "reduction": num(r.reduction),
             "score": num(r.score),
             "params": estimates_json(&r.fit.estimates),
+            "fingerprints": r.fingerprints,
+            "rejected": r.rejected,
         })).collect::<Vec<_>>(),
+        "rejected": d.ranking.iter().chain(&d.second).filter_map(|r| r.rejected.as_ref().map(|why| json!({
+            "effect": r.effect.name(), "reason": why,
+        }))).collect::<Vec<_>>(),
         "ranking": d.ranking.iter().map(|r| json!({
             "effect": r.effect.name(),
             "per_feature": per_feature_json(&d.base_per_feature, &r.per_feature),
@@ -123,6 +128,8 @@ pub fn json(c: &Campaign, d: &Diagnosis) -> serde_json::Value {
             "score": num(r.score),
             "gap_calibration": num(r.fit.gap),
             "params": estimates_json(&r.fit.estimates),
+            "fingerprints": r.fingerprints,
+            "rejected": r.rejected,
         })).collect::<Vec<_>>(),
         "where": {
             "summary": w.summary,
@@ -420,6 +427,18 @@ pub fn summary(c: &Campaign, d: &Diagnosis) -> String {
             top.effect.name(),
             words.join(", ")
         );
+    }
+    for r in d.ranking.iter().chain(&d.second) {
+        if r.fingerprints.is_empty() {
+            continue;
+        }
+        let _ = writeln!(s, "fingerprints of {} (beyond the fitted features):", r.effect.name());
+        for c in &r.fingerprints {
+            let _ = writeln!(s, "  {}", c.line());
+        }
+        if let Some(why) = &r.rejected {
+            let _ = writeln!(s, "  rejected: {why}");
+        }
     }
     for w in &d.warnings {
         let _ = writeln!(s, "WARNING: {w}");
