@@ -436,8 +436,8 @@ pub fn summary(c: &Campaign, d: &Diagnosis) -> String {
         for c in &r.fingerprints {
             let _ = writeln!(s, "  {}", c.line());
         }
-        if let Some(why) = &r.rejected {
-            let _ = writeln!(s, "  rejected: {why}");
+        if r.rejected.is_some() {
+            let _ = writeln!(s, "  rejected: not named, as a fingerprint it predicts is absent");
         }
     }
     for w in &d.warnings {
