@@ -658,9 +658,9 @@ def calibrate(
 class Diagnosis(_Report):
     """The verdict of ``stickslip diagnose``: the JSON's fields as attributes (``verdict``,
     ``best_effect``, ``effects``, ``partial``, ``tie``, ``evidence``, ``gap_before``,
-    ``gap_after``, ``reduction``, ``ranking``, ``where``, ``bounds``, ...), :meth:`to_dict`, the
-    printed report as ``summary``, and the report's figures as matplotlib figures
-    (:meth:`figures`)."""
+    ``gap_after``, ``reduction``, ``ranking`` (each with its ``fingerprints``), ``rejected``,
+    ``where``, ``bounds``, ...), :meth:`to_dict`, the printed report as ``summary``, and the
+    report's figures as matplotlib figures (:meth:`figures`)."""
 
     def __init__(self, data: dict[str, Any], summary: str, out: str, written: Sequence[str]) -> None:
         self.json = data

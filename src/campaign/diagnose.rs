@@ -1043,10 +1043,7 @@ fn vetted(
                 .iter()
                 .find(|c| c.seen == fingerprint::Seen::Absent)
             {
-                ranked[j].rejected = Some(format!(
-                    "its fingerprint is absent: {}",
-                    c.line()
-                ));
+                ranked[j].rejected = Some(format!("its fingerprint is absent: {}", c.line()));
                 any = true;
             }
         }
@@ -1241,7 +1238,13 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
                 .collect();
             second.sort_by(by_evidence);
             let first_share = |e2: f64| (first_cv.gap - e2) / first_cv.gap;
-            match vetted(&mut second, &all.recs, &first_fit.model, first_share, MIN_SECOND) {
+            match vetted(
+                &mut second,
+                &all.recs,
+                &first_fit.model,
+                first_share,
+                MIN_SECOND,
+            ) {
                 Some(t) if t.len() == 1 => {
                     let s2 = &second[0];
                     for b in &s2.at_bound {

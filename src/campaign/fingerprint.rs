@@ -276,7 +276,11 @@ fn judge(family: &'static str, what: &'static str, pairs: &[(f64, f64)]) -> Chec
     }
     let beta = pairs.iter().map(|p| p.0 * p.1).sum::<f64>() / spp;
     let dof = pairs.len().saturating_sub(1).max(1) as f64;
-    let s = (pairs.iter().map(|p| (p.0 - beta * p.1).powi(2)).sum::<f64>() / dof)
+    let s = (pairs
+        .iter()
+        .map(|p| (p.0 - beta * p.1).powi(2))
+        .sum::<f64>()
+        / dof)
         .sqrt()
         .max(1.0);
     let se = s / strength;

@@ -432,12 +432,19 @@ pub fn summary(c: &Campaign, d: &Diagnosis) -> String {
         if r.fingerprints.is_empty() {
             continue;
         }
-        let _ = writeln!(s, "fingerprints of {} (beyond the fitted features):", r.effect.name());
+        let _ = writeln!(
+            s,
+            "fingerprints of {} (beyond the fitted features):",
+            r.effect.name()
+        );
         for c in &r.fingerprints {
             let _ = writeln!(s, "  {}", c.line());
         }
         if r.rejected.is_some() {
-            let _ = writeln!(s, "  rejected: not named, as a fingerprint it predicts is absent");
+            let _ = writeln!(
+                s,
+                "  rejected: not named, as a fingerprint it predicts is absent"
+            );
         }
     }
     for w in &d.warnings {
