@@ -32,8 +32,8 @@
 //! (`diagnose`).
 
 use super::features::{smooth, zigzag};
-use super::fit::Model;
-use super::{Recording, Solvers, simulate_grid};
+use super::fit::{Model, simulate};
+use super::{Recording, Solvers};
 use rayon::prelude::*;
 
 /// Strength (in standard errors, summed in quadrature over statistics) below which a family
@@ -241,23 +241,6 @@ fn band_energies(y: &[f64], dt: f64, freq: f64, out: &mut [f64]) {
     }
 }
 
-/// The simulated force of `rec` under `model` on its sample grid (None where the run fails).
-fn simulated(model: &Model, rec: &Recording, solvers: &mut Solvers) -> Option<Vec<f64>> {
-    let p = model.params_for(rec);
-    match simulate_grid(
-        &p,
-        &model.effects,
-        rec.t[0],
-        rec.dt(),
-        rec.t.len(),
-        super::FIT_TOLERANCE,
-        solvers,
-    ) {
-        Ok(tr) if tr.status == crate::ode::Status::Success => Some(tr.f_d),
-        _ => None,
-    }
-}
-
 /// The outcome of one family from the standardised departures `(d_obs, d_pred)`.
 fn judge(family: &'static str, what: &'static str, pairs: &[(f64, f64)]) -> Check {
     let spp: f64 = pairs.iter().map(|p| p.1 * p.1).sum();
@@ -302,10 +285,14 @@ pub fn check(recs: &[&Recording], from: &Model, cand: &Model) -> Vec<Check> {
     let per: Vec<Vec<(f64, f64)>> = recs
         .par_iter()
         .map_init(Solvers::default, |s, rec| {
-            let (Some(fb), Some(fc)) = (simulated(from, rec, s), simulated(cand, rec, s)) else {
+            let (Some(fb), Some(fc)) = (simulate(from, rec, s), simulate(cand, rec, s)) else {
                 return vec![];
             };
-            let (m, b, c) = (ringing(rec, &rec.f_d), ringing(rec, &fb), ringing(rec, &fc));
+            let (m, b, c) = (
+                ringing(rec, &rec.f_d),
+                ringing(rec, &fb.f_d),
+                ringing(rec, &fc.f_d),
+            );
             let find = |v: &[Stat], k| v.iter().find(|s| s.key == k).copied();
             m.iter()
                 .filter_map(|sm| {

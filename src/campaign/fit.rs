@@ -19,7 +19,7 @@
 use super::features::{
     FEATURES, Feature, FeatureSet, Stage, quantize, quantum, stage_features, stages, weigh_quantum,
 };
-use super::{Recording, Solvers, simulate_grid};
+use super::{Recording, SimTrace, Solvers, simulate_grid};
 use crate::model::effects::actuator_gain;
 use crate::model::{EffectKind, Effects, Params};
 use crate::sweep::spec::logspace;
@@ -663,10 +663,11 @@ pub fn zscore(m: &FeatureSet, p: &FeatureSet, f: Feature) -> Option<f64> {
     Some(d / sigma)
 }
 
-fn predict_one(model: &Model, rec: &Recording, solvers: &mut Solvers) -> Vec<FeatureSet> {
+/// The simulation of recording `rec` under `model` on its sample grid, at the fits' tolerance
+/// (`None` where the run fails).
+pub fn simulate(model: &Model, rec: &Recording, solvers: &mut Solvers) -> Option<SimTrace> {
     let p = model.params_for(rec);
-    let n_stages = stages(&rec.t, &rec.params).len();
-    match simulate_grid(
+    simulate_grid(
         &p,
         &model.effects,
         rec.t[0],
@@ -674,14 +675,20 @@ fn predict_one(model: &Model, rec: &Recording, solvers: &mut Solvers) -> Vec<Fea
         rec.t.len(),
         super::FIT_TOLERANCE,
         solvers,
-    ) {
-        Ok(tr) if tr.status == crate::ode::Status::Success => trace_features(
+    )
+    .ok()
+    .filter(|tr| tr.status == crate::ode::Status::Success)
+}
+
+fn predict_one(model: &Model, rec: &Recording, solvers: &mut Solvers) -> Vec<FeatureSet> {
+    match simulate(model, rec, solvers) {
+        Some(tr) => trace_features(
             rec,
             &tr.f_d,
             rec.x_s.as_ref().map(|_| &tr.x_s[..]),
             rec.x_d.as_ref().map(|_| &tr.x_d[..]),
         ),
-        _ => vec![FeatureSet::nan(); n_stages],
+        None => vec![FeatureSet::nan(); stages(&rec.t, &rec.params).len()],
     }
 }
 

@@ -583,6 +583,43 @@ pub fn write_h5(
                 &tmp,
             )?;
             write_estimates(&eg, &r.fit.estimates, &tmp)?;
+            // Each fingerprint family checked: share carried, its error, the prediction's
+            // strength; what it showed and any rejection as attributes.
+            for c in &r.fingerprints {
+                let fg = eg
+                    .create_group(&format!("fingerprint_{}", c.family))
+                    .map_err(h5err(&tmp))?;
+                fg.set_attr_string("seen", &c.seen.name().replace(' ', "_"))
+                    .map_err(h5err(&tmp))?;
+                fg.set_attr_string("what", c.what).map_err(h5err(&tmp))?;
+                write_vec(
+                    &fg,
+                    "share",
+                    &[c.share],
+                    "1",
+                    "share of the predicted departure the data carry",
+                    &tmp,
+                )?;
+                write_vec(
+                    &fg,
+                    "share_se",
+                    &[c.share_se],
+                    "1",
+                    "its standard error",
+                    &tmp,
+                )?;
+                write_vec(
+                    &fg,
+                    "strength",
+                    &[c.strength],
+                    "1",
+                    "predicted departure, standard errors in quadrature",
+                    &tmp,
+                )?;
+            }
+            if let Some(why) = &r.rejected {
+                eg.set_attr_string("rejected", why).map_err(h5err(&tmp))?;
+            }
         }
         let cg = root.create_group("calibration").map_err(h5err(&tmp))?;
         write_estimates(&cg, &d.base.estimates, &tmp)?;

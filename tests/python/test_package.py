@@ -345,6 +345,17 @@ def test_diagnose_from_frames_gives_the_cli_verdict(small_campaign: Path, tmp_pa
     # Its datasets by path, those of one group over shared dimensions.
     gaps = h5["recordings/gap_base"]
     assert gaps.dims == h5["recordings/gap_best"].dims and gaps.size == len(camp)
+    # A named effect was checked for its fingerprints; h5py reads each family the JSON reports.
+    if by_cli["verdict"] == "effect":
+        assert by_cli["ranking"][0]["fingerprints"], by_cli["ranking"][0]
+    import h5py
+
+    with h5py.File(tmp_path / "py" / "diagnosis.h5", "r") as f:
+        for i, r in enumerate(by_cli["ranking"]):
+            for c in r["fingerprints"]:
+                g = f[f"ranking/{i:02d}_{r['effect']}/fingerprint_{c['family']}"]
+                assert g.attrs["seen"] == c["seen"]
+                assert g["strength"][0] == pytest.approx(c["strength"], rel=1e-12)
 
 
 def test_hostile_paths_are_only_paths(tmp_path: Path) -> None:
