@@ -1032,7 +1032,9 @@ fn vetted(
     min_share: f64,
 ) -> Option<Vec<usize>> {
     let out = loop {
-        let t = decide(ranked, &share, min_share)?;
+        let Some(t) = decide(ranked, &share, min_share) else {
+            break None;
+        };
         let mut any = false;
         for &j in &t {
             if ranked[j].fingerprints.is_empty() {
@@ -1048,18 +1050,19 @@ fn vetted(
             }
         }
         if !any {
-            break t;
+            break Some(t);
         }
     };
-    // Stable: the live candidates first, the named (or tied) ones at the head.
-    let named: Vec<EffectKind> = out.iter().map(|&j| ranked[j].effect).collect();
+    // Stable: the live candidates first, the named (or tied) ones at the head, the rejected
+    // last (also where none is named: the ranking's head is the best candidate not rejected).
+    let named: Vec<EffectKind> = out.iter().flatten().map(|&j| ranked[j].effect).collect();
     ranked.sort_by_key(|r| (r.rejected.is_some(), !named.contains(&r.effect)));
     let mut order: Vec<usize> = named
         .iter()
         .map(|k| ranked.iter().position(|r| r.effect == *k).unwrap())
         .collect();
     order.sort_unstable();
-    Some(order)
+    out.map(|_| order)
 }
 
 /// Diagnoses a campaign. A campaign none of whose recordings can be checked on held-out data

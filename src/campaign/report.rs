@@ -395,10 +395,31 @@ pub fn summary(c: &Campaign, d: &Diagnosis) -> String {
             super::diagnose::FEATURE_GAP
         ),
         None => {
+            let rejected: Vec<String> = d
+                .ranking
+                .iter()
+                .filter(|r| r.rejected.is_some())
+                .map(|r| {
+                    format!(
+                        "{} (cuts it by {:.0} %)",
+                        r.effect.name(),
+                        100.0 * r.reduction
+                    )
+                })
+                .collect();
+            let live = d.ranking.iter().find(|r| r.rejected.is_none());
             format!(
-                "verdict: unexplained: no candidate explains the gap (best {} cuts it by {:.0} %)",
-                d.ranking.first().map_or("-", |r| r.effect.name()),
-                100.0 * d.ranking.first().map_or(0.0, |r| r.reduction)
+                "verdict: unexplained: no candidate explains the gap (best {} cuts it by {:.0} %){}",
+                live.map_or("-", |r| r.effect.name()),
+                100.0 * live.map_or(0.0, |r| r.reduction),
+                if rejected.is_empty() {
+                    String::new()
+                } else {
+                    format!(
+                        "; rejected, as fingerprints they predict are absent: {}",
+                        rejected.join(", ")
+                    )
+                }
             ) + &strength
         }
     };
