@@ -1025,7 +1025,7 @@ fn decide(ranked: &[Ranked], share: impl Fn(f64) -> f64, min_share: f64) -> Opti
 /// absent is rejected (with the reason) and the decision taken again without it. The ranking is
 /// then reordered so that the candidates not rejected come first, in their order of evidence.
 fn vetted(
-    ranked: &mut Vec<Ranked>,
+    ranked: &mut [Ranked],
     recs: &[&Recording],
     from: &Model,
     share: impl Fn(f64) -> f64,

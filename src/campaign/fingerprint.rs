@@ -330,7 +330,7 @@ mod tests {
         let nd = Normal::new(0.0, 0.5).unwrap();
         let n = 1024;
         let mut e = vec![0.0; 6];
-        let mut acc = vec![0.0; 6];
+        let mut acc = [0.0; 6];
         for _ in 0..50 {
             let y: Vec<f64> = (0..n)
                 .map(|i| 3.0 + 0.01 * i as f64 + nd.sample(&mut rng))
