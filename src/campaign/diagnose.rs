@@ -1031,6 +1031,8 @@ fn vetted(
     share: impl Fn(f64) -> f64,
     min_share: f64,
 ) -> Option<Vec<usize>> {
+    // The measured statistics and `from`'s, made once for every candidate checked here.
+    let mut reference: Option<fingerprint::Reference> = None;
     let out = loop {
         let Some(t) = decide(ranked, &share, min_share) else {
             break None;
@@ -1038,7 +1040,8 @@ fn vetted(
         let mut any = false;
         for &j in &t {
             if ranked[j].fingerprints.is_empty() {
-                ranked[j].fingerprints = fingerprint::check(recs, from, &ranked[j].fit.model);
+                let r = reference.get_or_insert_with(|| fingerprint::Reference::of(recs, from));
+                ranked[j].fingerprints = r.check(recs, &ranked[j].fit.model);
             }
             if let Some(c) = ranked[j]
                 .fingerprints

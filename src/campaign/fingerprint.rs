@@ -64,13 +64,13 @@ pub enum Seen {
 }
 
 impl Seen {
-    /// Name in reports.
+    /// Name in reports, as the JSON spells it.
     pub fn name(self) -> &'static str {
         match self {
             Seen::Present => "present",
             Seen::Absent => "absent",
             Seen::Inconclusive => "inconclusive",
-            Seen::NotTestable => "not testable",
+            Seen::NotTestable => "not_testable",
         }
     }
 }
@@ -279,42 +279,62 @@ fn judge(family: &'static str, what: &'static str, pairs: &[(f64, f64)]) -> Chec
     c
 }
 
-/// Checks the fingerprints of `cand` (a fit of a candidate effect) against the model `from` it
-/// extends, on the recordings `recs` (in parallel over recordings; deterministic).
-pub fn check(recs: &[&Recording], from: &Model, cand: &Model) -> Vec<Check> {
-    let per: Vec<Vec<(f64, f64)>> = recs
-        .par_iter()
-        .map_init(Solvers::default, |s, rec| {
-            let (Some(fb), Some(fc)) = (simulate(from, rec, s), simulate(cand, rec, s)) else {
-                return vec![];
-            };
-            let (m, b, c) = (
-                ringing(rec, &rec.f_d),
-                ringing(rec, &fb.f_d),
-                ringing(rec, &fc.f_d),
-            );
-            let find = |v: &[Stat], k| v.iter().find(|s| s.key == k).copied();
-            m.iter()
-                .filter_map(|sm| {
-                    let (sb, sc) = (find(&b, sm.key)?, find(&c, sm.key)?);
-                    let sigma = (sm.se.powi(2) + sb.se.powi(2) + sc.se.powi(2)).sqrt();
-                    (sigma > 0.0 && sigma.is_finite())
-                        .then(|| ((sm.value - sb.value) / sigma, (sc.value - sb.value) / sigma))
-                })
-                .collect()
-        })
-        .collect();
-    let pairs: Vec<(f64, f64)> = per.into_iter().flatten().collect();
-    vec![judge(
-        "ringing",
-        "the force's spectrum after slips against before them",
-        &pairs,
-    )]
+/// What every candidate extending one model is checked against: per recording, the measured
+/// statistics and those of the model `from` the candidates extend (`None` where its run fails),
+/// made once for all the candidates checked against it.
+pub struct Reference {
+    per: Vec<Option<(Vec<Stat>, Vec<Stat>)>>,
 }
 
-/// Whether any family of `checks` found the fingerprint absent.
-pub fn rejects(checks: &[Check]) -> bool {
-    checks.iter().any(|c| c.seen == Seen::Absent)
+impl Reference {
+    /// The statistics of the recordings `recs` and of `from` simulated for each (in parallel
+    /// over recordings; deterministic).
+    pub fn of(recs: &[&Recording], from: &Model) -> Reference {
+        let per = recs
+            .par_iter()
+            .map_init(Solvers::default, |s, rec| {
+                let fb = simulate(from, rec, s)?;
+                Some((ringing(rec, &rec.f_d), ringing(rec, &fb.f_d)))
+            })
+            .collect();
+        Reference { per }
+    }
+
+    /// Checks the fingerprints of `cand` (a fit of a candidate effect extending the reference's
+    /// model) on the same recordings `recs`.
+    pub fn check(&self, recs: &[&Recording], cand: &Model) -> Vec<Check> {
+        let per: Vec<Vec<(f64, f64)>> = recs
+            .par_iter()
+            .zip(&self.per)
+            .map_init(Solvers::default, |s, (rec, reference)| {
+                let (Some((m, b)), Some(fc)) = (reference, simulate(cand, rec, s)) else {
+                    return vec![];
+                };
+                let c = ringing(rec, &fc.f_d);
+                let find = |v: &[Stat], k| v.iter().find(|s| s.key == k).copied();
+                m.iter()
+                    .filter_map(|sm| {
+                        let (sb, sc) = (find(b, sm.key)?, find(&c, sm.key)?);
+                        let sigma = (sm.se.powi(2) + sb.se.powi(2) + sc.se.powi(2)).sqrt();
+                        (sigma > 0.0 && sigma.is_finite())
+                            .then(|| ((sm.value - sb.value) / sigma, (sc.value - sb.value) / sigma))
+                    })
+                    .collect()
+            })
+            .collect();
+        let pairs: Vec<(f64, f64)> = per.into_iter().flatten().collect();
+        vec![judge(
+            "ringing",
+            "the force's spectrum after slips against before them",
+            &pairs,
+        )]
+    }
+}
+
+/// Checks the fingerprints of `cand` (a fit of a candidate effect) against the model `from` it
+/// extends, on the recordings `recs` ([`Reference::of`], then [`Reference::check`]).
+pub fn check(recs: &[&Recording], from: &Model, cand: &Model) -> Vec<Check> {
+    Reference::of(recs, from).check(recs, cand)
 }
 
 #[cfg(test)]

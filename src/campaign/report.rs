@@ -610,7 +610,7 @@ pub fn write_h5(
                 let fg = eg
                     .create_group(&format!("fingerprint_{}", c.family))
                     .map_err(h5err(&tmp))?;
-                fg.set_attr_string("seen", &c.seen.name().replace(' ', "_"))
+                fg.set_attr_string("seen", c.seen.name())
                     .map_err(h5err(&tmp))?;
                 fg.set_attr_string("what", c.what).map_err(h5err(&tmp))?;
                 write_vec(
