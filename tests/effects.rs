@@ -262,6 +262,35 @@ fn viscous_adds_h_v_times_slip_velocity() {
     }
 }
 
+/// With an exponent, the viscous term is a power of the slip velocity with its sign:
+/// `h_v v_r (|v_r|/1 mm/s)^(n−1)`; a quadratic drag `c₂ v_r |v_r|` is `h_v = c₂ · 1 mm/s`.
+#[test]
+fn viscous_exponent_makes_a_power_law_drag() {
+    let p = Params::default();
+    let c2 = 4e4; // N s²/m²
+    let rig = Rig::with_effects(p, &fx(&format!("viscous:h_v={},exponent=2", c2 * 1e-3))).unwrap();
+    let base = Rig::new(p).unwrap();
+    for (v, s) in [
+        (5e-3, 1.5e-7),
+        (-2e-3, -1e-7),
+        (0.0, 0.3e-7),
+        (0.4e-3, 1e-7),
+    ] {
+        let y = state(&rig, 0.0, v, s);
+        let d = friction(&rig, 0.0, &y) - friction(&base, 0.0, &y);
+        let want = c2 * v * f64::abs(v);
+        assert!(
+            (d - want).abs() < 1e-9 + 1e-12 * want.abs(),
+            "v = {v}: {d} against {want}"
+        );
+    }
+    let rig = Rig::with_effects(p, &fx("viscous:h_v=30,exponent=1.5")).unwrap();
+    let y = state(&rig, 0.0, 4e-3, 1e-7);
+    let d = friction(&rig, 0.0, &y) - friction(&base, 0.0, &y);
+    // 30 N s/m · 4 mm/s · √4 = 0.24 N.
+    assert!((d - 0.24).abs() < 1e-9, "{d}");
+}
+
 /// In steady sliding the bristle rests at s = g(v) and friction is the Stribeck curve
 /// F_c + (F_s − F_c) exp(−|v/v_s|^δ) (+ h_v v).
 #[test]

@@ -784,22 +784,33 @@ fn try_candidate(
     // not every recording); only a candidate that removes SCREEN_BAR of that gap is fitted
     // further, on every recording, from the screen's optimum.
     let (sub, from_gap) = (screen.recordings(all), screen.gap);
-    let (first, checks) = screen.start(all, &start, &effects);
+    let (firsts, mut checks) = screen.starts(all, &start, &effects);
     let screen_opts = FitOptions {
         max_iter: opts.max_iter.min(SCREEN_ITERATIONS),
         rel_tol: SCREEN_REL_TOL,
         reach: (1.0 - SCREEN_BAR) * from_gap,
         ..opts
     };
-    // The bar checked first on the extended model's Jacobian columns from its own fit on
-    // these recordings and the candidate's differenced: a candidate out of reach costs those.
-    let s = match &screen.jacobian {
-        Some(known) => fit::fit_extending(sub, first, known, screen_opts),
-        None => fit::fit_from(sub, first, screen_opts),
-    };
-    if !(s.gap <= (1.0 - SCREEN_BAR) * from_gap) {
-        return as_from();
+    let bar = (1.0 - SCREEN_BAR) * from_gap;
+    let mut passed = None;
+    for first in firsts {
+        // The bar checked first on the extended model's Jacobian columns from its own fit on
+        // these recordings and the candidate's differenced: a candidate out of reach costs
+        // those.
+        let s = match &screen.jacobian {
+            Some(known) => fit::fit_extending(sub, first, known, screen_opts),
+            None => fit::fit_from(sub, first, screen_opts),
+        };
+        if s.gap <= bar {
+            passed = Some(s);
+            break;
+        }
+        // A failed screen's evaluations count with the fit's where its recordings are the fit's.
+        checks += s.evaluations;
     }
+    let Some(s) = passed else {
+        return as_from();
+    };
     // A resonance's narrow valley next to the screen's optimum (fit::line_search).
     let (line, n) = fit::line_search(sub, &s, k);
     let rank_opts = FitOptions {
@@ -924,14 +935,25 @@ impl<'a> Screen<'a> {
         }
     }
 
-    /// The screening fit's start for the candidate `effects` (the extended model's and the
+    /// The screening fit's starts for the candidate `effects` (the extended model's and the
     /// candidate `k`, last) from its scan's best start `scanned`: `k`'s parameters from the
-    /// scan on the extended model as fitted to the screen's recordings (refitted to a subset),
-    /// or, where that misses them by more than the extended model does (the scan scores half
-    /// as many recordings, and on the model fitted to all), `k` at its neutral values there
-    /// ([`fit::neutral_start`]). Evaluated on the screen's recordings, with the number of
-    /// evaluations beside the one the screening fit counts (0, or 1 for the neutral start).
-    fn start(&self, all: &Target, scanned: &Model, effects: &[EffectKind]) -> (fit::Start, usize) {
+    /// scan on the extended model as fitted to the screen's recordings (refitted to a subset);
+    /// where that misses them by more than the extended model does (the scan scores half as
+    /// many recordings, on the model fitted to all, and holds the extended model's parameters
+    /// where the candidate would move them), `k` at its neutral values there
+    /// ([`fit::neutral_start`]) besides, second: a screen is tried from the next only where
+    /// the one before fails its bar. Why both: an effect the extended model's parameters have
+    /// compensated (a friction growing with the slip velocity, absorbed by a lower `F_s`)
+    /// misses at its scanned values until those parameters move back, which the screen's
+    /// steps do; the neutral start keeps every candidate at least the model it extends.
+    /// Evaluated on the screen's recordings, with the number of evaluations beside the ones the
+    /// screening fits count (0, or 1 for the neutral start).
+    fn starts(
+        &self,
+        all: &Target,
+        scanned: &Model,
+        effects: &[EffectKind],
+    ) -> (Vec<fit::Start>, usize) {
         let k = *effects.last().expect("a candidate");
         let m = match &self.subset {
             Some((_, refit)) => {
@@ -946,11 +968,12 @@ impl<'a> Screen<'a> {
         let sub = self.recordings(all);
         let first = fit::prepare(sub, &m, effects);
         if first.gap() <= self.gap {
-            (first, 0)
+            (vec![first], 0)
         } else {
             let mut base = m;
             base.effects.list.retain(|(e, _)| *e != k);
-            (fit::prepare(sub, &fit::neutral_start(&base, k), effects), 1)
+            let neutral = fit::prepare(sub, &fit::neutral_start(&base, k), effects);
+            (vec![first, neutral], 1)
         }
     }
 

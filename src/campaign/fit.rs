@@ -449,15 +449,20 @@ fn same_drive(a: &Params, b: &Params) -> bool {
     a.v_d == b.v_d && a.k_d == b.k_d && a.f_n == b.f_n && a.m == b.m
 }
 
-/// Fills `r` of every vibrated unit that has a reference.
+/// Fills `r` of every vibrated unit that has a reference, with its standard error from those
+/// of both amplitudes, each at least the amplitude's floor ([`Feature::floor`]): a reference
+/// with next to no stick-slip (a drive that slides steadily) gives an `r` as uncertain as the
+/// ratio of two small numbers is, not a sharp one.
 fn fill_r(fs: &mut [FeatureSet], reference: &[Option<usize>]) {
+    let at_least_floor = |f: &FeatureSet| {
+        let (v, s) = (f.get(Feature::DF), f.stderr[Feature::DF as usize]);
+        let fl = Feature::DF.floor(v);
+        if s.is_finite() { s.hypot(fl) } else { fl }
+    };
     for i in 0..fs.len() {
         if let Some(j) = reference[i] {
             let (d, d0) = (fs[i].get(Feature::DF), fs[j].get(Feature::DF));
-            let (s, s0) = (
-                fs[i].stderr[Feature::DF as usize],
-                fs[j].stderr[Feature::DF as usize],
-            );
+            let (s, s0) = (at_least_floor(&fs[i]), at_least_floor(&fs[j]));
             let r = d / d0;
             fs[i].value[Feature::R as usize] = r;
             let rel = (s / d).powi(2) + (s0 / d0).powi(2);
@@ -1297,6 +1302,7 @@ pub fn neutral(kind: EffectKind, param: &str) -> Option<f64> {
         (K::SensorDynamics, "zeta") => 0.7,
         (K::DriveRipple, "a") => 0.0,
         (K::Viscous, "h_v") => 0.0,
+        (K::Viscous, "exponent") => 1.0,
         (K::StribeckShape, "delta") => 2.0,
         (K::Presliding, "spread") => 0.0,
         (K::FrictionalLag, "tau") => 3e-5,
@@ -1328,7 +1334,8 @@ fn fit_range(kind: EffectKind, param: &str) -> Option<(f64, f64)> {
 /// plausible range: the sensor's resonance at ten frequencies from 20 Hz to 20 kHz (a load cell
 /// carrying the frame rings at tens of hertz), each at a light, a moderate and a
 /// critical-like damping (0.05, 0.3, 0.7); the load modulation's phase with the velocity and
-/// against it (±90°); the others at four or five points of their range.
+/// against it (±90°); the viscous exponent linear and quadratic; the others at four or five points
+/// of their range.
 /// The actuator's resonance has a scan of its own ([`actuator_scan`]).
 fn scan_values(kind: EffectKind, param: &str) -> Vec<f64> {
     use EffectKind as K;
@@ -1341,6 +1348,8 @@ fn scan_values(kind: EffectKind, param: &str) -> Vec<f64> {
         // then turns the phase towards the displacement.
         (K::NormalCoupling, "phase") => vec![-90.0, 90.0],
         (K::Viscous, "h_v") => vec![20.0, 50.0, 100.0, 200.0],
+        // Linear (a film) and quadratic (a drag): the fit moves between and beyond them.
+        (K::Viscous, "exponent") => vec![1.0, 2.0],
         (K::StribeckShape, "delta") => vec![0.5, 1.0, 1.5, 3.0],
         (K::Presliding, "spread") => vec![0.3, 0.6, 0.9],
         (K::FrictionalLag, "tau") => logspace(1e-4, 1e-2, 4),

@@ -13,7 +13,7 @@
 //! normal_coupling    ν(t) = max(0, 1 + k_n A u0 sin(ω t + φ) / F_N);  F_c, F_s → ν F_c, ν F_s
 //! sensor_dynamics    F_m'' = ω_n² (F_d − F_m) − 2 ζ ω_n F_m'      (recorded force F_m, ω_n = 2π f_n)
 //! drive_ripple       x_d = v_d t + a sin(2π v_d t / λ)            (screw or stepper periodic error)
-//! viscous            F_F → F_F + h_v v_r                          (adds to the parameter h_v)
+//! viscous            F_F → F_F + h_v v_r (|v_r|/V_1)^(n−1),  V_1 = 1 mm/s   (n = 1: adds to h_v)
 //! stribeck_shape     exp(−(v_r/v_s)²) → exp(−|v_r/v_s|^δ)
 //! presliding         N Maxwell-slip elements of stiffness k_t/N, breakaway deformations
 //!                    α_i g(v_r), α_i = 1 + spread (2i/(N−1) − 1):  s_i' = v_r − |v_r| s_i/(α_i g),
@@ -42,7 +42,7 @@ pub enum EffectKind {
     SensorDynamics,
     /// A periodic error in the drive's motion.
     DriveRipple,
-    /// Friction proportional to the slip velocity.
+    /// Friction growing with the slip velocity (linearly, or as a power of it).
     Viscous,
     /// A Stribeck exponent other than 2.
     StribeckShape,
@@ -267,17 +267,29 @@ pub static EFFECTS: [EffectInfo; 10] = [
     EffectInfo {
         kind: EffectKind::Viscous,
         name: "viscous",
-        doc: "friction proportional to the slip velocity",
-        params: &[ep(
-            "h_v",
-            "N s/m",
-            "viscous friction coefficient (added to the model's h_v)",
-            0.0,
-            1e4,
-            50.0,
-            true,
-            false,
-        )],
+        doc: "friction growing with the slip velocity: proportional to it, or to a power of it",
+        params: &[
+            ep(
+                "h_v",
+                "N s/m",
+                "viscous friction coefficient at a slip velocity of 1 mm/s (added to the model's h_v where the exponent is 1)",
+                0.0,
+                1e4,
+                50.0,
+                true,
+                false,
+            ),
+            ep(
+                "exponent",
+                "-",
+                "power of the slip velocity: 1 linear (a lubricant film), 2 quadratic (a drag that grows with the square of the speed)",
+                1.0,
+                3.0,
+                1.0,
+                true,
+                false,
+            ),
+        ],
         candidate: true,
     },
     EffectInfo {
@@ -617,8 +629,10 @@ pub(crate) struct Resolved {
     pub sensor: Option<(f64, f64, usize)>,
     /// Drive ripple: `(a, 2π/λ)`.
     pub ripple: Option<(f64, f64)>,
-    /// Extra viscous coefficient [N s/m].
+    /// Extra viscous coefficient at `V_1` [N s/m].
     pub h_v: f64,
+    /// Its power of the slip velocity `n` (1: linear).
+    pub visc_n: f64,
     /// Stribeck exponent.
     pub delta: f64,
     /// Presliding: number of elements, spread, index of the second element.
@@ -642,6 +656,7 @@ impl Resolved {
             sensor: None,
             ripple: None,
             h_v: 0.0,
+            visc_n: 1.0,
             delta: 2.0,
             elements: 1,
             spread: 0.0,
@@ -669,7 +684,10 @@ impl Resolved {
                     r.dim += 2;
                 }
                 EffectKind::DriveRipple => r.ripple = Some((v[0], tau / v[1])),
-                EffectKind::Viscous => r.h_v = v[0],
+                EffectKind::Viscous => {
+                    r.h_v = v[0];
+                    r.visc_n = v[1];
+                }
                 EffectKind::StribeckShape => r.delta = v[0],
                 EffectKind::Presliding => {}
                 EffectKind::FrictionalLag => {

@@ -102,6 +102,11 @@ fn gauss(q2: f64) -> f64 {
 /// Largest state dimension of the rig with every effect on.
 pub const MAX_DIM: usize = 16;
 
+/// The slip velocity `V_1` [m/s] at which the `viscous` effect's coefficient `h_v` is given
+/// when its exponent is not 1: `F = h_v v_r (|v_r|/V_1)^(n−1)`, so that `h_v` keeps its unit
+/// and its size (a quadratic drag `c₂ v_r |v_r|` has `h_v = c₂ V_1`).
+pub const VISCOUS_REFERENCE: f64 = 1e-3;
+
 /// The rig as an ODE system. Build it once per run from validated [`Params`] (and, optionally,
 /// [`Effects`]).
 #[derive(Clone, Debug)]
@@ -304,7 +309,12 @@ impl Rig {
             sum_sd += sd;
         }
         let nf = n as f64;
-        let force = p.k_t * sum_s / nf + h * sum_sd / nf + (p.h_v + fx.h_v) * v_r;
+        let h_v = if fx.visc_n == 1.0 {
+            p.h_v + fx.h_v
+        } else {
+            p.h_v + fx.h_v * (a / VISCOUS_REFERENCE).powf(fx.visc_n - 1.0)
+        };
+        let force = p.k_t * sum_s / nf + h * sum_sd / nf + h_v * v_r;
         let f_d = self.drive_force(t, y);
         dy[X] = y[V];
         dy[V] = (f_d - force) / p.m; // (4.2)

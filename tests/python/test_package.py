@@ -99,7 +99,7 @@ def test_trace_is_a_dataset_with_units() -> None:
     assert {"F_d", "F_d_smooth", "x_s", "x_d"} <= set(tr.data_vars)
     # x_d = v_d t exactly (the drive's far end).
     np.testing.assert_allclose(tr["x_d"].values, 0.5e-3 * tr["t"].values, rtol=1e-12, atol=1e-18)
-    assert r.effects == {"viscous": {"h_v": 20.0}}
+    assert r.effects == {"viscous": {"h_v": 20.0, "exponent": 1.0}}
     # v_a = 2 v_d eliminates stick-slip at 1500 Hz (docs/model.md, result 3).
     assert r.r < 0.05
     assert stickslip.run(k_d=11_700, v_d=0.5e-3, trace=False).trace is None
