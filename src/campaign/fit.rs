@@ -449,20 +449,28 @@ fn same_drive(a: &Params, b: &Params) -> bool {
     a.v_d == b.v_d && a.k_d == b.k_d && a.f_n == b.f_n && a.m == b.m
 }
 
-/// Fills `r` of every vibrated unit that has a reference, with its standard error from those
-/// of both amplitudes, each at least the amplitude's floor ([`Feature::floor`]): a reference
-/// with next to no stick-slip (a drive that slides steadily) gives an `r` as uncertain as the
-/// ratio of two small numbers is, not a sharp one.
+/// Fills `r` of every vibrated unit that has a reference whose stick-slip amplitude is
+/// significant: at least [`R_REFERENCE_SIGMAS`] times its uncertainty (its standard error and
+/// floor, [`Feature::floor`], in quadrature). A drive that slides steadily without vibration
+/// has no stick-slip for vibration to reduce, and a ratio to its residual wobble would be a
+/// ratio of two small numbers: `r` is then undefined, and the amplitudes themselves (`dF`)
+/// carry the comparison.
 fn fill_r(fs: &mut [FeatureSet], reference: &[Option<usize>]) {
-    let at_least_floor = |f: &FeatureSet| {
-        let (v, s) = (f.get(Feature::DF), f.stderr[Feature::DF as usize]);
-        let fl = Feature::DF.floor(v);
-        if s.is_finite() { s.hypot(fl) } else { fl }
-    };
     for i in 0..fs.len() {
         if let Some(j) = reference[i] {
             let (d, d0) = (fs[i].get(Feature::DF), fs[j].get(Feature::DF));
-            let (s, s0) = (at_least_floor(&fs[i]), at_least_floor(&fs[j]));
+            let (s, s0) = (
+                fs[i].stderr[Feature::DF as usize],
+                fs[j].stderr[Feature::DF as usize],
+            );
+            let s0_all = if s0.is_finite() {
+                s0.hypot(Feature::DF.floor(d0))
+            } else {
+                Feature::DF.floor(d0)
+            };
+            if !(d0 >= R_REFERENCE_SIGMAS * s0_all) {
+                continue;
+            }
             let r = d / d0;
             fs[i].value[Feature::R as usize] = r;
             let rel = (s / d).powi(2) + (s0 / d0).powi(2);
@@ -474,6 +482,10 @@ fn fill_r(fs: &mut [FeatureSet], reference: &[Option<usize>]) {
         }
     }
 }
+
+/// How many of its standard errors (with its floor) a reference's stick-slip amplitude must
+/// reach for `r` to be defined against it ([`fill_r`]).
+pub const R_REFERENCE_SIGMAS: f64 = 3.0;
 
 /// Features of every stage of a trace sampled at the recording's times; `x_s` and `x_d` count
 /// only where given (where the recording has them), so measured and simulated traces pass
