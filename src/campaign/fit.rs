@@ -1782,6 +1782,25 @@ fn ripple_from_drive(recs: &[&Recording]) -> Option<(f64, f64)> {
 mod tests {
     use super::*;
 
+    /// `r` is the ratio of the amplitudes against a reference with stick-slip, and undefined
+    /// against one whose amplitude lies within three of its uncertainties (standard error and
+    /// the 0.02 N floor in quadrature): 0.05 N ± 0.01 N is within 3 × 0.022 N.
+    #[test]
+    fn r_needs_stick_slip_in_its_reference() {
+        let unit = |df: f64, se: f64| {
+            let mut f = FeatureSet::nan();
+            f.value[Feature::DF as usize] = df;
+            f.stderr[Feature::DF as usize] = se;
+            f
+        };
+        let mut fs = vec![unit(1.5, 0.01), unit(0.3, 0.01), unit(0.05, 0.01), unit(0.3, 0.01)];
+        fill_r(&mut fs, &[None, Some(0), None, Some(2)]);
+        assert!((fs[1].get(Feature::R) - 0.2).abs() < 1e-15);
+        assert!(fs[1].stderr[Feature::R as usize] > 0.0);
+        assert!(fs[3].get(Feature::R).is_nan(), "{}", fs[3].get(Feature::R));
+        assert!(fs[0].get(Feature::R).is_nan());
+    }
+
     /// The linearised minimum is the part of `z` outside the span of the Jacobian's columns:
     /// `z = (1, 2, 3)` against the first two unit vectors leaves `(0, 0, 3)`, gap `√3`; a
     /// repeated column (a coordinate the residuals do not tell apart from another) changes
