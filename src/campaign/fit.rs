@@ -155,6 +155,10 @@ fn coords(bounds: &Plausible, effects: &[EffectKind]) -> Vec<Coord> {
             };
             let step = if p.log {
                 0.05
+            } else if (k, p.name) == (EffectKind::NormalCoupling, "delay") {
+                // A delay turns the phase by 360° f t_d: 5 µs is 4.5° at 2.5 kHz, a step the
+                // features resolve where 0.05 % of the range would be lost in their roughness.
+                5e-6
             } else {
                 0.05 * p.default.abs().max(1e-3 * (p.max - p.min))
             };
@@ -1310,6 +1314,7 @@ pub fn neutral(kind: EffectKind, param: &str) -> Option<f64> {
         (K::ActuatorResponse, "f_r") => 1e5,
         (K::ActuatorResponse, "zeta") => 0.7,
         (K::NormalCoupling, "k_n") => 1e3,
+        (K::NormalCoupling, "delay") => 0.0,
         (K::SensorDynamics, "f_n") => 2e4,
         (K::SensorDynamics, "zeta") => 0.7,
         (K::DriveRipple, "a") => 0.0,
@@ -1414,6 +1419,11 @@ pub fn starts(target: &Target, base: &FitResult, kind: EffectKind) -> Model {
     {
         candidates.push(m);
     }
+    if kind == EffectKind::NormalCoupling
+        && let Some(m) = normal_scan(&sub, &m0)
+    {
+        candidates.push(m);
+    }
     let mut grid: Vec<Vec<(&str, f64)>> = vec![vec![]];
     for p in kind.info().params.iter().filter(|p| p.fitted) {
         // The scan's values within the campaign's plausible range, its ends added where the
@@ -1464,6 +1474,129 @@ pub fn starts(target: &Target, base: &FitResult, kind: EffectKind) -> Model {
     candidates.swap_remove(best)
 }
 
+/// The forcing frequencies of `sub`'s vibrated units, sorted, each once.
+fn forcing_frequencies(sub: &Target) -> Vec<f64> {
+    let mut freqs: Vec<f64> = sub
+        .units
+        .iter()
+        .map(|u| u.1.freq)
+        .filter(|&f| f > 0.0)
+        .collect();
+    freqs.sort_by(f64::total_cmp);
+    freqs.dedup();
+    freqs
+}
+
+/// Per forcing frequency of `freqs`: its vibrated recordings of `sub` with the recordings of
+/// their references.
+fn frequency_groups<'a>(sub: &Target<'a>, freqs: &[f64]) -> Vec<Target<'a>> {
+    freqs
+        .iter()
+        .map(|&f| {
+            let mut pick: Vec<usize> = vec![];
+            for (u, &(i, st)) in sub.units.iter().enumerate() {
+                if st.freq == f {
+                    pick.push(i);
+                    if let Some(r) = sub.reference[u] {
+                        pick.push(sub.units[r].0);
+                    }
+                }
+            }
+            pick.sort_unstable();
+            pick.dedup();
+            sub.sub(pick.into_iter().map(|i| sub.recs[i]).collect())
+        })
+        .collect()
+}
+
+/// Phases [deg] [`normal_scan`] tabulates at each forcing frequency: every 30°.
+pub const NORMAL_PHASES: usize = 12;
+
+/// Strengths `k_n` [`normal_scan`] tabulates at each forcing frequency: 1e6 to 1e8 N/m in
+/// steps of a factor 1.8 (the load modulation's effect on the friction grows about as fast as
+/// `k_n`, so the global scan's steps of 3.2 pass its optimum by).
+pub const NORMAL_STRENGTHS: usize = 9;
+
+/// The start of `normal_coupling` from a scan of the load modulation's phase at each forcing
+/// frequency.
+///
+/// At a recording's frequency `f` the effect acts through its strength `k_n` and the phase
+/// `ψ(f) = φ − 360° f t_d` alone, so the scan's cost is a sum over the forcing frequencies of
+/// the subset `sub`, each term a function of `(k_n, ψ)`. Each term is tabulated at
+/// [`NORMAL_STRENGTHS`] values of `k_n` and [`NORMAL_PHASES`] phases (the recordings at
+/// that frequency with their references), interpolated linearly in the phase (periodic), and
+/// the sum minimised over `k_n`, `φ` in steps of 5° and the delay `t_d` from 0 to its
+/// plausible end in steps that turn the phase at the highest frequency by 5°. A load path
+/// with a delay, whose phase falls with the frequency, is then found as a whole, where a grid
+/// of `(φ, t_d)` simulated start by start would need hundreds of runs. `None` where the subset
+/// does not vibrate.
+pub fn normal_scan(sub: &Target, m0: &Model) -> Option<Model> {
+    let kind = EffectKind::NormalCoupling;
+    let freqs = forcing_frequencies(sub);
+    if freqs.is_empty() {
+        return None;
+    }
+    let groups = frequency_groups(sub, &freqs);
+    let strengths = logspace(1e6, 1e8, NORMAL_STRENGTHS);
+    let phase = |j: usize| -180.0 + 360.0 * j as f64 / NORMAL_PHASES as f64;
+    let jobs: Vec<(usize, usize, usize)> = (0..freqs.len())
+        .flat_map(|i| {
+            (0..strengths.len()).flat_map(move |k| (0..NORMAL_PHASES).map(move |j| (i, k, j)))
+        })
+        .collect();
+    let costs: Vec<f64> = jobs
+        .par_iter()
+        .map(|&(i, k, j)| {
+            let mut m = m0.clone();
+            let _ = m.effects.set(kind, "k_n", strengths[k]);
+            let _ = m.effects.set(kind, "phase", phase(j));
+            let _ = m.effects.set(kind, "delay", 0.0);
+            let (ssq, _) = cost_of(&groups[i], &m);
+            if ssq.is_finite() { ssq } else { f64::INFINITY }
+        })
+        .collect();
+    // costs[(i * strengths + k) * NORMAL_PHASES + j], interpolated periodically in the phase.
+    let at = |i: usize, k: usize, psi: f64| -> f64 {
+        let x = (psi + 180.0).rem_euclid(360.0) / 360.0 * NORMAL_PHASES as f64;
+        let j0 = (x.floor() as usize).min(NORMAL_PHASES - 1);
+        let w = x - j0 as f64;
+        let j1 = (j0 + 1) % NORMAL_PHASES;
+        let base = (i * strengths.len() + k) * NORMAL_PHASES;
+        let (a, b) = (costs[base + j0], costs[base + j1]);
+        if !(a.is_finite() && b.is_finite()) {
+            return f64::INFINITY;
+        }
+        a + (b - a) * w
+    };
+    let (_, d_hi) = sub.bounds.range(kind, "delay");
+    let f_max = freqs[freqs.len() - 1];
+    let d_step = 5.0 / (360.0 * f_max);
+    let n_d = (d_hi / d_step).floor() as usize;
+    let mut best = (f64::INFINITY, strengths[0], 0.0, 0.0);
+    for (k, &k_n) in strengths.iter().enumerate() {
+        for p in 0..72 {
+            let phi = -180.0 + 5.0 * p as f64;
+            for d in 0..=n_d {
+                // By index: the grid's values are never accumulated.
+                let delay = d as f64 * d_step;
+                let c: f64 = freqs
+                    .iter()
+                    .enumerate()
+                    .map(|(i, &f)| at(i, k, phi - 360.0 * f * delay))
+                    .sum();
+                if c < best.0 {
+                    best = (c, k_n, phi, delay);
+                }
+            }
+        }
+    }
+    let mut m = m0.clone();
+    let _ = m.effects.set(kind, "k_n", best.1);
+    let _ = m.effects.set(kind, "phase", best.2);
+    let _ = m.effects.set(kind, "delay", best.3.min(d_hi));
+    Some(m)
+}
+
 /// Gains the actuator scan ([`actuator_scan`]) tabulates at each forcing frequency, evenly in
 /// `ln A` from [`ACTUATOR_GAIN_MIN`] to [`ACTUATOR_GAIN_MAX`] (steps of 20 %), with the neutral
 /// gain 1 besides.
@@ -1489,35 +1622,11 @@ pub const ACTUATOR_GAIN_MAX: f64 = 20.0;
 /// `None` where the subset does not vibrate.
 pub fn actuator_scan(sub: &Target, m0: &Model) -> Option<Model> {
     let kind = EffectKind::ActuatorResponse;
-    let mut freqs: Vec<f64> = sub
-        .units
-        .iter()
-        .map(|u| u.1.freq)
-        .filter(|&f| f > 0.0)
-        .collect();
-    freqs.sort_by(f64::total_cmp);
-    freqs.dedup();
+    let freqs = forcing_frequencies(sub);
     if freqs.is_empty() {
         return None;
     }
-    // Per frequency: its vibrated recordings with the recordings of their references.
-    let groups: Vec<Target> = freqs
-        .iter()
-        .map(|&f| {
-            let mut pick: Vec<usize> = vec![];
-            for (u, &(i, st)) in sub.units.iter().enumerate() {
-                if st.freq == f {
-                    pick.push(i);
-                    if let Some(r) = sub.reference[u] {
-                        pick.push(sub.units[r].0);
-                    }
-                }
-            }
-            pick.sort_unstable();
-            pick.dedup();
-            sub.sub(pick.into_iter().map(|i| sub.recs[i]).collect())
-        })
-        .collect();
+    let groups = frequency_groups(sub, &freqs);
     let (f_lo, f_hi) = sub.bounds.range(kind, "f_r");
     // A resonance that gives gain `g` at `f`: below `f` for g < 1 (`(f/f_r)² = 1 + 1/g`), above
     // it for g > 1 (`(f/f_r)² = 1 − 1/g`), lightly damped; the neutral start `m0` for 1. The
@@ -1793,7 +1902,12 @@ mod tests {
             f.stderr[Feature::DF as usize] = se;
             f
         };
-        let mut fs = vec![unit(1.5, 0.01), unit(0.3, 0.01), unit(0.05, 0.01), unit(0.3, 0.01)];
+        let mut fs = vec![
+            unit(1.5, 0.01),
+            unit(0.3, 0.01),
+            unit(0.05, 0.01),
+            unit(0.3, 0.01),
+        ];
         fill_r(&mut fs, &[None, Some(0), None, Some(2)]);
         assert!((fs[1].get(Feature::R) - 0.2).abs() < 1e-15);
         assert!(fs[1].stderr[Feature::R as usize] > 0.0);

@@ -10,7 +10,7 @@
 //! aging              θ' = 1 − |v_r| θ / D_c                       (Dieterich's ageing law, θ = contact age)
 //!                    F_s → F_s (1 + b ln(1 + θ/θ_0))
 //! actuator_response  u0 → A u0,  A = 1 / √((1 − (f/f_r)²)² + (2 ζ f/f_r)²)   (piezo + saddle resonance)
-//! normal_coupling    ν(t) = max(0, 1 + k_n A u0 sin(ω t + φ) / F_N);  F_c, F_s → ν F_c, ν F_s
+//! normal_coupling    ν(t) = max(0, 1 + k_n A u0 sin(ω (t − t_d) + φ) / F_N);  F_c, F_s → ν F_c, ν F_s
 //! sensor_dynamics    F_m'' = ω_n² (F_d − F_m) − 2 ζ ω_n F_m'      (recorded force F_m, ω_n = 2π f_n)
 //! drive_ripple       x_d = v_d t + a sin(2π v_d t / λ)            (screw or stepper periodic error)
 //! viscous            F_F → F_F + h_v v_r (|v_r|/V_1)^(n−1),  V_1 = 1 mm/s   (n = 1: adds to h_v)
@@ -202,6 +202,16 @@ pub static EFFECTS: [EffectInfo; 10] = [
                 -180.0,
                 180.0,
                 90.0,
+                true,
+                false,
+            ),
+            ep(
+                "delay",
+                "s",
+                "time by which the load change lags the displacement besides its phase (a load path with a delay: its phase falls by 360° f delay)",
+                0.0,
+                1e-3,
+                0.0,
                 true,
                 false,
             ),
@@ -623,7 +633,7 @@ pub(crate) struct Resolved {
     pub gain: f64,
     /// Ageing: `(b, θ_0, D_c, index of θ)`.
     pub aging: Option<(f64, f64, f64, usize)>,
-    /// Normal coupling: `(k_n / F_N, φ [rad])`.
+    /// Normal coupling: `(k_n / F_N, φ − ω t_d [rad])`.
     pub normal: Option<(f64, f64)>,
     /// Sensor: `(ω_n, ζ, index of F_m)` (F_m' follows).
     pub sensor: Option<(f64, f64, usize)>,
@@ -678,7 +688,9 @@ impl Resolved {
                     r.dim += 1;
                 }
                 EffectKind::ActuatorResponse => r.gain = actuator_gain(f, v[0], v[1]),
-                EffectKind::NormalCoupling => r.normal = Some((v[0] / f_n, v[1].to_radians())),
+                EffectKind::NormalCoupling => {
+                    r.normal = Some((v[0] / f_n, v[1].to_radians() - tau * f * v[2]))
+                }
                 EffectKind::SensorDynamics => {
                     r.sensor = Some((tau * v[0], v[1], r.dim));
                     r.dim += 2;
