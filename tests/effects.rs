@@ -178,6 +178,48 @@ fn normal_coupling_modulates_the_friction_limits() {
     }
 }
 
+/// A delayed load path: ν(t) = 1 + k_n u(t − t_d + φ/ω)/F_N. At f = 1 kHz a delay of 0.25 ms
+/// is a quarter period, so phase 90° with that delay is the load in step with the displacement
+/// itself: at t = 0 (u = 0) the friction limits are unchanged, and a quarter period later
+/// (u = u0) they are scaled by 1 + k_n u0/F_N.
+#[test]
+fn normal_coupling_delay_turns_the_phase_with_frequency() {
+    let p = Params {
+        f: 1000.0,
+        u0: 2e-7,
+        ..Params::default()
+    };
+    let k_n = 3e7;
+    let rig = Rig::with_effects(
+        p,
+        &fx(&format!("normal_coupling:k_n={k_n},phase=90,delay=0.25e-3")),
+    )
+    .unwrap();
+    let base = Rig::new(p).unwrap();
+    let nu = 1.0 + k_n * p.u0 / p.f_n;
+    let scaled = Rig::new(Params {
+        f_c: nu * p.f_c,
+        f_s: nu * p.f_s,
+        ..p
+    })
+    .unwrap();
+    let quarter = 0.25e-3;
+    for (v, s) in [(1e-3, 1.0e-7), (-2e-4, -0.5e-7), (0.0, 1.2e-7)] {
+        let y = state(&rig, 0.0, v, s);
+        let (a, b) = (friction(&rig, 0.0, &y), friction(&base, 0.0, &y));
+        assert!(
+            (a - b).abs() < 1e-9 * b.abs().max(1.0),
+            "t = 0, v = {v}: {a} vs {b}"
+        );
+        // v_r is the same for both at any t: the substrate velocity is a property of p.
+        let (a, b) = (friction(&rig, quarter, &y), friction(&scaled, quarter, &y));
+        assert!(
+            (a - b).abs() < 1e-6 * b.abs().max(1.0),
+            "t = T/4, v = {v}: {a} vs {b}"
+        );
+    }
+}
+
 /// A second-order sensor on a force ramp lags by 2ζ/ω_n once its transient has died.
 #[test]
 fn sensor_dynamics_lag_a_ramp_by_two_zeta_over_omega() {
