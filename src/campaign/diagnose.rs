@@ -792,7 +792,7 @@ fn try_candidate(
         ..opts
     };
     let bar = (1.0 - SCREEN_BAR) * from_gap;
-    let mut passed = None;
+    let mut passed: Option<FitResult> = None;
     for first in firsts {
         // The bar checked first on the extended model's Jacobian columns from its own fit on
         // these recordings and the candidate's differenced: a candidate out of reach costs
@@ -801,12 +801,16 @@ fn try_candidate(
             Some(known) => fit::fit_extending(sub, first, known, screen_opts),
             None => fit::fit_from(sub, first, screen_opts),
         };
-        if s.gap <= bar {
-            passed = Some(s);
-            break;
+        // The lowest screen that passes goes on (the first of equals); the others' evaluations
+        // count with the fit's where its recordings are the fit's.
+        let better = s.gap <= bar && passed.as_ref().is_none_or(|p| s.gap < p.gap);
+        if better {
+            if let Some(p) = passed.replace(s) {
+                checks += p.evaluations;
+            }
+        } else {
+            checks += s.evaluations;
         }
-        // A failed screen's evaluations count with the fit's where its recordings are the fit's.
-        checks += s.evaluations;
     }
     let Some(s) = passed else {
         return as_from();
@@ -941,8 +945,8 @@ impl<'a> Screen<'a> {
     /// where that misses them by more than the extended model does (the scan scores half as
     /// many recordings, on the model fitted to all, and holds the extended model's parameters
     /// where the candidate would move them), `k` at its neutral values there
-    /// ([`fit::neutral_start`]) besides, second: a screen is tried from the next only where
-    /// the one before fails its bar. Why both: an effect the extended model's parameters have
+    /// ([`fit::neutral_start`]) besides: a screen is run from each, and the lowest that passes
+    /// its bar goes on. Why both: an effect the extended model's parameters have
     /// compensated (a friction growing with the slip velocity, absorbed by a lower `F_s`)
     /// misses at its scanned values until those parameters move back, which the screen's
     /// steps do; the neutral start keeps every candidate at least the model it extends.

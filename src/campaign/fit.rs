@@ -453,12 +453,7 @@ fn same_drive(a: &Params, b: &Params) -> bool {
     a.v_d == b.v_d && a.k_d == b.k_d && a.f_n == b.f_n && a.m == b.m
 }
 
-/// Fills `r` of every vibrated unit that has a reference whose stick-slip amplitude is
-/// significant: at least [`R_REFERENCE_SIGMAS`] times its uncertainty (its standard error and
-/// floor, [`Feature::floor`], in quadrature). A drive that slides steadily without vibration
-/// has no stick-slip for vibration to reduce, and a ratio to its residual wobble would be a
-/// ratio of two small numbers: `r` is then undefined, and the amplitudes themselves (`dF`)
-/// carry the comparison.
+/// Fills `r` of every vibrated unit that has a reference.
 fn fill_r(fs: &mut [FeatureSet], reference: &[Option<usize>]) {
     for i in 0..fs.len() {
         if let Some(j) = reference[i] {
@@ -467,14 +462,6 @@ fn fill_r(fs: &mut [FeatureSet], reference: &[Option<usize>]) {
                 fs[i].stderr[Feature::DF as usize],
                 fs[j].stderr[Feature::DF as usize],
             );
-            let s0_all = if s0.is_finite() {
-                s0.hypot(Feature::DF.floor(d0))
-            } else {
-                Feature::DF.floor(d0)
-            };
-            if !(d0 >= R_REFERENCE_SIGMAS * s0_all) {
-                continue;
-            }
             let r = d / d0;
             fs[i].value[Feature::R as usize] = r;
             let rel = (s / d).powi(2) + (s0 / d0).powi(2);
@@ -486,10 +473,6 @@ fn fill_r(fs: &mut [FeatureSet], reference: &[Option<usize>]) {
         }
     }
 }
-
-/// How many of its standard errors (with its floor) a reference's stick-slip amplitude must
-/// reach for `r` to be defined against it ([`fill_r`]).
-pub const R_REFERENCE_SIGMAS: f64 = 3.0;
 
 /// Features of every stage of a trace sampled at the recording's times; `x_s` and `x_d` count
 /// only where given (where the recording has them), so measured and simulated traces pass
@@ -1890,30 +1873,6 @@ fn ripple_from_drive(recs: &[&Recording]) -> Option<(f64, f64)> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// `r` is the ratio of the amplitudes against a reference with stick-slip, and undefined
-    /// against one whose amplitude lies within three of its uncertainties (standard error and
-    /// the 0.02 N floor in quadrature): 0.05 N ± 0.01 N is within 3 × 0.022 N.
-    #[test]
-    fn r_needs_stick_slip_in_its_reference() {
-        let unit = |df: f64, se: f64| {
-            let mut f = FeatureSet::nan();
-            f.value[Feature::DF as usize] = df;
-            f.stderr[Feature::DF as usize] = se;
-            f
-        };
-        let mut fs = vec![
-            unit(1.5, 0.01),
-            unit(0.3, 0.01),
-            unit(0.05, 0.01),
-            unit(0.3, 0.01),
-        ];
-        fill_r(&mut fs, &[None, Some(0), None, Some(2)]);
-        assert!((fs[1].get(Feature::R) - 0.2).abs() < 1e-15);
-        assert!(fs[1].stderr[Feature::R as usize] > 0.0);
-        assert!(fs[3].get(Feature::R).is_nan(), "{}", fs[3].get(Feature::R));
-        assert!(fs[0].get(Feature::R).is_nan());
-    }
 
     /// The linearised minimum is the part of `z` outside the span of the Jacobian's columns:
     /// `z = (1, 2, 3)` against the first two unit vectors leaves `(0, 0, 3)`, gap `√3`; a
