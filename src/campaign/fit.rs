@@ -1334,8 +1334,7 @@ fn fit_range(kind: EffectKind, param: &str) -> Option<(f64, f64)> {
 /// plausible range: the sensor's resonance at ten frequencies from 20 Hz to 20 kHz (a load cell
 /// carrying the frame rings at tens of hertz), each at a light, a moderate and a
 /// critical-like damping (0.05, 0.3, 0.7); the load modulation's phase with the velocity and
-/// against it (±90°); the viscous exponent linear and quadratic; the others at four or five points
-/// of their range.
+/// against it (±90°); the others at four or five points of their range.
 /// The actuator's resonance has a scan of its own ([`actuator_scan`]).
 fn scan_values(kind: EffectKind, param: &str) -> Vec<f64> {
     use EffectKind as K;
@@ -1348,8 +1347,6 @@ fn scan_values(kind: EffectKind, param: &str) -> Vec<f64> {
         // then turns the phase towards the displacement.
         (K::NormalCoupling, "phase") => vec![-90.0, 90.0],
         (K::Viscous, "h_v") => vec![20.0, 50.0, 100.0, 200.0],
-        // Linear (a film) and quadratic (a drag): the fit moves between and beyond them.
-        (K::Viscous, "exponent") => vec![1.0, 2.0],
         (K::StribeckShape, "delta") => vec![0.5, 1.0, 1.5, 3.0],
         (K::Presliding, "spread") => vec![0.3, 0.6, 0.9],
         (K::FrictionalLag, "tau") => logspace(1e-4, 1e-2, 4),

@@ -292,11 +292,11 @@ pub static EFFECTS: [EffectInfo; 10] = [
             ep(
                 "exponent",
                 "-",
-                "power of the slip velocity: 1 linear (a lubricant film), 2 quadratic (a drag that grows with the square of the speed)",
+                "power of the slip velocity: 1 linear (a lubricant film), 2 quadratic (a drag that grows with the square of the speed); not fitted by diagnose",
                 1.0,
                 3.0,
                 1.0,
-                true,
+                false,
                 false,
             ),
         ],
