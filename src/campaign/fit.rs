@@ -1489,7 +1489,7 @@ fn frequency_groups<'a>(sub: &Target<'a>, freqs: &[f64]) -> Vec<Target<'a>> {
         .collect()
 }
 
-/// Phases [deg] [`normal_scan`] tabulates at each forcing frequency: every 30°.
+/// Phases (degrees) [`normal_scan`] tabulates at each forcing frequency: every 30°.
 pub const NORMAL_PHASES: usize = 12;
 
 /// Strengths `k_n` [`normal_scan`] tabulates at each forcing frequency: 1e6 to 1e8 N/m in
