@@ -149,6 +149,16 @@ fn actuator_response_scales_the_amplitude_by_the_resonance() {
     );
 }
 
+/// The base rig with `F_c` and `F_s` scaled by the load factor `nu`.
+fn limits_scaled(p: Params, nu: f64) -> Rig {
+    Rig::new(Params {
+        f_c: nu * p.f_c,
+        f_s: nu * p.f_s,
+        ..p
+    })
+    .unwrap()
+}
+
 /// Normal coupling scales F_c and F_s by the load factor ν(t) = 1 + k_n u(t + φ/ω)/F_N.
 #[test]
 fn normal_coupling_modulates_the_friction_limits() {
@@ -161,13 +171,7 @@ fn normal_coupling_modulates_the_friction_limits() {
     let e = fx(&format!("normal_coupling:k_n={k_n},phase=90"));
     let rig = Rig::with_effects(p, &e).unwrap();
     // At t = 0 the load change is k_n u0 (phase 90°: in step with the substrate velocity).
-    let nu = 1.0 + k_n * p.u0 / p.f_n;
-    let scaled = Rig::new(Params {
-        f_c: nu * p.f_c,
-        f_s: nu * p.f_s,
-        ..p
-    })
-    .unwrap();
+    let scaled = limits_scaled(p, 1.0 + k_n * p.u0 / p.f_n);
     for (v, s) in [(1e-3, 1.0e-7), (-2e-4, -0.5e-7), (0.0, 1.2e-7)] {
         let y = state(&rig, 0.0, v, s);
         let (a, b) = (friction(&rig, 0.0, &y), friction(&scaled, 0.0, &y));
@@ -196,13 +200,7 @@ fn normal_coupling_delay_turns_the_phase_with_frequency() {
     )
     .unwrap();
     let base = Rig::new(p).unwrap();
-    let nu = 1.0 + k_n * p.u0 / p.f_n;
-    let scaled = Rig::new(Params {
-        f_c: nu * p.f_c,
-        f_s: nu * p.f_s,
-        ..p
-    })
-    .unwrap();
+    let scaled = limits_scaled(p, 1.0 + k_n * p.u0 / p.f_n);
     let quarter = 0.25e-3;
     for (v, s) in [(1e-3, 1.0e-7), (-2e-4, -0.5e-7), (0.0, 1.2e-7)] {
         let y = state(&rig, 0.0, v, s);

@@ -1302,7 +1302,6 @@ pub fn neutral(kind: EffectKind, param: &str) -> Option<f64> {
         (K::SensorDynamics, "zeta") => 0.7,
         (K::DriveRipple, "a") => 0.0,
         (K::Viscous, "h_v") => 0.0,
-        (K::Viscous, "exponent") => 1.0,
         (K::StribeckShape, "delta") => 2.0,
         (K::Presliding, "spread") => 0.0,
         (K::FrictionalLag, "tau") => 3e-5,
@@ -1573,7 +1572,7 @@ pub fn normal_scan(sub: &Target, m0: &Model) -> Option<Model> {
     let mut m = m0.clone();
     let _ = m.effects.set(kind, "k_n", best.1);
     let _ = m.effects.set(kind, "phase", best.2);
-    let _ = m.effects.set(kind, "delay", best.3.min(d_hi));
+    let _ = m.effects.set(kind, "delay", best.3);
     Some(m)
 }
 
