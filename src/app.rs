@@ -185,8 +185,12 @@ pub fn calibrate(a: &CalibrateArgs) -> Result<Calibrated, AppError> {
     let f = match effect {
         None => base,
         Some(k) => {
-            let start = campaign::fit::starts(&target, &base, k);
-            campaign::fit::fit(&target, &start, &[k], opts)
+            // Fitted from each of the scan's starts; the lowest gap is kept (the first of equals).
+            campaign::fit::starts(&target, &base, k)
+                .iter()
+                .map(|start| campaign::fit::fit(&target, start, &[k], opts))
+                .reduce(|a, b| if b.gap < a.gap { b } else { a })
+                .expect("a start")
         }
     };
     let mut json = campaign::report::calibration_json(&c, &f);

@@ -368,7 +368,7 @@ fn rig_in_band_actuator_resonance_is_found_by_its_scan() {
     };
     let base = fit::fit(&all, &Model::default(), &[], opts);
     let k = EffectKind::ActuatorResponse;
-    let start = fit::starts(&all, &base, k);
+    let start = fit::starts(&all, &base, k).swap_remove(0);
     let f_r = start.effects.get(k, "f_r").unwrap();
     let zeta = start.effects.get(k, "zeta").unwrap();
     let gap = fit::evaluate(&all, &start);

@@ -784,7 +784,15 @@ fn try_candidate(
     // not every recording); only a candidate that removes SCREEN_BAR of that gap is fitted
     // further, on every recording, from the screen's optimum.
     let (sub, from_gap) = (screen.recordings(all), screen.gap);
-    let (firsts, mut checks) = screen.starts(all, &start, &effects);
+    // Screened from each of the scan's starts (fit::starts), and from the neutral start where
+    // the scanned one misses (Screen::starts).
+    let mut firsts = vec![];
+    let mut checks = 0;
+    for scanned in &start {
+        let (f, n) = screen.starts(all, scanned, &effects);
+        firsts.extend(f);
+        checks += n;
+    }
     let screen_opts = FitOptions {
         max_iter: opts.max_iter.min(SCREEN_ITERATIONS),
         rel_tol: SCREEN_REL_TOL,
@@ -837,7 +845,7 @@ fn try_candidate(
         return as_from();
     }
     let f = fit::with_fresh_jacobian(all, f);
-    let cv = cross_validate(all, &f, &start, fold, k_folds, checked);
+    let cv = cross_validate(all, &f, &start[0], fold, k_folds, checked);
     Ranked {
         effect: k,
         score: cv.gap * (1.0 + PARAM_PENALTY * extra as f64),

@@ -1379,7 +1379,13 @@ pub fn neutral_start(base: &Model, kind: EffectKind) -> Model {
 /// neutral start, its best is not worse than the base model on the scored recordings;
 /// `diagnose` reports the base model for a candidate whose fit still ends worse on all of
 /// them.
-pub fn starts(target: &Target, base: &FitResult, kind: EffectKind) -> Model {
+///
+/// The best start comes first. Where it is a per-frequency scan's ([`actuator_scan`],
+/// [`normal_scan`]), the best of the generic grid follows: the scan frees parameters the grid
+/// holds (the load path's delay), and a start that scores better on the scan's subset can
+/// still lead the fit to a worse optimum than the grid's fewer degrees of freedom do, so
+/// `diagnose` screens the candidate from both.
+pub fn starts(target: &Target, base: &FitResult, kind: EffectKind) -> Vec<Model> {
     let m0 = neutral_start(&base.model, kind);
     let mut candidates: Vec<Model> = vec![m0.clone()];
     if kind == EffectKind::DriveRipple
@@ -1393,16 +1399,13 @@ pub fn starts(target: &Target, base: &FitResult, kind: EffectKind) -> Model {
     }
     // The scan only chooses a start: score the starts on a subset of the recordings.
     let sub = scan_subset(target, &base.z);
-    if kind == EffectKind::ActuatorResponse
-        && let Some(m) = actuator_scan(&sub, &m0)
-    {
-        candidates.push(m);
-    }
-    if kind == EffectKind::NormalCoupling
-        && let Some(m) = normal_scan(&sub, &m0)
-    {
-        candidates.push(m);
-    }
+    let scanned = match kind {
+        EffectKind::ActuatorResponse => actuator_scan(&sub, &m0),
+        EffectKind::NormalCoupling => normal_scan(&sub, &m0),
+        _ => None,
+    };
+    let from_scan = scanned.is_some().then_some(candidates.len());
+    candidates.extend(scanned);
     let mut grid: Vec<Vec<(&str, f64)>> = vec![vec![]];
     for p in kind.info().params.iter().filter(|p| p.fitted) {
         // The scan's values within the campaign's plausible range, its ends added where the
@@ -1444,13 +1447,22 @@ pub fn starts(target: &Target, base: &FitResult, kind: EffectKind) -> Model {
         }
     }
     if candidates.len() == 1 {
-        return m0;
+        return vec![m0];
     }
     let costs: Vec<f64> = candidates.par_iter().map(|m| evaluate(&sub, m)).collect();
-    let best = (0..costs.len())
-        .min_by(|&a, &b| costs[a].total_cmp(&costs[b]))
-        .unwrap();
-    candidates.swap_remove(best)
+    let lowest = |skip: Option<usize>| {
+        (0..costs.len())
+            .filter(|&i| Some(i) != skip)
+            .min_by(|&a, &b| costs[a].total_cmp(&costs[b]))
+    };
+    let best = lowest(None).expect("candidates");
+    let mut out = vec![candidates[best].clone()];
+    if from_scan == Some(best)
+        && let Some(grid_best) = lowest(from_scan)
+    {
+        out.push(candidates[grid_best].clone());
+    }
+    out
 }
 
 /// The forcing frequencies of `sub`'s vibrated units, sorted, each once.
