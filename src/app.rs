@@ -457,6 +457,9 @@ pub fn sweep_cmd(a: &SweepArgs) -> Result<(), AppError> {
         outcome.failed,
         outcome.wall_time
     );
+    if outcome.check.averaged > 0 {
+        crate::say!("tiers: {}", outcome.check.line());
+    }
     if let Some(sh) = opts.shard {
         // A shard's file holds part of the grid: the figures come with the merge.
         crate::say!(
@@ -892,6 +895,9 @@ fn run_json(r: &sim::RunResult) -> serde_json::Value {
         "continued_from": r.continued_from,
         "predicted": r.predicted(),
         "level_error": r.level_error,
+        "tier": r.tier.name(),
+        "tier_reason": r.tier_reason.name(),
+        "tier_reason_text": r.tier_reason.text(),
         "stats": r.stats,
     })
 }
@@ -911,7 +917,12 @@ pub fn case_json(c: &CaseResult, o: &RunOptions) -> serde_json::Value {
     );
     obj.insert(
         "solver".into(),
-        serde_json::json!({"method": o.method.name(), "rtol": o.ode.rtol, "atol": o.ode.atol}),
+        serde_json::json!({
+            "method": o.method.name(),
+            "rtol": o.ode.rtol,
+            "atol": o.ode.atol,
+            "tier": o.tier.name(),
+        }),
     );
     obj.insert(
         "reference".into(),
@@ -1012,6 +1023,20 @@ pub fn case_summary(c: &CaseResult, o: &RunOptions) -> String {
         "window    {:.3} s to {:.3} s ({how})",
         c.run.window_start, end
     );
+    let _ = writeln!(
+        s,
+        "tier      {} (asked {}): {}",
+        c.run.tier,
+        o.tier,
+        c.run.tier_reason.text()
+    );
+    if c.run.tier == crate::averaged::Tier::Averaged {
+        let _ = writeln!(
+            s,
+            "          the averaged slow model; its statistics below leave out the law's table \
+             (shared by every run of the same f, u0, v_d and contact)"
+        );
+    }
     let st = c.total_stats();
     let wall = c.run.wall_time + c.reference.as_ref().map(|r| r.wall_time).unwrap_or(0.0);
     let _ = writeln!(

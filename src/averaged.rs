@@ -359,10 +359,11 @@ impl<'a> Shooter<'a> {
             for k in 0..3 {
                 x[k] += dx[k];
             }
-            // Converged: the step and the residual both at the integration's own accuracy.
+            // Converged: the step and the residual both at the integration's own accuracy. The
+            // slope and the multipliers come from this iteration's sensitivities, at the orbit
+            // less the last step (a relative change of the step's size, 1e3 rtol at most, far
+            // below what the Hermite interpolation and the contraction test need).
             if step < 1e3 * self.opts.rtol && norm < 1e3 * self.opts.rtol.max(1e-12) {
-                let (_, s) = self.period_map(x[0], x[1], x[2], &mut rhs)?;
-                let j = shooting_jacobian(&s, t);
                 // dx/dV solves J dx = (0, 0, 1): the tangent of the family of orbits.
                 let slope = solve3(&j, &[0.0, 0.0, 1.0]).map_or(f64::NAN, |d| d[2]);
                 let multipliers = eig2([s[0], s[1], s[3], s[4]]);
@@ -616,11 +617,15 @@ struct Slow<'a> {
 
 impl Slow<'_> {
     fn law(&self, v: f64) -> (f64, f64) {
-        // Beyond the table the orbit no longer reverses the slip: the law is flat there.
+        // Beyond the table the vibration's share of the friction has faded and the Stribeck
+        // term decayed (table_span): the law goes on with the viscous slope.
         let last = self.table.nodes.last().expect("a table has nodes");
         match (self.table.force(v), self.table.slope(v)) {
             (Some(f), Some(d)) => (f, d),
-            _ => (last.force.copysign(v), 0.0),
+            _ => (
+                (last.force + self.p.h_v * (v.abs() - last.v_mean).max(0.0)).copysign(v),
+                self.p.h_v,
+            ),
         }
     }
 }
@@ -657,12 +662,17 @@ impl OdeSystem for Slow<'_> {
 #[derive(Clone, Debug)]
 pub struct SlowRun {
     /// The measures over the steady window (the drive force needs no smoothing: it carries no
-    /// ripple at `f`).
+    /// ripple at `f`). Where the run ends on the steady slide at `v_d` and that slide is stable,
+    /// the mean force is the averaged law's `F_eff(v_d)` itself.
     pub measures: crate::measures::Measures,
     /// How the integration ended.
     pub status: Status,
     /// The slow integration's work.
     pub stats: crate::ode::Stats,
+    /// The slow states sampled (where asked for): `t`, `F_d = k_d z + h_d (v_d − V)`, the same
+    /// as `F_d_smooth`, `x_s = v_d t − z`, `x_d`, `v = V`; the fast channels `s`, `v_r` and `u`
+    /// are NaN, as the slow model does not hold them.
+    pub trace: Option<crate::sim::Trace>,
 }
 
 /// Integrates the averaged slow model of `p` from rest to `t_end` with Radau IIA at `rtol`,
@@ -674,6 +684,24 @@ pub fn simulate_slow(
     t_end: f64,
     dt: f64,
     rtol: f64,
+) -> Result<SlowRun, AveragingError> {
+    simulate_slow_with(p, table, t_end, dt, rtol, None)
+}
+
+/// Share of the nominal stick-slip amplitude `2 (F_s − F_c)` (and of `v_d`) within which the
+/// slow model's end state must lie of the steady slide at `v_d` for its mean force to be
+/// reported as `F_eff(v_d)`.
+pub const SLIDE_TOL: f64 = 1e-4;
+
+/// [`simulate_slow`], keeping at most `trace` samples of the slow states (evenly decimated)
+/// where given.
+pub fn simulate_slow_with(
+    p: &Params,
+    table: &Table,
+    t_end: f64,
+    dt: f64,
+    rtol: f64,
+    trace: Option<usize>,
 ) -> Result<SlowRun, AveragingError> {
     if !table.valid() {
         return Err(AveragingError::Invalid(format!(
@@ -698,21 +726,322 @@ pub fn simulate_slow(
         atol: rtol,
         ..Options::default()
     };
+    let count = (t_end / dt).floor() as u64 + 1;
     let grid = OutputGrid {
         start: 0.0,
         step: dt,
-        count: (t_end / dt).floor() as u64 + 1,
+        count,
     };
+    let stride = trace.map(|n| count.div_ceil(n.max(1) as u64).max(1));
+    let mut tr = stride.map(|_| crate::sim::Trace::default());
+    let mut i = 0u64;
     let mut solver = Solver::new(Method::Radau5);
     let rep = solver.solve(&sys, 0.0, t_end, &mut y, &opts, grid, |t, y| {
         let f = p.k_d * y[0] + p.h_d * (p.v_d - y[1]);
         an.push(t, f, y[1]);
+        if let (Some(tr), Some(k)) = (tr.as_mut(), stride)
+            && i % k == 0
+        {
+            tr.t.push(t);
+            tr.f_d.push(f);
+            tr.f_d_smooth.push(f);
+            tr.x_s.push(p.v_d * t - y[0]);
+            tr.x_d.push(p.v_d * t);
+            tr.s.push(f64::NAN);
+            tr.v_r.push(f64::NAN);
+            tr.v.push(y[1]);
+            tr.u.push(f64::NAN);
+        }
+        i += 1;
     });
+    let mut measures = an.finish();
+    // The steady slide: stable where F_eff' + h_d > 0 (the linearised slow model's damping);
+    // reached where the end state lies on it.
+    if let (Some(level), Some(slope)) = (table.force(p.v_d), table.slope(p.v_d)) {
+        let nominal = 2.0 * (p.f_s - p.f_c);
+        let on_slide = (y[1] - p.v_d).abs() <= SLIDE_TOL * p.v_d
+            && (p.k_d * y[0] - level).abs() <= SLIDE_TOL * nominal;
+        if rep.status == Status::Success && slope + p.h_d > 0.0 && on_slide {
+            measures.mean_force = level;
+        }
+    }
     Ok(SlowRun {
-        measures: an.finish(),
+        measures,
         status: rep.status,
         stats: rep.stats,
+        trace: tr,
     })
+}
+
+/// Which model serves a run with vibration: the option of `run --tier`, `[run] tier` and sweeps.
+#[derive(
+    Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize,
+)]
+#[serde(rename_all = "snake_case")]
+pub enum Tier {
+    /// Per run, by the rules of [`choose`]: the averaged slow model where they hold, else the
+    /// full model. The default.
+    #[default]
+    Auto,
+    /// The averaged slow model wherever its law exists ([`Table::valid`]), the rules of
+    /// [`choose`] about the time scales and the accuracy check left out; the full model where
+    /// it does not (there is no law to use), and the result says so.
+    Averaged,
+    /// The full model, every forcing period integrated.
+    Full,
+}
+
+impl Tier {
+    /// Every tier, in the order help texts list them.
+    pub const ALL: [Tier; 3] = [Tier::Auto, Tier::Averaged, Tier::Full];
+
+    /// The name on the command line and in files.
+    pub fn name(self) -> &'static str {
+        match self {
+            Tier::Auto => "auto",
+            Tier::Averaged => "averaged",
+            Tier::Full => "full",
+        }
+    }
+
+    /// The code in journals and HDF5 files of the tier that served a run: 0 full, 1 averaged.
+    pub fn code(self) -> u8 {
+        match self {
+            Tier::Averaged => 1,
+            _ => 0,
+        }
+    }
+
+    /// The tier of [`Tier::code`].
+    pub fn from_code(c: u8) -> Option<Tier> {
+        match c {
+            0 => Some(Tier::Full),
+            1 => Some(Tier::Averaged),
+            _ => None,
+        }
+    }
+}
+
+impl std::fmt::Display for Tier {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl std::str::FromStr for Tier {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        Tier::ALL
+            .into_iter()
+            .find(|t| t.name() == s)
+            .ok_or_else(|| {
+                let hint = if s == "hybrid" {
+                    " (hybrid windows are not available)"
+                } else {
+                    ""
+                };
+                format!("unknown tier '{s}'{hint}: allowed are auto, averaged, full")
+            })
+    }
+}
+
+/// Why a run was served by its tier ([`choose`]). Stored as its code in journals and HDF5
+/// files; [`TierReason::text`] is the sentence of JSON results and summaries.
+#[derive(
+    Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize,
+)]
+#[serde(rename_all = "snake_case")]
+pub enum TierReason {
+    /// `full` was asked for.
+    #[default]
+    Asked,
+    /// No vibration: there is nothing to average.
+    NoVibration,
+    /// A two-stage run (`t_on > 0`).
+    TwoStage,
+    /// Model extensions are on.
+    Effects,
+    /// The forcing is not fast enough against the drive oscillator ([`SEPARATION`]).
+    Separation,
+    /// The averaged law has a zone without a contracting period-1 orbit, or was not found.
+    NoLaw,
+    /// Every rule of [`choose`] holds.
+    Valid,
+    /// `averaged` was asked for and its law exists.
+    AskedAveraged,
+    /// A full run checking an averaged one in a sweep (`crate::sweep::check`); where it
+    /// disagrees it replaces the averaged run.
+    Check,
+}
+
+impl TierReason {
+    /// Every reason, by code.
+    pub const ALL: [TierReason; 9] = [
+        TierReason::Asked,
+        TierReason::NoVibration,
+        TierReason::TwoStage,
+        TierReason::Effects,
+        TierReason::Separation,
+        TierReason::NoLaw,
+        TierReason::Valid,
+        TierReason::AskedAveraged,
+        TierReason::Check,
+    ];
+
+    /// The name in files.
+    pub fn name(self) -> &'static str {
+        match self {
+            TierReason::Asked => "asked",
+            TierReason::NoVibration => "no_vibration",
+            TierReason::TwoStage => "two_stage",
+            TierReason::Effects => "effects",
+            TierReason::Separation => "separation",
+            TierReason::NoLaw => "no_law",
+            TierReason::Valid => "valid",
+            TierReason::AskedAveraged => "asked_averaged",
+            TierReason::Check => "check",
+        }
+    }
+
+    /// The code in journals and HDF5 files (the index in [`TierReason::ALL`]).
+    pub fn code(self) -> u8 {
+        TierReason::ALL
+            .iter()
+            .position(|&r| r == self)
+            .expect("listed") as u8
+    }
+
+    /// The reason of [`TierReason::code`].
+    pub fn from_code(c: u8) -> Option<TierReason> {
+        TierReason::ALL.get(c as usize).copied()
+    }
+
+    /// One sentence for results and summaries.
+    pub fn text(self) -> &'static str {
+        match self {
+            TierReason::Asked => "the full model was asked for",
+            TierReason::NoVibration => "no vibration: nothing to average",
+            TierReason::TwoStage => {
+                "a two-stage run: its switch-on transient is integrated in full"
+            }
+            TierReason::Effects => {
+                "model extensions are on: the averaged law holds the base contact only"
+            }
+            TierReason::Separation => {
+                "the forcing is less than 20 times the drive oscillator's frequency: the drive \
+                 force moves within a period"
+            }
+            TierReason::NoLaw => {
+                "the fast orbit is not a contracting period-1 orbit at every mean velocity \
+                 (a Floquet multiplier of modulus 0.95 or more, a gap or no orbit): no averaged law"
+            }
+            TierReason::Valid => {
+                "the fast orbit contracts at every mean velocity and the forcing is 20 or more \
+                 times faster than the drive oscillator"
+            }
+            TierReason::AskedAveraged => "averaged was asked for and its law exists",
+            TierReason::Check => {
+                "the full model's check of an averaged point, which disagreed with it and \
+                 replaces it"
+            }
+        }
+    }
+}
+
+/// Least ratio of the forcing frequency `f` to the drive oscillator's `√(k_d/m)/2π` for
+/// [`Tier::Auto`] to average: the averaged law freezes the drive force over a period, which
+/// then moves by at most `2π · 1/20` of its oscillation's phase. The study of the averaged
+/// law (`../shared/research/AVERAGING.md`) covers ratios of 20 to 600.
+pub const SEPARATION: f64 = 20.0;
+
+/// Upper end of the table [`shared_table`] builds for `p` \[m/s\]: 40 `v_d`, 10 `v_a` and 20
+/// `v_s`, the largest. Beyond it the law is continued with the viscous slope `h_v` (the
+/// vibration's share of the friction falls as `v_a/V`, and LuGre's Stribeck term has decayed
+/// there). It does not depend on `k_d` or `h_d`, so one table serves every drive.
+pub fn table_span(p: &Params) -> f64 {
+    (40.0 * p.v_d).max(10.0 * p.v_a()).max(20.0 * p.v_s)
+}
+
+/// The options of [`shared_table`]: the defaults but the one-period integration at `rtol`
+/// 1e-7, where the law at `v_d` agrees with that at 1e-9 to 1e-6 N (3000 Hz, `v_a/v_d` = 0.4,
+/// 35 nodes either way) at 0.54 of the work.
+pub const SHARED: AveragingOptions = AveragingOptions {
+    rtol: 1e-7,
+    max_newton: 30,
+    force_tol: 1e-3,
+    max_nodes: 400,
+};
+
+type Shared = std::sync::Arc<std::sync::OnceLock<Result<std::sync::Arc<Table>, AveragingError>>>;
+
+/// The averaged law of `p` (its `f`, `u0`, `v_d`, mass and contact; `k_d`, `h_d` and `t_on`
+/// do not enter) over `[0, table_span(p)]` with the options [`SHARED`], built once per
+/// process and shared by every run that asks for it: the runs of a sweep over `k_d` use one
+/// table. Building is deterministic, so a shared table is the one each run would build.
+pub fn shared_table(p: &Params) -> Result<std::sync::Arc<Table>, AveragingError> {
+    use std::collections::HashMap;
+    use std::sync::{Arc, Mutex, OnceLock};
+    static TABLES: OnceLock<Mutex<HashMap<Vec<u64>, Shared>>> = OnceLock::new();
+    let mut key_p = *p;
+    key_p.k_d = 0.0;
+    key_p.h_d = 0.0;
+    key_p.t_on = 0.0;
+    let key: Vec<u64> = crate::model::params::PARAMS
+        .iter()
+        .map(|i| i.get(&key_p).to_bits())
+        .collect();
+    let cell = {
+        let mut map = TABLES
+            .get_or_init(|| Mutex::new(HashMap::new()))
+            .lock()
+            .unwrap_or_else(|e| e.into_inner());
+        map.entry(key).or_default().clone()
+    };
+    // Built outside the map's lock: runs of other tables go on meanwhile; runs of this one
+    // wait for it.
+    cell.get_or_init(|| Table::build(p, table_span(p), SHARED).map(Arc::new))
+        .clone()
+}
+
+/// The tier that serves a run of `p` (with `effects` on, `none` where there are none) asked
+/// for with `tier`, why, and the law where it is the averaged one. [`Tier::Auto`] averages where
+/// the run vibrates from the start without model extensions, `f ≥` [`SEPARATION`] times the
+/// drive oscillator's frequency, and the law exists everywhere it may be needed
+/// ([`Table::valid`]: every node's fast orbit contracting, no gap); [`Tier::Averaged`] drops the
+/// separation rule.
+pub fn choose(
+    p: &Params,
+    none: bool,
+    tier: Tier,
+) -> (Tier, TierReason, Option<std::sync::Arc<Table>>) {
+    let full = |r| (Tier::Full, r, None);
+    if tier == Tier::Full {
+        return full(TierReason::Asked);
+    }
+    if !p.vibrates() {
+        return full(TierReason::NoVibration);
+    }
+    if p.two_stage() {
+        return full(TierReason::TwoStage);
+    }
+    if !none {
+        return full(TierReason::Effects);
+    }
+    let f_drive = (p.k_d / p.m).sqrt() / (2.0 * std::f64::consts::PI);
+    if tier == Tier::Auto && p.f < SEPARATION * f_drive {
+        return full(TierReason::Separation);
+    }
+    match shared_table(p) {
+        Ok(t) if t.valid() => {
+            let why = if tier == Tier::Auto {
+                TierReason::Valid
+            } else {
+                TierReason::AskedAveraged
+            };
+            (Tier::Averaged, why, Some(t))
+        }
+        _ => full(TierReason::NoLaw),
+    }
 }
 
 /// The orbit at `v`, continued from `from` along its tangent; halves the stride on failure.

@@ -176,6 +176,8 @@ fn tight(method: Method, tol: f64) -> RunOptions {
     RunOptions {
         method,
         envelope: None,
+        // The methods compared are integrators of the full model.
+        tier: crate::averaged::Tier::Full,
         ode: Options {
             rtol: tol,
             atol: tol,

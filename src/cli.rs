@@ -671,6 +671,13 @@ pub struct RunArgs {
     #[arg(long)]
     pub no_envelope: bool,
 
+    /// Which model serves a run with vibration: auto (averages the vibration out where the
+    /// averaged law of body and contact is valid and the forcing is 20 or more times faster than
+    /// the drive oscillator, else full), averaged (wherever the law exists) or full (every
+    /// period integrated). Default auto. The result says which served and why.
+    #[arg(long, value_name = "TIER")]
+    pub tier: Option<crate::averaged::Tier>,
+
     /// Print the results as one JSON object on stdout (no other output there).
     #[arg(long)]
     pub json: bool,
@@ -919,6 +926,9 @@ impl RunArgs {
         }
         if let Some(v) = self.envelope {
             o.envelope = Some(v);
+        }
+        if let Some(t) = self.tier {
+            o.tier = t;
         }
         o.trace = !self.no_trace;
         // Outputs: never an input, never each other, and writable places.

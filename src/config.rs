@@ -24,6 +24,7 @@
 //! periodic = true    # without vibration, continue along the limit cycle once it repeats
 //! envelope = 1e-4    # skip vibration periods where the envelope is smooth (default 1e-4;
 //!                    # false: integrate every period)
+//! tier = "auto"      # auto (default): the vibration averaged out where valid; averaged; full
 //! ```
 
 use crate::model::effects::{self, EffectKind, Effects};
@@ -371,6 +372,13 @@ pub fn apply_run(doc: &Doc, table: &toml::Table, o: &mut RunOptions) -> Result<(
                     .as_bool()
                     .ok_or_else(|| doc.err(sec, k, "expected true or false"))?;
             }
+            "tier" => {
+                o.tier = v
+                    .as_str()
+                    .ok_or_else(|| doc.err(sec, k, "expected \"auto\", \"averaged\" or \"full\""))?
+                    .parse()
+                    .map_err(|e: String| doc.err(sec, k, e))?;
+            }
             "envelope" => {
                 o.envelope = match v {
                     toml::Value::Boolean(false) => None,
@@ -383,7 +391,7 @@ pub fn apply_run(doc: &Doc, table: &toml::Table, o: &mut RunOptions) -> Result<(
                     sec,
                     k,
                     "unknown key; allowed: t_end, min_cycles, samples_per_period, early_stop, \
-                     periodic, envelope",
+                     periodic, envelope, tier",
                 ));
             }
         }

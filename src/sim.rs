@@ -1,6 +1,7 @@
 //! One simulated test: the run policy (simulated time, sampling), the integration, the measures,
 //! and the reduction coefficient `r` against the automatic run without vibration.
 
+use crate::averaged::{Tier, TierReason};
 use crate::cycle::LimitCycle;
 use crate::measures::{Analyzer, DROP_THRESHOLD, Measures, STICK_VELOCITY, Trend};
 use crate::model::{Effects, Params, Rig, RigError, V, X};
@@ -53,6 +54,11 @@ pub struct RunOptions {
     /// [`DEFAULT_ENVELOPE`]. Range 1e-8 to 0.1. A two-stage run (`t_on > 0`) integrates every
     /// period.
     pub envelope: Option<f64>,
+    /// Which model serves a run with vibration ([`averaged::choose`](crate::averaged::choose)):
+    /// `auto` (default) averages the vibration out where the averaged law is valid and the
+    /// forcing fast against the drive, `averaged` wherever the law exists, `full` never. The
+    /// result records the tier and why ([`RunResult::tier`]).
+    pub tier: Tier,
 }
 
 /// When a run with vibration may end before its simulated time ([`RunOptions::early_stop`]).
@@ -155,6 +161,7 @@ impl Default for RunOptions {
             early_stop: EarlyStop::Automatic,
             periodic: true,
             envelope: Some(DEFAULT_ENVELOPE),
+            tier: Tier::Auto,
         }
     }
 }
@@ -394,9 +401,21 @@ pub struct RunResult {
     /// extrapolated distance. `None` where the level was not extrapolated.
     #[serde(default)]
     pub level_error: Option<f64>,
+    /// The model that served the run: [`Tier::Full`] (every period integrated) or
+    /// [`Tier::Averaged`] (the averaged slow model; its statistics are the slow integration's,
+    /// the law's table is counted apart).
+    #[serde(default = "full_tier")]
+    pub tier: Tier,
+    /// Why that tier served ([`averaged::choose`](crate::averaged::choose)).
+    #[serde(default)]
+    pub tier_reason: TierReason,
     /// Time traces, when asked for.
     #[serde(skip)]
     pub trace: Option<Trace>,
+}
+
+fn full_tier() -> Tier {
+    Tier::Full
 }
 
 impl RunResult {
@@ -421,7 +440,58 @@ pub fn simulate_with(
     opts.validate()?;
     let rig = Rig::with_effects(*p, fx)?;
     let t_end = end_time(p, opts)?;
-    Ok(integrate(&rig, t_end, opts, solver))
+    Ok(serve(&rig, fx.is_empty(), t_end, opts, solver))
+}
+
+/// A run of `rig` (without model extensions where `none`) to `t_end`, served by the tier
+/// [`averaged::choose`](crate::averaged::choose) picks for `opts.tier`: the full integration
+/// ([`integrate`]) or the averaged slow model ([`crate::averaged::simulate_slow_with`]), with
+/// the tier and its reason recorded.
+fn serve(rig: &Rig, none: bool, t_end: f64, opts: &RunOptions, solver: &mut Solver) -> RunResult {
+    let clock = Instant::now();
+    let (tier, tier_reason, table) = crate::averaged::choose(&rig.p, none, opts.tier);
+    let mut r = match table {
+        Some(t) => averaged_run(&rig.p, &t, t_end, opts, clock),
+        None => integrate(rig, t_end, opts, solver),
+    };
+    r.tier = tier;
+    r.tier_reason = tier_reason;
+    r
+}
+
+/// Relative tolerance of the averaged slow model's integration: a hundredth of the run's
+/// `rtol`, within 1e-10 to 1e-6 (its ~140 steps per stick-slip cycle cost little; the test
+/// against full runs used 1e-8, the default's).
+fn slow_rtol(opts: &RunOptions) -> f64 {
+    (opts.ode.rtol * 1e-2).clamp(1e-10, 1e-6)
+}
+
+/// A run of the averaged slow model over the full run's simulated time `t_end`, the drive
+/// force sampled once per forcing period (a full run's force smoothed over one period).
+fn averaged_run(
+    p: &Params,
+    table: &crate::averaged::Table,
+    t_end: f64,
+    opts: &RunOptions,
+    clock: Instant,
+) -> RunResult {
+    let trace = opts.trace.then_some(opts.trace_points);
+    let slow =
+        crate::averaged::simulate_slow_with(p, table, t_end, 1.0 / p.f, slow_rtol(opts), trace)
+            .expect("choose hands over valid tables only");
+    RunResult {
+        status: slow.status,
+        stats: slow.stats,
+        measures: slow.measures,
+        t_end,
+        window_start: window_start(p, t_end),
+        wall_time: clock.elapsed().as_secs_f64(),
+        continued_from: None,
+        level_error: None,
+        tier: Tier::Averaged,
+        tier_reason: TierReason::Valid,
+        trace: slow.trace,
+    }
 }
 
 /// The simulated time of a run: the given `t_end`, or [`planned_time`]. A two-stage run must
@@ -774,6 +844,8 @@ fn integrate(rig: &Rig, t_end: f64, opts: &RunOptions, solver: &mut Solver) -> R
         wall_time: start.elapsed().as_secs_f64(),
         continued_from,
         level_error,
+        tier: Tier::Full,
+        tier_reason: TierReason::Asked,
         trace: rec.trace,
     }
 }
@@ -981,7 +1053,7 @@ pub fn run_case_with(
     opts.validate()?;
     let rig = Rig::with_effects(*p, fx)?;
     let t_end = end_time(p, opts)?;
-    let run = integrate(&rig, t_end, opts, solver);
+    let run = serve(&rig, fx.is_empty(), t_end, opts, solver);
     if !p.vibrates() {
         // Without vibration the run is its own reference: r = 1 by definition.
         return Ok(CaseResult {
@@ -996,7 +1068,13 @@ pub fn run_case_with(
         trace: false,
         ..opts.clone()
     };
-    let reference = integrate(&rig.without_vibration(), t_end, &ref_opts, solver);
+    let reference = serve(
+        &rig.without_vibration(),
+        fx.is_empty(),
+        t_end,
+        &ref_opts,
+        solver,
+    );
     let (r, r_stderr) = reduction(&run.measures, &reference.measures);
     Ok(CaseResult {
         params: *p,

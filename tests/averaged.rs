@@ -126,7 +126,10 @@ fn settled_sliding_force_of_full_runs() {
             table.stopped_at
         );
         let averaged = table.force(v_d).expect("inside the table");
-        let mut opts = RunOptions::default();
+        let mut opts = RunOptions {
+            tier: stickslip::averaged::Tier::Full,
+            ..RunOptions::default()
+        };
         opts.ode.rtol = 1e-8;
         opts.ode.atol = 1e-8;
         opts.envelope = None;
@@ -174,7 +177,10 @@ fn slow_model_reproduces_full_runs_above_the_resonance() {
                 k_d: 11_700.0,
                 ..params(f, ratio * v_d / (2.0 * std::f64::consts::PI * f), v_d)
             };
-            let opts = RunOptions::default();
+            let opts = RunOptions {
+                tier: stickslip::averaged::Tier::Full,
+                ..RunOptions::default()
+            };
             let mut solver = Solver::new(opts.method);
             let full = run_case_with(&p, &stickslip::model::Effects::none(), &opts, &mut solver)
                 .expect("a run");

@@ -5,6 +5,15 @@ use stickslip::model::{EffectKind, Effects, Params, Rig, S, V, X};
 use stickslip::ode::{Method, OdeSystem, Solver};
 use stickslip::sim::{RunOptions, run_case_with, simulate_with};
 
+/// The run options of these tests: the defaults on the full model (the tests are about its
+/// integration; the averaged tier has its own in tests/averaged.rs).
+fn full_model() -> RunOptions {
+    RunOptions {
+        tier: stickslip::averaged::Tier::Full,
+        ..RunOptions::default()
+    }
+}
+
 fn fx(spec: &str) -> Effects {
     let mut e = Effects::none();
     e.apply_spec(spec).unwrap();
@@ -30,7 +39,7 @@ fn dopri(t_end: Option<f64>) -> RunOptions {
     RunOptions {
         method: Method::Dopri5,
         t_end,
-        ..RunOptions::default()
+        ..full_model()
     }
 }
 
@@ -93,7 +102,7 @@ fn aging_raises_static_friction_with_stick_time() {
     let mut s = Solver::new(Method::Rodas4);
     let o = RunOptions {
         method: Method::Rodas4,
-        ..RunOptions::default()
+        ..full_model()
     };
     let mut excess = vec![];
     for (v_d, k_d) in [(0.5e-3, 17_900.0), (2e-3, 11_700.0)] {
@@ -232,7 +241,7 @@ fn sensor_dynamics_lag_a_ramp_by_two_zeta_over_omega() {
         method: Method::Rodas4,
         t_end: Some(0.6),
         trace: true,
-        ..RunOptions::default()
+        ..full_model()
     };
     let r = simulate_with(&p, &e, &o, &mut Solver::new(Method::Rodas4)).unwrap();
     let tr = r.trace.unwrap();
@@ -267,7 +276,7 @@ fn drive_ripple_shows_in_the_loading_force() {
         method: Method::Rodas4,
         t_end: Some(0.8),
         trace: true,
-        ..RunOptions::default()
+        ..full_model()
     };
     let tr = simulate_with(&p, &e, &o, &mut Solver::new(Method::Rodas4))
         .unwrap()
@@ -384,7 +393,7 @@ fn presliding_keeps_steady_friction_and_rounds_the_breakaway() {
         method: Method::Rodas4,
         t_end: Some(1.3),
         trace: true,
-        ..RunOptions::default()
+        ..full_model()
     };
     let mut s = Solver::new(Method::Rodas4);
     let creep = |fx: &Effects, s: &mut Solver| {
@@ -490,7 +499,7 @@ fn implicit_and_explicit_agree_with_all_effects_on() {
     for m in [Method::Radau5, Method::Rodas4, Method::Dopri5] {
         let o = RunOptions {
             method: m,
-            ..RunOptions::default()
+            ..full_model()
         };
         let r = run_case_with(&p, &e, &o, &mut Solver::new(m)).unwrap();
         out.push(r.run.measures);

@@ -5,6 +5,15 @@ use stickslip::model::{Params, Rig, contact};
 use stickslip::ode::{Method, OdeSystem, Options, OutputGrid, Solver, Status};
 use stickslip::sim::{RunOptions, run_case};
 
+/// The run options of these tests: the defaults on the full model (the tests are about its
+/// integration; the averaged tier has its own in tests/averaged.rs).
+fn full_model() -> RunOptions {
+    RunOptions {
+        tier: stickslip::averaged::Tier::Full,
+        ..RunOptions::default()
+    }
+}
+
 fn param_sets() -> Vec<Params> {
     vec![
         Params::default(),
@@ -158,7 +167,7 @@ fn coulomb_limit_of_small_stribeck_velocity() {
             h_t: 1.377e3,
             ..Params::default()
         };
-        let c = run_case(&p, &RunOptions::default(), &mut Solver::new(Method::Radau5)).unwrap();
+        let c = run_case(&p, &full_model(), &mut Solver::new(Method::Radau5)).unwrap();
         assert_eq!(c.run.status, Status::Success);
         let m = c.run.measures;
         assert!(m.cycles >= 3);
@@ -327,13 +336,13 @@ fn envelope_following_keeps_r_and_the_mean_force_of_the_full_run() {
                 ..Options::default()
             },
             t_end: Some(4.0),
-            ..RunOptions::default()
+            ..full_model()
         };
         envelope_against_full_run(&p, &base, min_skip);
     }
     let bad = RunOptions {
         envelope: Some(0.5),
-        ..RunOptions::default()
+        ..full_model()
     };
     assert_eq!(bad.validate().unwrap_err().field, "envelope");
 }
@@ -363,7 +372,7 @@ fn envelope_following_skips_most_periods_of_the_slow_corner() {
         );
         let base = RunOptions {
             method: Method::Dopri5,
-            ..RunOptions::default()
+            ..full_model()
         };
         let (fast, full) = envelope_against_full_run(&p, &base, min_skip);
         // Fewer right-hand sides, not only fewer periods: the periods it integrates cost more.
@@ -399,7 +408,7 @@ fn continued_and_integrated(
 /// the run is integrated to the end, unchanged.
 #[test]
 fn limit_cycle_continuation_keeps_the_measures_of_the_integrated_run() {
-    let default = RunOptions::default();
+    let default = full_model();
     for v_d in [0.1e-3, 0.5e-3, 2e-3] {
         for k_d in [1000.0, 11_700.0, 20_000.0] {
             let p = Params {
@@ -435,7 +444,7 @@ fn limit_cycle_continuation_keeps_the_measures_of_the_integrated_run() {
     let p = Params::default();
     let traced = RunOptions {
         trace: true,
-        ..RunOptions::default()
+        ..full_model()
     };
     let (cont, full) = continued_and_integrated(&p, &traced);
     let (a, b) = (cont.trace.unwrap(), full.trace.unwrap());
@@ -507,7 +516,7 @@ fn limit_cycle_continuation_holds_over_random_parameters() {
             v_d: rng.random_range(0.1e-3..2e-3),
             ..Params::default()
         };
-        let (cont, full) = continued_and_integrated(&p, &RunOptions::default());
+        let (cont, full) = continued_and_integrated(&p, &full_model());
         let (c, f) = (&cont.measures, &full.measures);
         let at = format!("set {k} {p:?}: {c:?} vs {f:?}");
         assert_eq!(cont.status, full.status, "{at}");
@@ -557,7 +566,7 @@ fn auto_follows_the_stiff_phases_of_the_rig() {
             let o = RunOptions {
                 method,
                 envelope: None,
-                ..RunOptions::default()
+                ..full_model()
             };
             let c = run_case(&p, &o, &mut Solver::new(method)).unwrap();
             assert_eq!(c.status(), Status::Success, "{what}, {method}");
@@ -612,7 +621,7 @@ fn two_stage_runs_switch_the_vibration_on_at_t_on() {
     let traced = RunOptions {
         trace: true,
         periodic: false,
-        ..RunOptions::default()
+        ..full_model()
     };
     for va_ratio in [1.1, 0.2] {
         let mut p = base;
@@ -661,7 +670,7 @@ fn two_stage_runs_switch_the_vibration_on_at_t_on() {
             "v_a/v_d = {va_ratio}: first stage off by {worst} N"
         );
         // After it: the settled measures of a run vibrated from the start.
-        let from_start = run_case(&p, &RunOptions::default(), &mut solver).unwrap();
+        let from_start = run_case(&p, &full_model(), &mut solver).unwrap();
         let (a, b) = (&two.run.measures, &from_start.run.measures);
         if va_ratio > 1.0 {
             assert!(
@@ -696,7 +705,7 @@ fn two_stage_runs_switch_the_vibration_on_at_t_on() {
         &late,
         &RunOptions {
             t_end: Some(10.0),
-            ..RunOptions::default()
+            ..full_model()
         },
         &mut solver,
     )

@@ -8,6 +8,15 @@ use stickslip::model::Params;
 use stickslip::ode::{Method, Options, Solver, Status};
 use stickslip::sim::{CaseResult, EarlyStop, RunOptions, run_case};
 
+/// The defaults on the full model, for the tests of its early stop and settling rules (the
+/// averaged tier has its own in tests/averaged.rs).
+fn full_model() -> RunOptions {
+    RunOptions {
+        tier: stickslip::averaged::Tier::Full,
+        ..RunOptions::default()
+    }
+}
+
 fn case(v_d: f64, f: f64, ratio: f64, opts: &RunOptions) -> CaseResult {
     let mut p = Params {
         k_d: 11_700.0,
@@ -196,7 +205,7 @@ fn early_stop_agrees_with_the_full_run() {
             ratio,
             &RunOptions {
                 method: Method::Dopri5,
-                ..RunOptions::default()
+                ..full_model()
             },
         );
         let full = case(
@@ -206,7 +215,7 @@ fn early_stop_agrees_with_the_full_run() {
             &RunOptions {
                 method: Method::Dopri5,
                 early_stop: EarlyStop::Off,
-                ..RunOptions::default()
+                ..full_model()
             },
         );
         assert!(
@@ -261,7 +270,7 @@ fn settled_level_extrapolated_agrees_with_the_run_continued_until_it_settles() {
             let opts = |early_stop| RunOptions {
                 method: Method::Dopri5,
                 early_stop,
-                ..RunOptions::default()
+                ..full_model()
             };
             let early = case(0.5e-3, f, ratio, &opts(EarlyStop::Automatic));
             let full = case(0.5e-3, f, ratio, &opts(EarlyStop::Off));
@@ -307,13 +316,13 @@ fn creep_towards_the_sliding_level_is_not_stick_slip() {
                     RunOptions {
                         method: Method::Radau5,
                         envelope: None,
-                        ..RunOptions::default()
+                        ..full_model()
                     },
-                    RunOptions::default(),
+                    full_model(),
                     RunOptions {
                         method: Method::Dopri5,
                         early_stop: EarlyStop::Off,
-                        ..RunOptions::default()
+                        ..full_model()
                     },
                 ]
                 .into_iter()
@@ -344,7 +353,7 @@ fn a_given_t_end_ends_early_only_when_asked_always() {
         method: Method::Dopri5,
         t_end: Some(6.0),
         early_stop,
-        ..RunOptions::default()
+        ..full_model()
     };
     let given = case(0.5e-3, 1500.0, 2.0, &opts(EarlyStop::Automatic));
     let always = case(0.5e-3, 1500.0, 2.0, &opts(EarlyStop::Always));

@@ -44,6 +44,7 @@ logspace = [1e-8, 1e-6, 8]
 [solver]
 method = "dopri5"
 [run]
+tier = "full"
 t_end = 1.5
 "#;
 
@@ -427,6 +428,7 @@ tolerance = 0.04
 [solver]
 method = "dopri5"
 [run]
+tier = "full"
 t_end = 1.5
 "#;
 
@@ -445,6 +447,7 @@ logspace = [1e-8, 1e-6, 33]
 [solver]
 method = "dopri5"
 [run]
+tier = "full"
 t_end = 1.5
 "#;
 
@@ -877,6 +880,7 @@ logspace = [1e-8, 1e-6, 5]
 [solver]
 method = "dopri5"
 [run]
+tier = "full"
 t_end = 1.5
 [output]
 traces = [{ v_d = 2.0e-3, f = 1000.0, u0 = 1e-6 }]
@@ -1123,4 +1127,115 @@ fn estimate_of_a_refinement_samples_whole_planes() {
     assert_eq!(one.runs, 2.0 * one.sample_runs as f64);
     assert!(one.cpu_stderr.is_nan(), "{one}");
     assert!(format!("{one}").contains("no spread known"), "{one}");
+}
+
+/// A sweep the averaged tier serves: three drives at 3000 Hz, above the contact resonance, one
+/// table of the averaged law for all of them per amplitude.
+const TIERED: &str = r#"
+name = "tiered"
+[fixed]
+v_d = 0.5e-3
+f = 3000.0
+[[axis]]
+name = "k_d"
+values = [8000.0, 11700.0, 16000.0]
+[[axis]]
+name = "va_ratio"
+values = [0.0, 0.4, 1.0, 2.0]
+[check]
+share = 0.5
+min_points = 0
+"#;
+
+/// Under `tier = "auto"` the vibrated points are served by the averaged model and say so
+/// (`tier` 1, reason `valid`), the points without vibration by the full one (reason
+/// `no_vibration`); the checks re-run the drawn share and the points near r = 0.05 with the
+/// full model, their comparison lands in group `tier_check`, and a point whose check
+/// disagrees carries its full run (`tier` 0, reason `check`, `r` the full run's). The file is
+/// the same bit for bit from one and two threads, from shards merged, and from a sweep resumed
+/// from half of its runs (a shard's runs file as its journal), as h5py reads them.
+#[test]
+fn averaged_points_are_checked_and_resume_and_merge_bit_for_bit() {
+    let dir = tempfile::tempdir().unwrap();
+    let spec = SweepSpec::parse("tiered.toml", TIERED).unwrap();
+    let a = dir.path().join("a.h5");
+    let b = dir.path().join("b.h5");
+    let oa = sweep::run(&spec, &opts(&a, 1)).unwrap();
+    let ob = sweep::run(&spec, &opts(&b, 2)).unwrap();
+    assert_eq!(read_all(&a), read_all(&b));
+    assert_eq!(oa.check, ob.check);
+    let c = oa.check;
+    eprintln!("{}", c.line());
+    assert_eq!(c.averaged, 9, "every vibrated point averaged: {c:?}");
+    assert!(c.checked >= 1 && c.checked <= c.averaged, "{c:?}");
+    let f = H5File::open(&a).unwrap();
+    let read = |n: &str| f.dataset(n).unwrap().read_raw::<f64>().unwrap();
+    let (tier, why, r) = (read("tier"), read("tier_reason"), read("r"));
+    let g = f.root_group().group("tier_check").unwrap();
+    assert_eq!(g.attr_string("summary").unwrap(), c.line());
+    let col = |n: &str| read(&format!("tier_check/{n}"));
+    let point = col("point");
+    assert_eq!(point.len(), c.checked);
+    let (ra, rf, rep, within) = (
+        col("r_averaged"),
+        col("r_full"),
+        col("replaced"),
+        col("within_r"),
+    );
+    for k in 0..point.len() {
+        let i = point[k] as usize;
+        assert_eq!(within[k] == 1.0, (ra[k] - rf[k]).abs() <= 0.01, "point {i}");
+        if rep[k] == 1.0 {
+            // The full run stands for the point.
+            assert_eq!((tier[i], why[i]), (0.0, 8.0), "point {i}");
+            assert_eq!(r[i].to_bits(), rf[k].to_bits(), "point {i}");
+        } else {
+            assert_eq!(r[i].to_bits(), ra[k].to_bits(), "point {i}");
+        }
+    }
+    for i in 0..tier.len() {
+        let vibrated = i % 4 != 0;
+        if !vibrated {
+            assert_eq!((tier[i], why[i]), (0.0, 1.0), "point {i}");
+        } else if !point
+            .iter()
+            .zip(&rep)
+            .any(|(&p, &x)| p as usize == i && x == 1.0)
+        {
+            assert_eq!((tier[i], why[i]), (1.0, 6.0), "point {i}");
+        }
+    }
+    // Shards merged, and a resume from a shard's runs as the journal: the same file.
+    let file = write(dir.path(), "tiered.toml", TIERED);
+    let fs = file.to_str().unwrap();
+    let m = dir.path().join("m.h5");
+    for i in 0..2 {
+        let (ok, log) = stickslip(&[
+            "sweep",
+            fs,
+            "-o",
+            m.to_str().unwrap(),
+            "--shard",
+            &format!("{i}/2"),
+            "-q",
+        ]);
+        assert!(ok, "{log}");
+    }
+    let (ok, log) = stickslip(&["merge", m.to_str().unwrap(), "--no-plot"]);
+    assert!(ok, "{log}");
+    same_sweep(&a, &m);
+    let resumed = dir.path().join("resumed.h5");
+    let shard_runs = sweep::shard::runs_path(&sweep::shard::Shard { index: 0, count: 2 }.path(&m));
+    std::fs::copy(&shard_runs, sweep::journal::path_for(&resumed)).unwrap();
+    let (ok, log) = stickslip(&[
+        "sweep",
+        fs,
+        "-o",
+        resumed.to_str().unwrap(),
+        "--resume",
+        "-q",
+        "--no-plot",
+    ]);
+    assert!(ok && !log.contains(" 0 resumed"), "{log}");
+    same_sweep(&a, &resumed);
 }

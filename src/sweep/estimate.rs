@@ -191,7 +191,7 @@ pub fn estimate(
             }
             for (t, r) in &records {
                 let p = match *t {
-                    Task::Point(i) => plane[i],
+                    Task::Point(i) | Task::Check(i) => plane[i],
                     Task::Ref(k) => {
                         plane[(0..plan.points.len())
                             .find(|&i| owners[i] == 0 && plan.point_ref[i] == k)

@@ -15,6 +15,10 @@
 //! | `steps`, `rejected`, `rhs_evals`, `jac_evals`, `lu_decomps` | 1 | solver statistics of the point's own run |
 //! | `wall_time` | s | wall time of the point's own run |
 //! | `t_end` | s | simulated time of the point's own run (shorter than planned where it stopped early) |
+//! | `tier` | 1 | model that served the point's own run: 0 full, 1 averaged (`crate::averaged::Tier`), −1 not run yet |
+//! | `tier_reason` | 1 | why: 0 asked, 1 no_vibration, 2 two_stage, 3 effects, 4 separation, 5 no_law, 6 valid, 7 asked_averaged, 8 check (the full run replaced a disagreeing averaged one: `crate::sweep::check`) (`crate::averaged::TierReason`), −1 not run yet |
+//!
+//! Group `tier_check` (where any point was averaged) holds the full-model checks of averaged points and their summary ([`super::check`]).
 //! | `u0_grid`, `v_a_grid` | m, m/s | the vibration amplitude and velocity amplitude of each point |
 //!
 //! Root attributes: the sweep file's text, the resolved fixed parameters, solver settings, the
@@ -119,6 +123,18 @@ fn grids(spec: &SweepSpec, plan: &Plan, res: &Results) -> Vec<Grid> {
             vec![],
         ),
         (
+            "tier",
+            "1",
+            "model that served the run: 0 full (every period integrated), 1 averaged (the vibration averaged out)",
+            vec![],
+        ),
+        (
+            "tier_reason",
+            "1",
+            "why: 0 asked, 1 no_vibration, 2 two_stage, 3 effects, 4 separation, 5 no_law, 6 valid, 7 asked_averaged, 8 check (a full run replaced a disagreeing averaged one)",
+            vec![],
+        ),
+        (
             "u0_grid",
             "m",
             "vibration amplitude u0 of the point",
@@ -174,6 +190,8 @@ fn grids(spec: &SweepSpec, plan: &Plan, res: &Results) -> Vec<Grid> {
             sv(|s| s.lu_decomps),
             own.map(|r| r.wall_time).unwrap_or(f64::NAN),
             own.map(|r| r.t_end).unwrap_or(f64::NAN),
+            own.map(|r| f64::from(r.tier.code())).unwrap_or(-1.0),
+            own.map(|r| f64::from(r.tier_reason.code())).unwrap_or(-1.0),
             p.u0,
             p.v_a(),
             f64::from(u8::from(own.is_some())),
@@ -345,6 +363,7 @@ pub fn write(
             file.set_attr_numeric(&format!("fixed_{k}"), v)
                 .map_err(&e)?;
         }
+        super::check::write_h5(&file, spec, plan, res, path)?;
         if !traces.is_empty() {
             let g = file.create_group("traces").map_err(&e)?;
             for (i, tr) in traces {

@@ -10,15 +10,18 @@
 //! ```text
 //! <kind> <index> <status> <t_end> <window_start> <wall_time> <steps> <rejected> <rhs> <jac> <lu>
 //!        <newton> <dF> <dF_stderr> <mean_force> <stick_fraction> <period> <peak> <trough> <cycles> <skipped_periods>
-//!        <continued_from> <predicted> <level_error> ~<checksum>
+//!        <continued_from> <predicted> <level_error> <tier> <tier_reason> ~<checksum>
 //! ```
 //!
-//! with `kind` `ref` or `pt`, `continued_from` NaN where the run was integrated to its end and
+//! with `kind` `ref`, `pt` or `chk` (a full-model check of an averaged point), `continued_from` NaN where the run was integrated to its end and
 //! `predicted` 1 where the measures are the settled level extrapolated from the window, else 0,
-//! and `level_error` that level's error bound \[N\] (NaN where not extrapolated).
+//! and `level_error` that level's error bound \[N\] (NaN where not extrapolated), `tier` the
+//! model that served the run (0 full, 1 averaged: [`Tier::code`]) and `tier_reason` why
+//! ([`TierReason::code`]).
 //! Floats use Rust's shortest round-trip form, so resumed results are bit-identical. Only lines
 //! ended by a newline are read.
 
+use crate::averaged::{Tier, TierReason};
 use crate::measures::Measures;
 use crate::ode::{Stats, Status};
 use crate::sim::RunResult;
@@ -33,6 +36,8 @@ pub enum Task {
     Ref(usize),
     /// Grid point `i` (with vibration).
     Point(usize),
+    /// The full-model check of grid point `i`, an averaged one ([`super::check`]).
+    Check(usize),
 }
 
 /// Journal path beside the output file.
@@ -85,11 +90,12 @@ fn format_body(task: Task, r: &RunResult) -> String {
     let (kind, i) = match task {
         Task::Ref(i) => ("ref", i),
         Task::Point(i) => ("pt", i),
+        Task::Check(i) => ("chk", i),
     };
     let s = &r.stats;
     let m = &r.measures;
     format!(
-        "{kind} {i} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {}",
+        "{kind} {i} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {}",
         r.status.code(),
         r.t_end,
         r.window_start,
@@ -111,7 +117,9 @@ fn format_body(task: Task, r: &RunResult) -> String {
         s.skipped_periods,
         r.continued_from.unwrap_or(f64::NAN),
         u8::from(r.predicted()),
-        r.level_error.unwrap_or(f64::NAN)
+        r.level_error.unwrap_or(f64::NAN),
+        r.tier.code(),
+        r.tier_reason.code()
     )
 }
 
@@ -123,16 +131,17 @@ pub fn parse_record(line: &str) -> Option<(Task, RunResult)> {
         return None;
     }
     let f: Vec<&str> = body.split(' ').collect();
-    // 24 fields; 23 in journals written before extrapolated levels had an error bound, 22
-    // before predicted windows, 21 before the limit-cycle continuation, 20 before envelope
-    // following (no skipped periods).
-    if !(20..=24).contains(&f.len()) {
+    // 26 fields; 24 in journals written before runs had tiers (every run full), 23 before
+    // extrapolated levels had an error bound, 22 before predicted windows, 21 before the
+    // limit-cycle continuation, 20 before envelope following (no skipped periods).
+    if !(20..=26).contains(&f.len()) || f.len() == 25 {
         return None;
     }
     let i: usize = f[1].parse().ok()?;
     let task = match f[0] {
         "ref" => Task::Ref(i),
         "pt" => Task::Point(i),
+        "chk" => Task::Check(i),
         _ => return None,
     };
     // Field 22 says whether the level was extrapolated; field 23 gives its error bound.
@@ -175,6 +184,14 @@ pub fn parse_record(line: &str) -> Option<(Task, RunResult)> {
             level_error: match f.get(23) {
                 Some(_) => Some(x(23)?).filter(|e| e.is_finite()),
                 None => None,
+            },
+            tier: match f.get(24) {
+                Some(c) => Tier::from_code(c.parse().ok()?)?,
+                None => Tier::Full,
+            },
+            tier_reason: match f.get(25) {
+                Some(c) => TierReason::from_code(c.parse().ok()?)?,
+                None => TierReason::Asked,
             },
             trace: None,
         },
@@ -302,6 +319,8 @@ mod tests {
             wall_time: 0.123456789,
             continued_from: Some(1.0 / 7.0),
             level_error: Some(0.1 + 0.7),
+            tier: Tier::Averaged,
+            tier_reason: TierReason::Valid,
             trace: None,
         };
         let line = format_record(Task::Point(42), &r);
@@ -316,6 +335,7 @@ mod tests {
         assert_eq!(back.stats, r.stats);
         assert_eq!(back.status, r.status);
         assert_eq!(back.continued_from, r.continued_from);
+        assert_eq!((back.tier, back.tier_reason), (r.tier, r.tier_reason));
         assert!(back.predicted());
         assert_eq!(
             back.level_error.map(f64::to_bits),

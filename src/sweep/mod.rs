@@ -9,6 +9,7 @@
 //! the thread count or on the order in which runs finish.
 
 pub mod boundary;
+pub mod check;
 pub mod estimate;
 pub mod figures;
 pub mod h5;
@@ -44,6 +45,8 @@ pub struct Plan {
     pub point_ref: Vec<usize>,
     /// Model extensions of every run.
     pub effects: crate::model::Effects,
+    /// The boundary level of `r` about which averaged points are checked ([`check::level`]).
+    pub check_level: f64,
 }
 
 /// The bits of every parameter that a run without vibration depends on (all but u0, f, t_on).
@@ -80,6 +83,7 @@ impl Plan {
             refs,
             point_ref,
             effects: spec.effects.clone(),
+            check_level: check::level(spec),
         }
     }
 
@@ -98,7 +102,7 @@ impl Plan {
     pub fn params(&self, t: Task) -> &Params {
         match t {
             Task::Ref(i) => &self.refs[i],
-            Task::Point(i) => &self.points[i],
+            Task::Point(i) | Task::Check(i) => &self.points[i],
         }
     }
 }
@@ -115,6 +119,8 @@ pub struct Results {
     pub refs: Vec<Option<RunResult>>,
     /// Grid-point runs (only points with vibration are run; the others use their reference).
     pub points: Vec<Option<RunResult>>,
+    /// Full-model checks of averaged points ([`check`]).
+    pub checks: Vec<Option<RunResult>>,
 }
 
 impl Results {
@@ -122,6 +128,7 @@ impl Results {
         Results {
             refs: vec![None; plan.refs.len()],
             points: vec![None; plan.points.len()],
+            checks: vec![None; plan.points.len()],
         }
     }
 
@@ -129,6 +136,7 @@ impl Results {
         match t {
             Task::Ref(i) => self.refs[i] = Some(r),
             Task::Point(i) => self.points[i] = Some(r),
+            Task::Check(i) => self.checks[i] = Some(r),
         }
     }
 
@@ -139,7 +147,7 @@ impl Results {
         for (t, r) in records {
             let valid = match t {
                 Task::Ref(i) => i < plan.refs.len(),
-                Task::Point(i) => i < plan.points.len(),
+                Task::Point(i) | Task::Check(i) => i < plan.points.len(),
             };
             if valid && !self.has(t) {
                 self.store(t, r);
@@ -154,6 +162,7 @@ impl Results {
         self.refs
             .iter()
             .chain(&self.points)
+            .chain(&self.checks)
             .filter(|r| r.is_some())
             .count()
     }
@@ -162,6 +171,7 @@ impl Results {
         match t {
             Task::Ref(i) => self.refs[i].is_some(),
             Task::Point(i) => self.points[i].is_some(),
+            Task::Check(i) => self.checks[i].is_some(),
         }
     }
 
@@ -200,14 +210,17 @@ impl Results {
         }
     }
 
-    /// The run that stands for grid point `i` (its own, or its reference when it has no
+    /// The run that stands for grid point `i` (its own, its full-model check where that
+    /// disagrees with its averaged run ([`check::replaced`]), or its reference when it has no
     /// vibration) and its reference.
     pub fn point(&self, plan: &Plan, i: usize) -> (Option<&RunResult>, Option<&RunResult>) {
         let rf = self.refs[plan.point_ref[i]].as_ref();
-        let own = if plan.points[i].vibrates() {
-            self.points[i].as_ref()
-        } else {
+        let own = if !plan.points[i].vibrates() {
             rf
+        } else if check::replaced(plan, self, i) {
+            self.checks[i].as_ref()
+        } else {
+            self.points[i].as_ref()
         };
         (own, rf)
     }
@@ -286,10 +299,22 @@ pub struct SweepOutcome {
     pub wall_time: f64,
     /// The output file.
     pub out: PathBuf,
+    /// The full-model checks of the averaged points ([`check`]).
+    pub check: check::Summary,
 }
 
-/// Runs one task with the given solver.
+/// Runs one task with the given solver: a check with the full model.
 fn run_task(plan: &Plan, t: Task, opts: &RunOptions, solver: &mut Solver) -> RunResult {
+    if let Task::Check(_) = t {
+        let full = RunOptions {
+            tier: crate::averaged::Tier::Full,
+            ..opts.clone()
+        };
+        let mut r = sim::simulate_with(plan.params(t), &plan.effects, &full, solver)
+            .expect("parameters and options were validated");
+        r.tier_reason = crate::averaged::TierReason::Check;
+        return r;
+    }
     sim::simulate_with(plan.params(t), &plan.effects, opts, solver)
         .expect("parameters and options were validated")
 }
@@ -512,7 +537,7 @@ impl Executor<'_> {
                     return Err(SweepError::State("the sweep's workers stopped".into()));
                 };
                 let p = asked_by.remove(&t).unwrap_or(match t {
-                    Task::Point(i) => plane_of[i],
+                    Task::Point(i) | Task::Check(i) => plane_of[i],
                     Task::Ref(_) => 0,
                 });
                 self.land(t, r, results, progress, &mut io_error);
@@ -618,6 +643,7 @@ pub fn run(spec: &SweepSpec, opts: &SweepOptions) -> Result<SweepOutcome, SweepE
             failed: 0,
             wall_time: start.elapsed().as_secs_f64(),
             out: target,
+            check: check::Summary::default(),
         });
     }
     let mut resumed = 0;
@@ -711,6 +737,17 @@ pub fn run(spec: &SweepSpec, opts: &SweepOptions) -> Result<SweepOutcome, SweepE
     if spec.refine.is_some() && !exec.interrupted {
         exec.refine(&mut results, &mut progress, &mine)?;
     }
+    // The full-model checks of the averaged points (check): after the grid, as they depend
+    // on its results.
+    if !exec.interrupted && !crate::interrupt::requested() {
+        let todo: Vec<Task> = check::points(spec, &plan, &results, &owned)
+            .into_iter()
+            .map(Task::Check)
+            .filter(|t| !results.has(*t))
+            .collect();
+        progress.grow(todo.len() as u64);
+        exec.round(&todo, &mut results, &mut progress)?;
+    }
     progress.finish();
     let runs_made = exec.made;
     let interrupted = exec.interrupted || crate::interrupt::requested();
@@ -755,6 +792,7 @@ pub fn run(spec: &SweepSpec, opts: &SweepOptions) -> Result<SweepOutcome, SweepE
     }
     let failed = failed_points(spec, &plan, &results, &owned);
     Ok(SweepOutcome {
+        check: check::summary(spec, &plan, &results),
         points: owned.iter().filter(|&&o| o).count(),
         runs_made,
         runs_resumed: resumed,

@@ -23,7 +23,12 @@
 //! zip = "u0"                  # optional: vary together with axis u0 (same length, one dimension)
 //!
 //! [solver]                    # as in a case file
-//! [run]                       # as in a case file
+//! [run]                       # as in a case file (tier = "auto" averages where valid)
+//!
+//! [check]                     # full-model checks of averaged points (crate::sweep::check)
+//! share = 0.01                # random share re-run with the full model (default 0.01)
+//! min_points = 100            # none in a sweep of fewer points with vibration (default 100)
+//! band = 0.03                 # and every averaged point with |r - level| <= band (default 0.03)
 //!
 //! [output]
 //! measures = ["r", "dF", "mean_force"]        # default: all
@@ -185,6 +190,8 @@ pub struct SweepSpec {
     pub refine: Option<Refine>,
     /// The names set in `[fixed]`, in file order.
     pub fixed_keys: Vec<String>,
+    /// Full-model checks of the averaged points (`[check]`).
+    pub check: super::check::CheckSpec,
 }
 
 /// The SI unit of an axis name (a parameter, `v_a` or `va_ratio`).
@@ -264,6 +271,7 @@ impl SweepSpec {
             effects: crate::model::Effects::none(),
             refine: None,
             fixed_keys: vec![],
+            check: super::check::CheckSpec::default(),
         };
         let mut refine: Option<&toml::Table> = None;
         let mut axis_tables: Vec<&toml::Table> = vec![];
@@ -360,11 +368,14 @@ impl SweepSpec {
                 ("run", toml::Value::Table(t)) => config::apply_run(doc, t, &mut spec.run)?,
                 ("output", toml::Value::Table(t)) => output = Some(t),
                 ("refine", toml::Value::Table(t)) => refine = Some(t),
+                ("check", toml::Value::Table(t)) => {
+                    spec.check = super::check::CheckSpec::parse(doc, t)?
+                }
                 _ => {
                     return Err(doc.err(
                         "",
                         k,
-                        "unknown key; allowed: name, description, max_runs, [fixed], [[axis]], [solver], [run], [output], [refine], [effects.NAME]",
+                        "unknown key; allowed: name, description, max_runs, [fixed], [[axis]], [solver], [run], [output], [refine], [check], [effects.NAME]",
                     ));
                 }
             }

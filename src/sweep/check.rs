@@ -1,0 +1,376 @@
+//! Full-model checks of a sweep's averaged points: after the grid (and its refinement), a random
+//! share of the points the averaged slow model served, and every one of them whose `r` lies
+//! within a band about the boundary level, are run again with the full model (journal kind
+//! `chk`, so a resumed or merged sweep does not run them twice). Each comparison is written to
+//! the HDF5 file (group `tier_check`) and summed up in the sweep's summary:
+//!
+//! - within `r`: `|r_averaged − r_full| ≤` [`R_TOL`] (docs/model.md's accuracy of `r`);
+//! - within force: `|mean_averaged / mean_full − 1| ≤` [`FORCE_TOL`] (of the mean force);
+//! - side change: the two `r` lie on opposite sides of the boundary level.
+//!
+//! A point that fails any of the three is **replaced** by its full run in every result of the
+//! file (its `tier` then reads 0 with reason `check`). The random share is drawn by a hash of
+//! the point's flat index, so it is the same on every machine, in every shard and on resuming.
+//!
+//! The boundary level is the `[refine]` level where `r` is refined, else r = 0.05
+//! ([`ELIMINATED`](super::boundary::ELIMINATED)).
+
+use super::spec::SweepSpec;
+use super::{Plan, Results, measured};
+use crate::averaged::Tier;
+use crate::config::{ConfigError, Doc};
+use crate::output::{self, OutputError, h5err};
+use std::path::Path;
+
+/// Largest `|Δr|` of a check that agrees (docs/model.md's accuracy of `r`).
+pub const R_TOL: f64 = 0.01;
+/// Largest relative difference of the mean force of a check that agrees (docs/model.md's 0.5 %).
+pub const FORCE_TOL: f64 = 0.005;
+
+/// The `[check]` table of a sweep file. Every field documents its default and range.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CheckSpec {
+    /// Share of the averaged points re-run with the full model, drawn at random (by the point's
+    /// index). Default 0.01; range 0 to 1.
+    pub share: f64,
+    /// No random share in a sweep of fewer grid points with vibration than this (the boundary
+    /// band is checked whatever the size). Default 100; set 0 to check small sweeps too.
+    pub min_points: usize,
+    /// Every averaged point with `|r − level| ≤ band` is checked. Default 0.03; range 0 to 1.
+    pub band: f64,
+}
+
+impl Default for CheckSpec {
+    fn default() -> Self {
+        CheckSpec {
+            share: 0.01,
+            min_points: 100,
+            band: 0.03,
+        }
+    }
+}
+
+impl CheckSpec {
+    /// Reads a `[check]` table, naming the key, its value and what is allowed on error.
+    pub fn parse(doc: &Doc, t: &toml::Table) -> Result<CheckSpec, ConfigError> {
+        let sec = "check";
+        let mut c = CheckSpec::default();
+        for (k, v) in t {
+            match k.as_str() {
+                "share" => {
+                    let x = doc.number(sec, k, v)?;
+                    if !(0.0..=1.0).contains(&x) {
+                        return Err(doc.err(sec, k, format!("{x}: must lie within 0 to 1")));
+                    }
+                    c.share = x;
+                }
+                "band" => {
+                    let x = doc.number(sec, k, v)?;
+                    if !(0.0..=1.0).contains(&x) {
+                        return Err(doc.err(sec, k, format!("{x}: must lie within 0 to 1")));
+                    }
+                    c.band = x;
+                }
+                "min_points" => {
+                    c.min_points = v
+                        .as_integer()
+                        .filter(|n| *n >= 0)
+                        .ok_or_else(|| doc.err(sec, k, "expected a whole number, 0 or more"))?
+                        as usize;
+                }
+                _ => {
+                    return Err(doc.err(sec, k, "unknown key; allowed: share, min_points, band"));
+                }
+            }
+        }
+        Ok(c)
+    }
+}
+
+/// The boundary level of `r` the band is about.
+pub fn level(spec: &SweepSpec) -> f64 {
+    spec.refine
+        .as_ref()
+        .filter(|r| r.measure == "r")
+        .map_or(super::boundary::ELIMINATED, |r| r.level)
+}
+
+/// Whether point `i` is in the random share `share`: a 64-bit mix (SplitMix64's finaliser) of
+/// its index, as a number in [0, 1), below `share`.
+pub fn sampled(i: usize, share: f64) -> bool {
+    let mut z = (i as u64).wrapping_add(0x9e37_79b9_7f4a_7c15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^= z >> 31;
+    ((z >> 11) as f64 / (1u64 << 53) as f64) < share
+}
+
+/// Why a point was checked.
+fn random_share(spec: &SweepSpec, plan: &Plan, i: usize) -> bool {
+    let with_vibration = plan.points.iter().filter(|p| p.vibrates()).count();
+    with_vibration >= spec.check.min_points && sampled(i, spec.check.share)
+}
+
+/// The averaged run of point `i` (its own run, where the averaged model served it).
+fn averaged_run<'r>(res: &'r Results, i: usize) -> Option<&'r crate::sim::RunResult> {
+    measured(res.points[i].as_ref()).filter(|r| r.tier == Tier::Averaged)
+}
+
+/// The points among those `owned` to check: each averaged point with measures in the random
+/// share, or with `r` within the band about the level.
+pub fn points(spec: &SweepSpec, plan: &Plan, res: &Results, owned: &[bool]) -> Vec<usize> {
+    let lv = plan.check_level;
+    (0..plan.points.len())
+        .filter(|&i| owned[i] && averaged_run(res, i).is_some())
+        .filter(|&i| {
+            let rf = measured(res.refs[plan.point_ref[i]].as_ref());
+            let r = match (averaged_run(res, i), rf) {
+                (Some(a), Some(b)) => crate::sim::reduction(&a.measures, &b.measures).0,
+                _ => f64::NAN,
+            };
+            random_share(spec, plan, i) || (r - lv).abs() <= spec.check.band
+        })
+        .collect()
+}
+
+/// One averaged point against its full run.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Comparison {
+    /// Flat index of the grid point.
+    pub point: usize,
+    /// Drawn in the random share (else: in the band about the level).
+    pub random: bool,
+    /// `r` of the averaged and of the full run.
+    pub r: (f64, f64),
+    /// Mean drive force of the averaged and of the full run \[N\].
+    pub mean_force: (f64, f64),
+    /// `|Δr| ≤` [`R_TOL`].
+    pub within_r: bool,
+    /// Relative difference of the mean force `≤` [`FORCE_TOL`].
+    pub within_force: bool,
+    /// The two `r` on opposite sides of the level.
+    pub side_change: bool,
+}
+
+impl Comparison {
+    /// Whether the full run replaces the averaged one.
+    pub fn replaced(&self) -> bool {
+        !self.within_r || !self.within_force || self.side_change
+    }
+}
+
+/// The comparison of point `i`, where it was checked (its full run has measures, as has its
+/// averaged run and their reference).
+pub fn compare(spec: &SweepSpec, plan: &Plan, res: &Results, i: usize) -> Option<Comparison> {
+    let avg = averaged_run(res, i)?;
+    let full = measured(res.checks[i].as_ref())?;
+    let rf = measured(res.refs[plan.point_ref[i]].as_ref())?;
+    let ra = crate::sim::reduction(&avg.measures, &rf.measures).0;
+    let rb = crate::sim::reduction(&full.measures, &rf.measures).0;
+    let (fa, fb) = (avg.measures.mean_force, full.measures.mean_force);
+    let lv = plan.check_level;
+    Some(Comparison {
+        point: i,
+        random: random_share(spec, plan, i),
+        r: (ra, rb),
+        mean_force: (fa, fb),
+        // NaN on either side (a reference without stick-slip) agrees only with NaN.
+        within_r: (ra - rb).abs() <= R_TOL || (ra.is_nan() && rb.is_nan()),
+        within_force: (fa / fb - 1.0).abs() <= FORCE_TOL,
+        side_change: (ra < lv) != (rb < lv),
+    })
+}
+
+/// Whether the full run of point `i` replaces its averaged one ([`Comparison::replaced`]);
+/// false where it was not checked.
+pub fn replaced(plan: &Plan, res: &Results, i: usize) -> bool {
+    let (Some(avg), Some(full), Some(rf)) = (
+        averaged_run(res, i),
+        measured(res.checks[i].as_ref()),
+        measured(res.refs[plan.point_ref[i]].as_ref()),
+    ) else {
+        return false;
+    };
+    let ra = crate::sim::reduction(&avg.measures, &rf.measures).0;
+    let rb = crate::sim::reduction(&full.measures, &rf.measures).0;
+    let (fa, fb) = (avg.measures.mean_force, full.measures.mean_force);
+    let lv = plan.check_level;
+    let within_r = (ra - rb).abs() <= R_TOL || (ra.is_nan() && rb.is_nan());
+    !within_r || !((fa / fb - 1.0).abs() <= FORCE_TOL) || (ra < lv) != (rb < lv)
+}
+
+/// Every comparison of the sweep so far, by point.
+pub fn comparisons(spec: &SweepSpec, plan: &Plan, res: &Results) -> Vec<Comparison> {
+    (0..plan.points.len())
+        .filter_map(|i| compare(spec, plan, res, i))
+        .collect()
+}
+
+/// The checks of a sweep summed up.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Summary {
+    /// Points the averaged model served.
+    pub averaged: usize,
+    /// Of them, checked with the full model.
+    pub checked: usize,
+    /// Checked and within [`R_TOL`] in `r`.
+    pub within_r: usize,
+    /// Checked and within [`FORCE_TOL`] in the mean force.
+    pub within_force: usize,
+    /// Checked with `r` on the other side of the level.
+    pub side_changes: usize,
+    /// Replaced by their full runs.
+    pub replaced: usize,
+}
+
+impl Summary {
+    /// One line for the sweep's summary.
+    pub fn line(&self) -> String {
+        if self.checked == 0 {
+            return format!(
+                "{} points averaged, none checked with the full model",
+                self.averaged
+            );
+        }
+        let pc = |n: usize| 100.0 * n as f64 / self.checked as f64;
+        format!(
+            "{} points averaged, {} checked with the full model: {:.1} % within |dr| <= {R_TOL}, \
+             {:.1} % within {} % in mean force, {} boundary side changes; {} replaced by their full runs",
+            self.averaged,
+            self.checked,
+            pc(self.within_r),
+            pc(self.within_force),
+            FORCE_TOL * 100.0,
+            self.side_changes,
+            self.replaced
+        )
+    }
+}
+
+/// The summary of the checks so far.
+pub fn summary(spec: &SweepSpec, plan: &Plan, res: &Results) -> Summary {
+    let c = comparisons(spec, plan, res);
+    Summary {
+        averaged: (0..plan.points.len())
+            .filter(|&i| averaged_run(res, i).is_some())
+            .count(),
+        checked: c.len(),
+        within_r: c.iter().filter(|c| c.within_r).count(),
+        within_force: c.iter().filter(|c| c.within_force).count(),
+        side_changes: c.iter().filter(|c| c.side_change).count(),
+        replaced: c.iter().filter(|c| c.replaced()).count(),
+    }
+}
+
+/// Writes group `tier_check` of the sweep file: one entry per comparison (`point`, `random`,
+/// `r_averaged`, `r_full`, `mean_force_averaged`, `mean_force_full`, `within_r`,
+/// `within_force`, `side_change`, `replaced`; absent where nothing was checked) and the summary
+/// and rules as attributes. Written where any point was averaged.
+pub fn write_h5(
+    file: &rust_hdf5::H5File,
+    spec: &SweepSpec,
+    plan: &Plan,
+    res: &Results,
+    path: &Path,
+) -> Result<(), OutputError> {
+    let s = summary(spec, plan, res);
+    if s.averaged == 0 {
+        return Ok(());
+    }
+    let e = h5err(path);
+    let c = comparisons(spec, plan, res);
+    let g = file.create_group("tier_check").map_err(&e)?;
+    let col = |f: &dyn Fn(&Comparison) -> f64| c.iter().map(f).collect::<Vec<f64>>();
+    let b = |x: bool| f64::from(u8::from(x));
+    for (name, data, unit, doc) in [
+        (
+            "point",
+            col(&|c| c.point as f64),
+            "1",
+            "flat (C-order) index of the checked grid point",
+        ),
+        (
+            "random",
+            col(&|c| b(c.random)),
+            "1",
+            "1 where drawn in the random share, 0 where checked for its r near the level",
+        ),
+        ("r_averaged", col(&|c| c.r.0), "1", "r of the averaged run"),
+        ("r_full", col(&|c| c.r.1), "1", "r of the full run"),
+        (
+            "mean_force_averaged",
+            col(&|c| c.mean_force.0),
+            "N",
+            "mean drive force of the averaged run",
+        ),
+        (
+            "mean_force_full",
+            col(&|c| c.mean_force.1),
+            "N",
+            "mean drive force of the full run",
+        ),
+        (
+            "within_r",
+            col(&|c| b(c.within_r)),
+            "1",
+            "1 where |r_averaged - r_full| <= r_tol",
+        ),
+        (
+            "within_force",
+            col(&|c| b(c.within_force)),
+            "1",
+            "1 where the mean forces differ by at most force_tol (relative)",
+        ),
+        (
+            "side_change",
+            col(&|c| b(c.side_change)),
+            "1",
+            "1 where the two r lie on opposite sides of the level",
+        ),
+        (
+            "replaced",
+            col(&|c| b(c.replaced())),
+            "1",
+            "1 where the full run replaces the averaged one in the file's results",
+        ),
+    ] {
+        // No comparison: the group holds its attributes only (an HDF5 dataset needs data).
+        if !data.is_empty() {
+            output::write_vec(&g, name, &data, unit, doc, path)?;
+        }
+    }
+    for (k, v) in [
+        ("averaged_points", s.averaged as f64),
+        ("checked", s.checked as f64),
+        ("within_r", s.within_r as f64),
+        ("within_force", s.within_force as f64),
+        ("side_changes", s.side_changes as f64),
+        ("replaced", s.replaced as f64),
+        ("r_tol", R_TOL),
+        ("force_tol", FORCE_TOL),
+        ("share", spec.check.share),
+        ("min_points", spec.check.min_points as f64),
+        ("band", spec.check.band),
+        ("level", level(spec)),
+    ] {
+        g.set_attr_numeric(k, &v).map_err(&e)?;
+    }
+    g.set_attr_string("summary", &s.line()).map_err(&e)?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The random share is about the share asked for; none at 0, all at 1.
+    #[test]
+    fn the_random_share_is_close_to_its_rate() {
+        let n = 200_000;
+        let hits = (0..n).filter(|&i| sampled(i, 0.01)).count();
+        // Binomial: 2000 ± 44.5; five standard deviations.
+        assert!((hits as f64 - 2000.0).abs() < 5.0 * 44.5, "{hits}");
+        assert!(!(0..1000).any(|i| sampled(i, 0.0)));
+        assert!((0..1000).all(|i| sampled(i, 1.0)));
+    }
+}
