@@ -139,6 +139,11 @@ pub struct AveragingOptions {
     pub force_tol: f64,
     /// Most nodes in a table. Default 400; range 3 to 100 000.
     pub max_nodes: usize,
+    /// Build only what a run's tier needs: stop where the continuation fails (the table ends
+    /// there, `stopped_at`), and refine no interval whose two nodes both have orbits that do not
+    /// contract (the law may not serve there whatever its shape). Default false (the whole law
+    /// with its zones, for plots).
+    pub validity_only: bool,
 }
 
 impl Default for AveragingOptions {
@@ -148,6 +153,7 @@ impl Default for AveragingOptions {
             max_newton: 30,
             force_tol: 1e-3,
             max_nodes: 400,
+            validity_only: false,
         }
     }
 }
@@ -498,16 +504,29 @@ impl Table {
         }
         let tol = opts.force_tol;
         let max_nodes = opts.max_nodes;
+        let quick = opts.validity_only;
         let mut sh = Shooter::new(p, opts)?;
         // V = 0: by symmetry the orbit has F = 0; Newton starts from rest.
         let first = sh.orbit(0.0, [0.0, 0.0, 0.0])?;
         let mut nodes = vec![first];
         let mut stopped_at = None;
-        // Coarse continuation: 16 steps, each halved where Newton fails.
-        let coarse = 16usize;
-        let mut k = 1;
-        while k <= coarse {
-            let v = v_max * k as f64 / coarse as f64;
+        // Coarse continuation, each step halved where Newton fails: 16 even steps up to the
+        // knee (four times the larger of v_a and v_d: the law's peak near v_a, the slow
+        // model's velocities near v_d, and the zones where the orbit loses stability lie
+        // there), doubling beyond it, where the law flattens towards the base friction.
+        let knee = (4.0 * p.v_a().max(p.v_d)).min(v_max);
+        let mut coarse: Vec<f64> = (1..=16).map(|k| knee * k as f64 / 16.0).collect();
+        let mut j = 1;
+        while knee * f64::from(1u32 << j.min(30)) < v_max && j < 30 {
+            coarse.push(knee * f64::from(1u32 << j));
+            j += 1;
+        }
+        if knee < v_max {
+            coarse.push(v_max);
+        }
+        let mut k = 0;
+        while k < coarse.len() {
+            let v = coarse[k];
             match reach(&mut sh, nodes.last().expect("one node"), v) {
                 Ok(o) => {
                     nodes.push(o);
@@ -518,6 +537,13 @@ impl Table {
                     break;
                 }
             }
+        }
+        if quick && stopped_at.is_some() {
+            return Ok(Table {
+                nodes,
+                stopped_at,
+                gaps: vec![],
+            });
         }
         // Refinement, left to right: an interval whose midpoint the cubic misses is split and its
         // halves looked at in turn; one whose midpoint has no orbit (from either end) is a gap.
@@ -532,7 +558,14 @@ impl Table {
                 continue;
             }
             let mid = 0.5 * (left.v_mean + right.v_mean);
-            match reach(&mut sh, &left, mid).or_else(|_| reach(&mut sh, &right, mid)) {
+            // Inside a zone whose orbits do not contract the law may not serve: no refinement.
+            if quick && !left.contracting() && !right.contracting() {
+                done.push(right);
+                left = right;
+                continue;
+            }
+            let found = reach(&mut sh, &left, mid).or_else(|_| reach(&mut sh, &right, mid));
+            match found {
                 Ok(o) if (hermite(&left, &right, mid) - o.force).abs() > tol => {
                     pending.push(right);
                     pending.push(o);
@@ -605,6 +638,23 @@ impl Table {
             && self.gaps.is_empty()
             && self.nodes.iter().all(Orbit::contracting)
     }
+
+    /// Whether the law may stand for the fast vibration at mean velocity `v`: both nodes
+    /// around `|v|` have contracting orbits and no gap lies between them; beyond the last node,
+    /// where the table reached its end and that node's orbit contracts.
+    pub fn valid_at(&self, v: f64) -> bool {
+        let a = v.abs();
+        let Some(last) = self.nodes.last() else {
+            return false;
+        };
+        if a > last.v_mean {
+            return self.stopped_at.is_none() && last.contracting();
+        }
+        match self.interval(a) {
+            Some((l, r)) => l.contracting() && r.contracting(),
+            None => false,
+        }
+    }
 }
 
 /// The slow model of the averaged rig: the spring's stretch `z = v_d t − x` and the body's
@@ -663,7 +713,8 @@ impl OdeSystem for Slow<'_> {
 pub struct SlowRun {
     /// The measures over the steady window (the drive force needs no smoothing: it carries no
     /// ripple at `f`). Where the run ends on the steady slide at `v_d` and that slide is stable,
-    /// the mean force is the averaged law's `F_eff(v_d)` itself.
+    /// the mean force is the averaged law's `F_eff(v_d)` itself, and dF, where no slip fell in
+    /// the window, 0: the settled slide of the averaged model has no oscillation left.
     pub measures: crate::measures::Measures,
     /// How the integration ended.
     pub status: Status,
@@ -673,11 +724,20 @@ pub struct SlowRun {
     /// as `F_d_smooth`, `x_s = v_d t − z`, `x_d`, `v = V`; the fast channels `s`, `v_r` and `u`
     /// are NaN, as the slow model does not hold them.
     pub trace: Option<crate::sim::Trace>,
+    /// The first mean velocity \[m/s\] of the steady window (sampled once per period) where the
+    /// law may not stand for the vibration ([`Table::valid_at`]: an orbit that does not
+    /// contract, a gap, past a failed continuation); `None` where it may all along. The run's
+    /// measures are then not the averaged model's to give: the full model must serve. The
+    /// transient before the window is not checked: the stick-slip forgets it, and a start from
+    /// rest passes the law at zero force, where the orbit of a small vibration need not
+    /// contract.
+    pub left_law: Option<f64>,
 }
 
 /// Integrates the averaged slow model of `p` from rest to `t_end` with Radau IIA at `rtol`,
 /// sampling the drive force every `dt` seconds for the measures (window: the second half, as a
-/// full run's). A table that is not [`Table::valid`] is refused: the full model must serve there.
+/// full run's), and says where the window left the valid law ([`SlowRun::left_law`]). A table
+/// of fewer than two nodes is refused.
 pub fn simulate_slow(
     p: &Params,
     table: &Table,
@@ -703,20 +763,20 @@ pub fn simulate_slow_with(
     rtol: f64,
     trace: Option<usize>,
 ) -> Result<SlowRun, AveragingError> {
-    if !table.valid() {
+    if table.nodes.len() < 2 {
         return Err(AveragingError::Invalid(format!(
-            "the averaged law is not valid everywhere (gaps {:?}, stopped at {:?}, {} nodes whose \
-             fast orbit does not contract): use the full model",
-            table.gaps,
-            table.stopped_at,
-            table.nodes.iter().filter(|n| !n.contracting()).count()
+            "the averaged law has {} node(s) (continuation stopped at {:?} m/s): use the full model",
+            table.nodes.len(),
+            table.stopped_at
         )));
     }
     use crate::measures::{Analyzer, DROP_THRESHOLD, STICK_VELOCITY};
     let sys = Slow { p, table };
+    let window = crate::sim::window_start(p, t_end);
+    let mut left_law = None;
     let mut an = Analyzer::new(
         1,
-        crate::sim::window_start(p, t_end),
+        window,
         DROP_THRESHOLD * (p.f_s - p.f_c),
         STICK_VELOCITY * p.v_d,
     );
@@ -739,8 +799,11 @@ pub fn simulate_slow_with(
     let rep = solver.solve(&sys, 0.0, t_end, &mut y, &opts, grid, |t, y| {
         let f = p.k_d * y[0] + p.h_d * (p.v_d - y[1]);
         an.push(t, f, y[1]);
+        if t >= window && left_law.is_none() && !table.valid_at(y[1]) {
+            left_law = Some(y[1]);
+        }
         if let (Some(tr), Some(k)) = (tr.as_mut(), stride)
-            && i % k == 0
+            && i.is_multiple_of(k)
         {
             tr.t.push(t);
             tr.f_d.push(f);
@@ -763,6 +826,12 @@ pub fn simulate_slow_with(
             && (p.k_d * y[0] - level).abs() <= SLIDE_TOL * nominal;
         if rep.status == Status::Success && slope + p.h_d > 0.0 && on_slide {
             measures.mean_force = level;
+            // No slip in the window and the slide reached: the settled level carries no
+            // oscillation (docs/model.md: dF about the settled level, never the approach to it).
+            if measures.cycles == 0 {
+                measures.d_f = 0.0;
+                measures.d_f_stderr = 0.0;
+            }
         }
     }
     Ok(SlowRun {
@@ -770,6 +839,7 @@ pub fn simulate_slow_with(
         status: rep.status,
         stats: rep.stats,
         trace: tr,
+        left_law,
     })
 }
 
@@ -783,9 +853,10 @@ pub enum Tier {
     /// full model. The default.
     #[default]
     Auto,
-    /// The averaged slow model wherever its law exists ([`Table::valid`]), the rules of
-    /// [`choose`] about the time scales and the accuracy check left out; the full model where
-    /// it does not (there is no law to use), and the result says so.
+    /// The averaged slow model wherever its law was found and holds along the run's steady
+    /// window ([`SlowRun::left_law`]), the rules of [`choose`] about the time scales and the
+    /// contact resonance left out; the full model where it does not (there is no law to use),
+    /// and the result says so.
     Averaged,
     /// The full model, every forcing period integrated.
     Full,
@@ -863,7 +934,7 @@ pub enum TierReason {
     Effects,
     /// The forcing is not fast enough against the drive oscillator ([`SEPARATION`]).
     Separation,
-    /// The averaged law has a zone without a contracting period-1 orbit, or was not found.
+    /// The averaged law was not found from rest on (the continuation stopped at once).
     NoLaw,
     /// Every rule of [`choose`] holds.
     Valid,
@@ -872,11 +943,16 @@ pub enum TierReason {
     /// A full run checking an averaged one in a sweep (`crate::sweep::check`); where it
     /// disagrees it replaces the averaged run.
     Check,
+    /// The forcing lies below the contact resonance ([`contact_resonance`]).
+    BelowResonance,
+    /// The averaged run's steady window passed a mean velocity where the law may not stand
+    /// for the vibration ([`SlowRun::left_law`]): the full model served.
+    LeftLaw,
 }
 
 impl TierReason {
     /// Every reason, by code.
-    pub const ALL: [TierReason; 9] = [
+    pub const ALL: [TierReason; 11] = [
         TierReason::Asked,
         TierReason::NoVibration,
         TierReason::TwoStage,
@@ -886,6 +962,8 @@ impl TierReason {
         TierReason::Valid,
         TierReason::AskedAveraged,
         TierReason::Check,
+        TierReason::LeftLaw,
+        TierReason::BelowResonance,
     ];
 
     /// The name in files.
@@ -900,6 +978,8 @@ impl TierReason {
             TierReason::Valid => "valid",
             TierReason::AskedAveraged => "asked_averaged",
             TierReason::Check => "check",
+            TierReason::LeftLaw => "left_law",
+            TierReason::BelowResonance => "below_resonance",
         }
     }
 
@@ -931,18 +1011,24 @@ impl TierReason {
                 "the forcing is less than 20 times the drive oscillator's frequency: the drive \
                  force moves within a period"
             }
-            TierReason::NoLaw => {
-                "the fast orbit is not a contracting period-1 orbit at every mean velocity \
-                 (a Floquet multiplier of modulus 0.95 or more, a gap or no orbit): no averaged law"
-            }
+            TierReason::NoLaw => "no averaged law: the fast orbit was not found from rest on",
             TierReason::Valid => {
-                "the fast orbit contracts at every mean velocity and the forcing is 20 or more \
-                 times faster than the drive oscillator"
+                "the averaged law: the forcing lies above the contact resonance and is 20 or more \
+                 times faster than the drive oscillator, and the fast orbit contracts at every \
+                 mean velocity of the steady window"
             }
             TierReason::AskedAveraged => "averaged was asked for and its law exists",
             TierReason::Check => {
                 "the full model's check of an averaged point, which disagreed with it and \
                  replaces it"
+            }
+            TierReason::BelowResonance => {
+                "the forcing lies below the contact resonance, where the fast orbit of body and \
+                 contact can period-double and other attractors coexist with it"
+            }
+            TierReason::LeftLaw => {
+                "the averaged run's steady window reached mean velocities where the fast orbit \
+                 does not contract (or was not found): the full model served"
             }
         }
     }
@@ -963,13 +1049,16 @@ pub fn table_span(p: &Params) -> f64 {
 }
 
 /// The options of [`shared_table`]: the defaults but the one-period integration at `rtol`
-/// 1e-7, where the law at `v_d` agrees with that at 1e-9 to 1e-6 N (3000 Hz, `v_a/v_d` = 0.4,
-/// 35 nodes either way) at 0.54 of the work.
+/// 1e-6. At 3000 Hz, `v_a/v_d` = 0.4 (`k_d` = 11 700 N/m, `v_d` = 0.5 mm/s) the law at `v_d`
+/// agrees with that at 1e-9 to 1e-5 N, and the slow model's dF and mean force with those on the
+/// 1e-7 table to 1e-5 N, at 0.3 of the work of 1e-9 (33 nodes). At 1e-5 the Hermite checks
+/// see the integration's noise and add nodes (47): no cheaper.
 pub const SHARED: AveragingOptions = AveragingOptions {
-    rtol: 1e-7,
+    rtol: 1e-6,
     max_newton: 30,
     force_tol: 1e-3,
     max_nodes: 400,
+    validity_only: true,
 };
 
 type Shared = std::sync::Arc<std::sync::OnceLock<Result<std::sync::Arc<Table>, AveragingError>>>;
@@ -982,14 +1071,7 @@ pub fn shared_table(p: &Params) -> Result<std::sync::Arc<Table>, AveragingError>
     use std::collections::HashMap;
     use std::sync::{Arc, Mutex, OnceLock};
     static TABLES: OnceLock<Mutex<HashMap<Vec<u64>, Shared>>> = OnceLock::new();
-    let mut key_p = *p;
-    key_p.k_d = 0.0;
-    key_p.h_d = 0.0;
-    key_p.t_on = 0.0;
-    let key: Vec<u64> = crate::model::params::PARAMS
-        .iter()
-        .map(|i| i.get(&key_p).to_bits())
-        .collect();
+    let key = table_key(p);
     let cell = {
         let mut map = TABLES
             .get_or_init(|| Mutex::new(HashMap::new()))
@@ -1003,36 +1085,80 @@ pub fn shared_table(p: &Params) -> Result<std::sync::Arc<Table>, AveragingError>
         .clone()
 }
 
+/// What identifies the table of `p` in [`shared_table`]: the bits of every parameter but
+/// `k_d`, `h_d` and `t_on`.
+pub fn table_key(p: &Params) -> Vec<u64> {
+    let mut key_p = *p;
+    key_p.k_d = 0.0;
+    key_p.h_d = 0.0;
+    key_p.t_on = 0.0;
+    crate::model::params::PARAMS
+        .iter()
+        .map(|i| i.get(&key_p).to_bits())
+        .collect()
+}
+
+/// Whether [`choose`] looks up the table of `p` for a run asked for with `tier` (with model
+/// extensions on where `!none`): the rules that need no table hold.
+pub fn needs_table(p: &Params, none: bool, tier: Tier) -> bool {
+    prechecks(p, none, tier).is_none()
+}
+
+/// The tier and reason where a rule that needs no table decides; `None` where the table must.
+fn prechecks(p: &Params, none: bool, tier: Tier) -> Option<TierReason> {
+    if tier == Tier::Full {
+        return Some(TierReason::Asked);
+    }
+    if !p.vibrates() {
+        return Some(TierReason::NoVibration);
+    }
+    if p.two_stage() {
+        return Some(TierReason::TwoStage);
+    }
+    if !none {
+        return Some(TierReason::Effects);
+    }
+    let f_drive = (p.k_d / p.m).sqrt() / (2.0 * std::f64::consts::PI);
+    if tier == Tier::Auto && p.f < SEPARATION * f_drive {
+        return Some(TierReason::Separation);
+    }
+    if tier == Tier::Auto && p.f < contact_resonance(p) {
+        return Some(TierReason::BelowResonance);
+    }
+    None
+}
+
+/// The contact resonance `√(k_t/m)/2π` \[Hz\] (1649 Hz on the defaults). Below it the fast
+/// orbit of body and contact period-doubles and turns chaotic in zones of the mean velocity
+/// that a table's nodes can straddle unseen, and attractors other than the period-1 orbit
+/// coexist with it: on a 1024-point slice of `sweeps/overnight.toml` the full model settled at
+/// 500 Hz, `u0` = 0.5 µm, `v_d` = 0.1 mm/s to a mean force of 4.17 N where the averaged law
+/// (its orbits contracting at every node) gave 5.27 N, while every averaged point at 2000 and
+/// 4000 Hz kept `r` within 0.0073 and the mean force within 1.3 %. [`Tier::Auto`] therefore
+/// averages above it only; [`Tier::Averaged`] averages below it too.
+pub fn contact_resonance(p: &Params) -> f64 {
+    (p.k_t / p.m).sqrt() / (2.0 * std::f64::consts::PI)
+}
+
 /// The tier that serves a run of `p` (with `effects` on, `none` where there are none) asked
 /// for with `tier`, why, and the law where it is the averaged one. [`Tier::Auto`] averages where
 /// the run vibrates from the start without model extensions, `f ≥` [`SEPARATION`] times the
-/// drive oscillator's frequency, and the law exists everywhere it may be needed
-/// ([`Table::valid`]: every node's fast orbit contracting, no gap); [`Tier::Averaged`] drops the
-/// separation rule.
+/// drive oscillator's frequency and above the contact resonance ([`contact_resonance`]), and
+/// the law was found from rest on; [`Tier::Averaged`] drops
+/// the separation rule. The run itself then checks that its steady window stays where the law
+/// may serve ([`SlowRun::left_law`]), and hands over to the full model where it does not
+/// ([`TierReason::LeftLaw`]).
 pub fn choose(
     p: &Params,
     none: bool,
     tier: Tier,
 ) -> (Tier, TierReason, Option<std::sync::Arc<Table>>) {
     let full = |r| (Tier::Full, r, None);
-    if tier == Tier::Full {
-        return full(TierReason::Asked);
-    }
-    if !p.vibrates() {
-        return full(TierReason::NoVibration);
-    }
-    if p.two_stage() {
-        return full(TierReason::TwoStage);
-    }
-    if !none {
-        return full(TierReason::Effects);
-    }
-    let f_drive = (p.k_d / p.m).sqrt() / (2.0 * std::f64::consts::PI);
-    if tier == Tier::Auto && p.f < SEPARATION * f_drive {
-        return full(TierReason::Separation);
+    if let Some(why) = prechecks(p, none, tier) {
+        return full(why);
     }
     match shared_table(p) {
-        Ok(t) if t.valid() => {
+        Ok(t) if t.nodes.len() >= 2 => {
             let why = if tier == Tier::Auto {
                 TierReason::Valid
             } else {

@@ -450,13 +450,27 @@ pub fn simulate_with(
 fn serve(rig: &Rig, none: bool, t_end: f64, opts: &RunOptions, solver: &mut Solver) -> RunResult {
     let clock = Instant::now();
     let (tier, tier_reason, table) = crate::averaged::choose(&rig.p, none, opts.tier);
-    let mut r = match table {
-        Some(t) => averaged_run(&rig.p, &t, t_end, opts, clock),
-        None => integrate(rig, t_end, opts, solver),
-    };
-    r.tier = tier;
-    r.tier_reason = tier_reason;
-    r
+    let averaged = table.map(|t| averaged_run(&rig.p, &t, t_end, opts, clock));
+    match averaged {
+        Some(Ok(mut r)) => {
+            r.tier = tier;
+            r.tier_reason = tier_reason;
+            r
+        }
+        // The window left the law: the full model serves, and the time of the try counts.
+        Some(Err(_)) => {
+            let mut r = integrate(rig, t_end, opts, solver);
+            r.tier_reason = TierReason::LeftLaw;
+            r.wall_time = clock.elapsed().as_secs_f64();
+            r
+        }
+        None => {
+            let mut r = integrate(rig, t_end, opts, solver);
+            r.tier = tier;
+            r.tier_reason = tier_reason;
+            r
+        }
+    }
 }
 
 /// Relative tolerance of the averaged slow model's integration: a hundredth of the run's
@@ -467,19 +481,24 @@ fn slow_rtol(opts: &RunOptions) -> f64 {
 }
 
 /// A run of the averaged slow model over the full run's simulated time `t_end`, the drive
-/// force sampled once per forcing period (a full run's force smoothed over one period).
+/// force sampled once per forcing period (a full run's force smoothed over one period); `Err`
+/// with the mean velocity where its steady window left the law
+/// ([`SlowRun::left_law`](crate::averaged::SlowRun::left_law)).
 fn averaged_run(
     p: &Params,
     table: &crate::averaged::Table,
     t_end: f64,
     opts: &RunOptions,
     clock: Instant,
-) -> RunResult {
+) -> Result<RunResult, f64> {
     let trace = opts.trace.then_some(opts.trace_points);
     let slow =
         crate::averaged::simulate_slow_with(p, table, t_end, 1.0 / p.f, slow_rtol(opts), trace)
-            .expect("choose hands over valid tables only");
-    RunResult {
+            .map_err(|_| 0.0)?;
+    if let Some(v) = slow.left_law {
+        return Err(v);
+    }
+    Ok(RunResult {
         status: slow.status,
         stats: slow.stats,
         measures: slow.measures,
@@ -491,7 +510,7 @@ fn averaged_run(
         tier: Tier::Averaged,
         tier_reason: TierReason::Valid,
         trace: slow.trace,
-    }
+    })
 }
 
 /// The simulated time of a run: the given `t_end`, or [`planned_time`]. A two-stage run must

@@ -105,14 +105,19 @@ pub fn sampled(i: usize, share: f64) -> bool {
     ((z >> 11) as f64 / (1u64 << 53) as f64) < share
 }
 
-/// Why a point was checked.
-fn random_share(spec: &SweepSpec, plan: &Plan, i: usize) -> bool {
-    let with_vibration = plan.points.iter().filter(|p| p.vibrates()).count();
+/// Whether point `i` is drawn in the random share of a sweep whose plan has `with_vibration`
+/// points with vibration.
+fn random_share(spec: &SweepSpec, with_vibration: usize, i: usize) -> bool {
     with_vibration >= spec.check.min_points && sampled(i, spec.check.share)
 }
 
+/// The grid points with vibration.
+fn with_vibration(plan: &Plan) -> usize {
+    plan.points.iter().filter(|p| p.vibrates()).count()
+}
+
 /// The averaged run of point `i` (its own run, where the averaged model served it).
-fn averaged_run<'r>(res: &'r Results, i: usize) -> Option<&'r crate::sim::RunResult> {
+fn averaged_run(res: &Results, i: usize) -> Option<&crate::sim::RunResult> {
     measured(res.points[i].as_ref()).filter(|r| r.tier == Tier::Averaged)
 }
 
@@ -120,6 +125,7 @@ fn averaged_run<'r>(res: &'r Results, i: usize) -> Option<&'r crate::sim::RunRes
 /// share, or with `r` within the band about the level.
 pub fn points(spec: &SweepSpec, plan: &Plan, res: &Results, owned: &[bool]) -> Vec<usize> {
     let lv = plan.check_level;
+    let n = with_vibration(plan);
     (0..plan.points.len())
         .filter(|&i| owned[i] && averaged_run(res, i).is_some())
         .filter(|&i| {
@@ -128,7 +134,7 @@ pub fn points(spec: &SweepSpec, plan: &Plan, res: &Results, owned: &[bool]) -> V
                 (Some(a), Some(b)) => crate::sim::reduction(&a.measures, &b.measures).0,
                 _ => f64::NAN,
             };
-            random_share(spec, plan, i) || (r - lv).abs() <= spec.check.band
+            random_share(spec, n, i) || (r - lv).abs() <= spec.check.band
         })
         .collect()
 }
@@ -159,9 +165,9 @@ impl Comparison {
     }
 }
 
-/// The comparison of point `i`, where it was checked (its full run has measures, as has its
-/// averaged run and their reference).
-pub fn compare(spec: &SweepSpec, plan: &Plan, res: &Results, i: usize) -> Option<Comparison> {
+/// The comparison of point `i` of a plan with `n` points with vibration, where it was checked
+/// (its full run has measures, as has its averaged run and their reference).
+fn compare(spec: &SweepSpec, plan: &Plan, res: &Results, n: usize, i: usize) -> Option<Comparison> {
     let avg = averaged_run(res, i)?;
     let full = measured(res.checks[i].as_ref())?;
     let rf = measured(res.refs[plan.point_ref[i]].as_ref())?;
@@ -171,7 +177,7 @@ pub fn compare(spec: &SweepSpec, plan: &Plan, res: &Results, i: usize) -> Option
     let lv = plan.check_level;
     Some(Comparison {
         point: i,
-        random: random_share(spec, plan, i),
+        random: random_share(spec, n, i),
         r: (ra, rb),
         mean_force: (fa, fb),
         // NaN on either side (a reference without stick-slip) agrees only with NaN.
@@ -201,8 +207,9 @@ pub fn replaced(plan: &Plan, res: &Results, i: usize) -> bool {
 
 /// Every comparison of the sweep so far, by point.
 pub fn comparisons(spec: &SweepSpec, plan: &Plan, res: &Results) -> Vec<Comparison> {
+    let n = with_vibration(plan);
     (0..plan.points.len())
-        .filter_map(|i| compare(spec, plan, res, i))
+        .filter_map(|i| compare(spec, plan, res, n, i))
         .collect()
 }
 
