@@ -345,16 +345,20 @@ pub fn bench_cmd(a: &BenchArgs) -> Result<(), AppError> {
         crate::say!("wrote {}", f.display());
     }
     // The fastest tolerance of each setting that meets the accuracy target, per case.
+    let mut settings: Vec<String> = vec![];
+    for r in &rows {
+        if !settings.contains(&r.setting()) {
+            settings.push(r.setting());
+        }
+    }
     for c in &cases {
-        for m in &o.methods {
-            for env in &o.envelopes {
-                let name = crate::bench::setting_name(*m, *env);
+        for name in &settings {
+            {
                 let best = rows
                     .iter()
                     .filter(|r| {
                         r.case == c.name
-                            && r.method == *m
-                            && r.envelope == *env
+                            && r.setting() == *name
                             && r.err_r <= 0.01
                             && r.err_mean <= 0.005
                             && r.status == crate::ode::Status::Success
@@ -670,18 +674,95 @@ pub fn slurm_cmd(a: &SlurmArgs) -> Result<(), AppError> {
 
 /// `stickslip plot`.
 pub fn plot_cmd(a: &PlotArgs) -> Result<(), AppError> {
-    let stem = a.out.clone().unwrap_or_else(|| a.file.with_extension(""));
+    if let Some(case) = &a.law {
+        return law_cmd(case, a.out.as_deref());
+    }
+    let file = a.file.as_ref().expect("clap asks for a file without --law");
+    let stem = a.out.clone().unwrap_or_else(|| file.with_extension(""));
     // The figures are STEM_map.png, ...: their folder must be one.
     crate::cli::check_output(
         "out",
         &std::path::PathBuf::from(format!("{}_map.png", stem.display())),
-        &[&a.file],
+        &[file],
     )?;
-    let d = sweep::read::SweepData::read(&a.file).map_err(SweepError::from)?;
+    let d = sweep::read::SweepData::read(file).map_err(SweepError::from)?;
     d.require_results().map_err(SweepError::State)?;
     for f in sweep::figures::plot_all(&d, &stem)? {
         crate::say!("wrote {}", f.display());
     }
+    Ok(())
+}
+
+/// `stickslip plot --law CASE`: the averaged law of the case's point, its zones and nodes.
+fn law_cmd(case: &std::path::Path, out: Option<&std::path::Path>) -> Result<(), AppError> {
+    use crate::averaged::{AveragingOptions, Table, table_span};
+    let c = crate::config::load_case(case).map_err(CliError::from)?;
+    let p = c.params;
+    if !p.vibrates() {
+        return Err(CliError::Flag {
+            flag: "law".into(),
+            value: case.display().to_string(),
+            msg: "the case has no vibration (f and u0 must be > 0): there is no law to average"
+                .into(),
+        }
+        .into());
+    }
+    let stem = out.map(std::path::Path::to_path_buf).unwrap_or_else(|| {
+        let name = case
+            .file_stem()
+            .map_or("case".into(), |s| s.to_string_lossy());
+        std::path::PathBuf::from(format!("results/{name}_law"))
+    });
+    let csv = stem.with_extension("csv");
+    crate::cli::check_output("out", &csv, &[case])?;
+    let waiting = crate::progress::Waiting::new(
+        "building the averaged law",
+        std::time::Duration::from_secs(2),
+        true,
+    );
+    let t = Table::build(&p, table_span(&p), AveragingOptions::default()).map_err(|e| {
+        CliError::Flag {
+            flag: "law".into(),
+            value: case.display().to_string(),
+            msg: e.to_string(),
+        }
+    })?;
+    drop(waiting);
+    let mut text =
+        String::from("V_m_per_s,F_eff_N,slope_N_s_per_m,fast_multiplier_modulus,contracting\n");
+    for n in &t.nodes {
+        text += &format!(
+            "{},{},{},{},{}\n",
+            n.v_mean,
+            n.force,
+            n.slope,
+            n.fast_modulus(),
+            u8::from(n.contracting())
+        );
+    }
+    crate::output::ensure_parent(&csv)?;
+    std::fs::write(&csv, text).map_err(crate::output::ioerr(&csv))?;
+    let title = format!(
+        "averaged friction law: f = {} Hz, v_a = {:.3} mm/s, v_d = {} mm/s",
+        p.f,
+        p.v_a() * 1e3,
+        p.v_d * 1e3
+    );
+    let mut written = vec![csv];
+    written.extend(crate::plot::law_figure(&stem, &t, &p, &title)?);
+    for f in written {
+        crate::say!("wrote {}", f.display());
+    }
+    crate::say!(
+        "{} nodes; {} with a fast orbit that does not contract; {} gap(s); {}",
+        t.nodes.len(),
+        t.nodes.iter().filter(|n| !n.contracting()).count(),
+        t.gaps.len(),
+        match t.stopped_at {
+            Some(v) => format!("no orbit found beyond V = {v:.3e} m/s"),
+            None => format!("up to V = {:.3e} m/s", table_span(&p)),
+        }
+    );
     Ok(())
 }
 

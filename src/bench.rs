@@ -37,8 +37,9 @@ fn with_ratio(mut p: Params, ratio: f64) -> Params {
     p
 }
 
-/// The cases: no vibration, partial reduction, elimination, the slow corner of the paper's
-/// ranges, and low frequency with large amplitude.
+/// The cases: no vibration, partial reduction and elimination at 1500 Hz and above the contact
+/// resonance (where the averaged tier serves), the slow corner of the paper's ranges, and low
+/// frequency with large amplitude.
 pub fn cases() -> Vec<BenchCase> {
     let base = Params {
         k_d: 11_700.0,
@@ -61,6 +62,16 @@ pub fn cases() -> Vec<BenchCase> {
             name: "eliminated",
             doc: "v_a/v_d = 2 at 1500 Hz (eliminated)",
             params: with_ratio(base, 2.0),
+        },
+        BenchCase {
+            name: "partial_3k",
+            doc: "v_a/v_d = 0.4 at 3000 Hz (partial reduction above the contact resonance)",
+            params: with_ratio(Params { f: 3000.0, ..base }, 0.4),
+        },
+        BenchCase {
+            name: "eliminated_4k",
+            doc: "v_a/v_d = 2 at 4000 Hz (eliminated, above the contact resonance)",
+            params: with_ratio(Params { f: 4000.0, ..base }, 2.0),
         },
         BenchCase {
             name: "slow_corner",
@@ -99,6 +110,10 @@ pub struct BenchOptions {
     pub envelopes: Vec<Option<f64>>,
     /// Timed repetitions per point (median reported).
     pub repeats: usize,
+    /// Tiers to run (`crate::averaged::Tier`): `Full` runs every method and envelope above;
+    /// `Averaged` adds one setting, `averaged`, the averaged slow model at each tolerance (its
+    /// table built afresh for every repeat, so the time includes it). Default `[Full]`.
+    pub tiers: Vec<crate::averaged::Tier>,
 }
 
 impl Default for BenchOptions {
@@ -110,6 +125,7 @@ impl Default for BenchOptions {
             reference_tolerance: 1e-11,
             envelopes: vec![None],
             repeats: 3,
+            tiers: vec![crate::averaged::Tier::Full],
         }
     }
 }
@@ -145,11 +161,20 @@ pub struct BenchRow {
     pub status: Status,
     /// Work.
     pub stats: Stats,
+    /// The tier asked for: full, or averaged (the method is then the slow model's Radau5).
+    pub tier: crate::averaged::Tier,
+    /// Why the tier that served the run did ([`crate::averaged::TierReason`]): an averaged
+    /// setting whose run left the law was served by the full model.
+    pub tier_reason: crate::averaged::TierReason,
 }
 
 impl BenchRow {
-    /// The method with its envelope tolerance, as `dopri5` or `auto+envelope1e-4`.
+    /// The method with its envelope tolerance, as `dopri5` or `auto+envelope1e-4`; `averaged`
+    /// for the averaged tier.
     pub fn setting(&self) -> String {
+        if self.tier == crate::averaged::Tier::Averaged {
+            return "averaged".to_string();
+        }
         setting_name(self.method, self.envelope)
     }
 }
@@ -231,20 +256,31 @@ pub fn run(
             d_f_ss: ss.measures.d_f,
             run,
         };
-        for (m, envelope) in o
-            .methods
-            .iter()
-            .flat_map(|&m| o.envelopes.iter().map(move |&e| (m, e)))
-        {
+        use crate::averaged::Tier;
+        let mut settings: Vec<(Method, Option<f64>, Tier)> = vec![];
+        if o.tiers.contains(&Tier::Full) {
+            for &m in &o.methods {
+                for &e in &o.envelopes {
+                    settings.push((m, e, Tier::Full));
+                }
+            }
+        }
+        if o.tiers.contains(&Tier::Averaged) {
+            settings.push((Method::Radau5, None, Tier::Averaged));
+        }
+        for (m, envelope, tier) in settings {
             let mut solver = Solver::new(m);
             for &tol in &o.tolerances {
                 let opts = RunOptions {
                     envelope,
+                    tier,
                     ..tight(m, tol)
                 };
                 let mut times = vec![];
                 let mut last = None;
                 for _ in 0..o.repeats.max(1) {
+                    // Each averaged repeat builds its table: the time is a run's from nothing.
+                    crate::averaged::forget_tables();
                     let t = Instant::now();
                     let r = sim::simulate(&c.params, &opts, &mut solver)?;
                     times.push(t.elapsed().as_secs_f64());
@@ -271,6 +307,8 @@ pub fn run(
                     err_d_f: ((rm.d_f - rr.d_f) / rr.d_f).abs(),
                     status: r.status,
                     stats: r.stats,
+                    tier,
+                    tier_reason: r.tier_reason,
                 };
                 progress(&format!(
                     "{:13} {:16} tol {:7.0e}: {:9.2} ms  |dr| {:.1e}  |dmean| {:.1e}  {} steps",
@@ -311,6 +349,8 @@ pub fn write_h5(
         let setting: Vec<String> = rows.iter().map(BenchRow::setting).collect();
         let setting: Vec<&str> = setting.iter().map(String::as_str).collect();
         f.write_vlen_strings("setting", &setting).map_err(&e)?;
+        let reason: Vec<&str> = rows.iter().map(|r| r.tier_reason.name()).collect();
+        f.write_vlen_strings("tier_reason", &reason).map_err(&e)?;
         let col = |g: fn(&BenchRow) -> f64| rows.iter().map(g).collect::<Vec<f64>>();
         for (name, unit, doc, v) in [
             ("tolerance", "1", "rtol = atol of the run", col(|r| r.tol)),

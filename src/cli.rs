@@ -289,8 +289,8 @@ impl DiagnoseArgs {
 /// Arguments of `stickslip bench`.
 #[derive(Args, Debug)]
 pub struct BenchArgs {
-    /// Cases (comma-separated): no_vibration, partial, eliminated, slow_corner, low_frequency.
-    /// Default: all.
+    /// Cases (comma-separated): no_vibration, partial, eliminated, partial_3k, eliminated_4k,
+    /// slow_corner, low_frequency. Default: all.
     #[arg(long, value_delimiter = ',')]
     pub cases: Vec<String>,
     /// Methods (comma-separated). Default: radau5,rodas4,dopri5,auto.
@@ -309,6 +309,10 @@ pub struct BenchArgs {
     /// Timed repeats per point (median reported), 1 to 100.
     #[arg(long, default_value_t = 3)]
     pub repeats: usize,
+    /// Tiers (comma-separated): full (every method and envelope) and averaged (one more
+    /// setting: the averaged slow model, its table built afresh for each repeat). Default: full.
+    #[arg(long, value_delimiter = ',', value_name = "TIERS")]
+    pub tiers: Vec<crate::averaged::Tier>,
     /// Output HDF5 file; diagrams go beside it (<stem>_<case>.png/.svg).
     #[arg(short, long, default_value = "results/bench.h5")]
     pub out: PathBuf,
@@ -368,6 +372,16 @@ impl BenchArgs {
                     },
                 })
                 .collect::<Result<_, _>>()?;
+        }
+        if self.tiers.contains(&crate::averaged::Tier::Auto) {
+            return Err(CliError::Flag {
+                flag: "tiers".into(),
+                value: "auto".into(),
+                msg: "a benchmark compares tiers: give full, averaged or both".into(),
+            });
+        }
+        if !self.tiers.is_empty() {
+            o.tiers = self.tiers.clone();
         }
         if !(1..=100).contains(&self.repeats) {
             return Err(CliError::Flag {
@@ -521,11 +535,18 @@ pub struct SlurmArgs {
 #[derive(Args, Debug)]
 pub struct PlotArgs {
     /// A sweep's HDF5 file.
-    pub file: PathBuf,
-    /// Stem of the figure files (default: the HDF5 file without extension); figures are named
-    /// <stem>_fig10a.png, <stem>_map.svg, ...
+    #[arg(required_unless_present = "law")]
+    pub file: Option<PathBuf>,
+    /// Stem of the figure files (default: the HDF5 file without extension, or
+    /// results/<case stem>_law with --law); figures are named <stem>_fig10a.png,
+    /// <stem>_map.svg, ...
     #[arg(short, long, value_name = "STEM")]
     pub out: Option<PathBuf>,
+    /// Instead of a sweep's figures: the averaged friction law F_eff(V) of the point of this
+    /// case file (its f, u0, v_d and contact), with the zones where the fast orbit does not
+    /// contract, as <stem>.png/.svg and its nodes as <stem>.csv.
+    #[arg(long, value_name = "CASE", conflicts_with = "file")]
+    pub law: Option<PathBuf>,
 }
 
 /// Arguments of `stickslip boundary`.

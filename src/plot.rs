@@ -215,3 +215,102 @@ impl Figure for TraceFigure<'_> {
         Ok(())
     }
 }
+
+/// The averaged friction law `F_eff(V)` of a table up to four times the largest of `v_a`,
+/// `v_d` and `v_s`: the Hermite interpolant through its nodes, the nodes whose orbit does not contract (red: the law
+/// may not serve there), gaps without a period-1 orbit (grey bands), and the steady friction of
+/// the contact without vibration for comparison (dashed).
+pub fn law_figure(
+    stem: &Path,
+    table: &crate::averaged::Table,
+    p: &crate::model::Params,
+    title: &str,
+) -> Result<Vec<PathBuf>, PlotError> {
+    render(stem, &LawFigure { table, p, title })
+}
+
+struct LawFigure<'a> {
+    table: &'a crate::averaged::Table,
+    p: &'a crate::model::Params,
+    title: &'a str,
+}
+
+impl Figure for LawFigure<'_> {
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), String> {
+        let e = |x: DrawingAreaErrorKind<DB::ErrorType>| x.to_string();
+        let t = self.table;
+        let p = self.p;
+        // Up to four times the largest of v_a, v_d and v_s: the law's shape lies there, and
+        // beyond it flattens onto the steady friction.
+        let v_hi = t
+            .nodes
+            .last()
+            .map_or(1e-3, |n| n.v_mean)
+            .min(4.0 * p.v_a().max(p.v_d).max(p.v_s))
+            .max(1e-12);
+        let n = 800;
+        let vs: Vec<f64> = (0..=n).map(|i| v_hi * i as f64 / n as f64).collect();
+        let law: Vec<(f64, f64)> = vs
+            .iter()
+            .filter_map(|&v| t.force(v).map(|f| (v * 1e3, f)))
+            .collect();
+        let steady: Vec<(f64, f64)> = vs
+            .iter()
+            .map(|&v| {
+                let g = p.f_c + (p.f_s - p.f_c) * (-(v / p.v_s).powi(2)).exp();
+                (v * 1e3, g + p.h_v * v)
+            })
+            .collect();
+        let (lo, hi) = bounds(
+            law.iter()
+                .chain(steady.iter())
+                .map(|q| q.1)
+                .chain(std::iter::once(0.0)),
+        );
+        let root = root.titled(self.title, ("sans-serif", 26)).map_err(e)?;
+        let mut c = ChartBuilder::on(&root)
+            .margin(12)
+            .x_label_area_size(45)
+            .y_label_area_size(70)
+            .build_cartesian_2d(0.0..v_hi * 1e3, lo..hi)
+            .map_err(e)?;
+        c.configure_mesh()
+            .x_desc("mean sliding velocity V [mm/s]")
+            .y_desc("friction force [N]")
+            .label_style(("sans-serif", 16))
+            .draw()
+            .map_err(e)?;
+        for &(a, b) in &t.gaps {
+            c.draw_series(std::iter::once(Rectangle::new(
+                [(a * 1e3, lo), (b * 1e3, hi)],
+                RGBColor(200, 200, 200).mix(0.5).filled(),
+            )))
+            .map_err(e)?;
+        }
+        c.draw_series(LineSeries::new(steady, BLACK.stroke_width(1)))
+            .map_err(e)?
+            .label("steady friction without vibration")
+            .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], BLACK));
+        c.draw_series(LineSeries::new(law, BLUE.stroke_width(2)))
+            .map_err(e)?
+            .label("F_eff(V), averaged over the vibration")
+            .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], BLUE));
+        c.draw_series(
+            t.nodes
+                .iter()
+                .filter(|o| !o.contracting())
+                .map(|o| Circle::new((o.v_mean * 1e3, o.force), 4, RED.filled())),
+        )
+        .map_err(e)?
+        .label("fast orbit does not contract: the law may not serve")
+        .legend(|(x, y)| Circle::new((x + 10, y), 4, RED.filled()));
+        c.configure_series_labels()
+            .position(SeriesLabelPosition::LowerRight)
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .label_font(("sans-serif", 16))
+            .draw()
+            .map_err(e)?;
+        Ok(())
+    }
+}

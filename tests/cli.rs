@@ -863,3 +863,150 @@ fn a_full_or_closed_standard_output_is_an_error_not_a_panic() {
     );
     assert!(dir.path().join("p.h5").exists());
 }
+
+/// The tier of a run: recorded in the JSON and in the run's HDF5 attributes (read by h5py),
+/// chosen by `--tier` or `tier` under `[run]`; an unknown tier is refused with the allowed ones
+/// named, in a flag and in a case file.
+#[test]
+fn the_tier_that_served_a_run_is_recorded_and_bad_tiers_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("t.h5");
+    let o = out.to_str().unwrap();
+    let base = [
+        "run",
+        "--f",
+        "3000",
+        "--va-ratio",
+        "0.4",
+        "--no-trace",
+        "--json",
+        "-o",
+        o,
+    ];
+    let auto = stickslip(&base);
+    assert!(
+        auto.status.success(),
+        "{}",
+        String::from_utf8_lossy(&auto.stderr)
+    );
+    let j: serde_json::Value = serde_json::from_slice(&auto.stdout).unwrap();
+    assert_eq!(j["tier"], "averaged");
+    assert_eq!(j["tier_reason"], "valid");
+    assert_eq!(j["solver"]["tier"], "auto");
+    // The reference without vibration is the full model's.
+    assert_eq!(j["reference"]["tier"], "full");
+    assert_eq!(j["reference"]["tier_reason"], "no_vibration");
+    let check = dir.path().join("check.py");
+    std::fs::write(
+        &check,
+        "import sys, h5py\nf = h5py.File(sys.argv[1])\nassert f.attrs['tier'] == 'averaged', f.attrs['tier']\nassert f.attrs['tier_reason'] == 'valid'\n",
+    )
+    .unwrap();
+    let py = Command::new("python3")
+        .arg(&check)
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(
+        py.status.success(),
+        "{}",
+        String::from_utf8_lossy(&py.stderr)
+    );
+    let mut full_args = base.to_vec();
+    full_args.extend(["--tier", "full"]);
+    let full = stickslip(&full_args);
+    let jf: serde_json::Value = serde_json::from_slice(&full.stdout).unwrap();
+    assert_eq!(
+        (jf["tier"].as_str(), jf["tier_reason"].as_str()),
+        (Some("full"), Some("asked"))
+    );
+    let (ra, rf) = (j["r"].as_f64().unwrap(), jf["r"].as_f64().unwrap());
+    assert!(
+        (ra - rf).abs() <= 0.005,
+        "r {ra} averaged against {rf} full"
+    );
+    // Refused: a flag and a case file's key, each naming what is allowed.
+    let mut bad = base.to_vec();
+    bad.extend(["--tier", "hybrid"]);
+    let e = stickslip(&bad);
+    let msg = String::from_utf8_lossy(&e.stderr);
+    assert_eq!(e.status.code(), Some(2), "{msg}");
+    assert!(
+        msg.contains("hybrid") && msg.contains("auto, averaged, full"),
+        "{msg}"
+    );
+    let case = dir.path().join("case.toml");
+    std::fs::write(
+        &case,
+        "f = 3000.0\nu0 = 1e-8\n[run]\ntier = \"sometimes\"\n",
+    )
+    .unwrap();
+    let e = stickslip(&["run", "--case", case.to_str().unwrap(), "-o", o]);
+    let msg = String::from_utf8_lossy(&e.stderr);
+    assert_eq!(e.status.code(), Some(2), "{msg}");
+    assert!(
+        msg.contains("tier") && msg.contains("sometimes") && msg.contains("auto, averaged, full"),
+        "{msg}"
+    );
+}
+
+/// `plot --law CASE` tabulates the averaged friction law of the case's point: through zero at
+/// V = 0 (vibration turns static friction into creep), its peak where the mean velocity reaches
+/// the vibration's velocity amplitude (the averaged Coulomb law `(2 F_c/π) asin(V/v_a)` saturates
+/// at `V = v_a`), and the steady friction far beyond; nodes in a CSV, the figure beside it.
+#[test]
+fn plot_law_draws_the_averaged_friction_curve() {
+    let dir = tempfile::tempdir().unwrap();
+    let case = dir.path().join("p.toml");
+    std::fs::write(
+        &case,
+        "k_d = 11700.0\nv_d = 0.5e-3\nf = 3000.0\nv_a = 0.2e-3\n",
+    )
+    .unwrap();
+    let stem = dir.path().join("law");
+    let o = stickslip(&[
+        "plot",
+        "--law",
+        case.to_str().unwrap(),
+        "-o",
+        stem.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for ext in ["png", "svg", "csv"] {
+        assert!(stem.with_extension(ext).exists(), "{ext}");
+    }
+    let text = std::fs::read_to_string(stem.with_extension("csv")).unwrap();
+    let rows: Vec<Vec<f64>> = text
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+        .collect();
+    assert!(rows.len() > 10);
+    assert!(
+        rows[0][0] == 0.0 && rows[0][1].abs() < 1e-3,
+        "{:?}",
+        rows[0]
+    );
+    let peak = rows.iter().max_by(|a, b| a[1].total_cmp(&b[1])).unwrap();
+    assert!(
+        (peak[0] / 0.2e-3 - 1.0).abs() < 0.2,
+        "peak at V = {} m/s",
+        peak[0]
+    );
+    let last = rows.last().unwrap();
+    assert!(
+        (last[1] - 8.3).abs() < 0.05,
+        "far from V = 0 the law is F_c: {last:?}"
+    );
+    // A case without vibration has no law.
+    std::fs::write(&case, "f = 3000.0\nu0 = 0.0\n").unwrap();
+    let o = stickslip(&[
+        "plot",
+        "--law",
+        case.to_str().unwrap(),
+        "-o",
+        stem.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("no vibration"));
+}

@@ -159,6 +159,7 @@ def run(
     early_stop: Union[bool, str, None] = None,
     periodic: bool = True,
     envelope: Union[float, bool, None] = None,
+    tier: Optional[str] = None,
     effects: Any = None,
     case: Optional[PathLike] = None,
     trace: bool = True,
@@ -186,6 +187,10 @@ def run(
         Without vibration, continue along the limit cycle once two slips repeat (default True).
     envelope:
         Envelope-following tolerance (default 1e-4); ``False`` integrates every period.
+    tier:
+        Which model serves a run with vibration: ``"auto"`` (default: the vibration averaged
+        out where the averaged law is valid, else the full model), ``"averaged"`` or ``"full"``.
+        ``Run.tier`` and ``Run.tier_reason`` say which served and why.
     effects:
         Model extensions: ``{"aging": {"b": 0.03}}``, ``["viscous"]`` or ``"aging:b=0.03"``.
     case:
@@ -242,6 +247,10 @@ def run(
         args.append("--no-envelope")
     elif envelope is not None and envelope is not True:
         args += ["--envelope", _number("envelope", envelope)]
+    if tier is not None:
+        if tier not in ("auto", "averaged", "full"):
+            raise ValueError(f"tier = {tier!r}: must be \"auto\", \"averaged\" or \"full\"")
+        args += ["--tier", tier]
     for spec in _effect_specs(effects):
         args += ["--effect", spec]
     if not trace:

@@ -90,6 +90,22 @@ def test_run_gives_the_numbers_of_run_json(tmp_path: Path) -> None:
     np.testing.assert_array_equal(f["t"].values, py.trace["t"].values)
 
 
+def test_tiers_say_which_model_served_and_agree() -> None:
+    """Above the contact resonance the default tier averages the vibration out and says so; the
+    full model asked for gives r within 0.005 (the case of the averaging study's target: 3000 Hz,
+    v_a/v_d = 0.4) with some 28 times the right-hand sides; below it auto integrates in full."""
+    auto = stickslip.run(k_d=11_700, v_d=0.5e-3, f=3000, va_ratio=0.4, trace=False)
+    full = stickslip.run(k_d=11_700, v_d=0.5e-3, f=3000, va_ratio=0.4, trace=False, tier="full")
+    assert (auto.tier, auto.tier_reason) == ("averaged", "valid")
+    assert (full.tier, full.tier_reason) == ("full", "asked")
+    assert abs(auto.r - full.r) <= 0.005
+    assert 10 * auto.stats["rhs_evals"] < full.stats["rhs_evals"]
+    low = stickslip.run(k_d=11_700, v_d=0.5e-3, f=1500, va_ratio=0.4, trace=False)
+    assert (low.tier, low.tier_reason) == ("full", "below_resonance")
+    with pytest.raises(ValueError, match="tier"):
+        stickslip.run(f=3000, va_ratio=0.4, tier="hybrid")
+
+
 def test_trace_is_a_dataset_with_units() -> None:
     r = stickslip.run(k_d=11_700, v_d=0.5e-3, f=1500, va_ratio=2.0, effects={"viscous": {"h_v": 20}})
     tr = r.trace
