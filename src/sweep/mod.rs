@@ -326,13 +326,17 @@ fn tasks_of(plan: &Plan, points: &[usize]) -> Vec<Task> {
     refs.sort_unstable();
     refs.dedup();
     let mut t: Vec<Task> = refs.into_iter().map(Task::Ref).collect();
-    t.extend(
-        points
-            .iter()
-            .copied()
-            .filter(|&i| plan.points[i].vibrates())
-            .map(Task::Point),
-    );
+    // The points that share a table of the averaged law (every k_d, h_d of one f, u0, v_d and
+    // contact) next to each other: a worker takes runs in order, so it builds the table once
+    // for the runs that follow instead of two workers waiting on one build. The order changes
+    // no number: every run is independent.
+    let mut pts: Vec<usize> = points
+        .iter()
+        .copied()
+        .filter(|&i| plan.points[i].vibrates())
+        .collect();
+    pts.sort_by_cached_key(|&i| crate::averaged::table_key(&plan.points[i]));
+    t.extend(pts.into_iter().map(Task::Point));
     t
 }
 
@@ -723,27 +727,9 @@ pub fn run(spec: &SweepSpec, opts: &SweepOptions) -> Result<SweepOutcome, SweepE
         made: 0,
         interrupted: false,
     };
-    // The averaged law's tables the first round needs, each built once, in parallel, before
-    // the runs that share them (a run would otherwise wait for another's build). Deterministic:
-    // a table is a function of its parameters alone.
-    let first = tasks_of(&plan, &first_points(spec, |i| owned[i]));
-    {
-        let mut seen = std::collections::HashSet::new();
-        let tables: Vec<&Params> = first
-            .iter()
-            .filter(|t| matches!(t, Task::Point(_)) && !results.has(**t))
-            .map(|&t| plan.params(t))
-            .filter(|p| crate::averaged::needs_table(p, plan.effects.is_empty(), run_opts.tier))
-            .filter(|p| seen.insert(crate::averaged::table_key(p)))
-            .collect();
-        pool.install(|| {
-            tables.par_iter().for_each(|p| {
-                let _ = crate::averaged::shared_table(p);
-            })
-        });
-    }
     // The tasks of the first round: the whole grid, or the coarse grid of a refinement (the
     // shard's part of either).
+    let first = tasks_of(&plan, &first_points(spec, |i| owned[i]));
     let todo: Vec<Task> = first.iter().copied().filter(|t| !results.has(*t)).collect();
     let mut progress = Progress::new(
         first.len() as u64,
