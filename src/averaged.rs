@@ -962,11 +962,14 @@ pub enum TierReason {
     /// The averaged run's steady window passed a mean velocity where the law may not stand
     /// for the vibration ([`SlowRun::left_law`]): the full model served.
     LeftLaw,
+    /// In a sweep under `auto`, no other point shares the point's table of the averaged law:
+    /// building it would cost about what the full run does.
+    Unshared,
 }
 
 impl TierReason {
     /// Every reason, by code.
-    pub const ALL: [TierReason; 11] = [
+    pub const ALL: [TierReason; 12] = [
         TierReason::Asked,
         TierReason::NoVibration,
         TierReason::TwoStage,
@@ -978,6 +981,7 @@ impl TierReason {
         TierReason::Check,
         TierReason::LeftLaw,
         TierReason::BelowResonance,
+        TierReason::Unshared,
     ];
 
     /// The name in files.
@@ -994,6 +998,7 @@ impl TierReason {
             TierReason::Check => "check",
             TierReason::LeftLaw => "left_law",
             TierReason::BelowResonance => "below_resonance",
+            TierReason::Unshared => "unshared",
         }
     }
 
@@ -1039,6 +1044,10 @@ impl TierReason {
             TierReason::BelowResonance => {
                 "the forcing lies below the contact resonance, where the fast orbit of body and \
                  contact can period-double and other attractors coexist with it"
+            }
+            TierReason::Unshared => {
+                "no other point of the sweep shares this point's averaged law: its table would \
+                 cost about what the full run does"
             }
             TierReason::LeftLaw => {
                 "the averaged run's steady window reached mean velocities where the fast orbit \

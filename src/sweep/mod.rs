@@ -47,6 +47,10 @@ pub struct Plan {
     pub effects: crate::model::Effects,
     /// The boundary level of `r` about which averaged points are checked ([`check::level`]).
     pub check_level: f64,
+    /// For each point, how many points with vibration share its table of the averaged law
+    /// ([`crate::averaged::table_key`]): under `auto` a point whose table serves no other runs
+    /// in full ([`crate::averaged::TierReason::Unshared`]).
+    pub table_share: Vec<usize>,
 }
 
 /// The bits of every parameter that a run without vibration depends on (all but u0, f, t_on).
@@ -78,12 +82,25 @@ impl Plan {
             point_ref.push(r);
             points.push(p);
         }
+        let table_share = {
+            let keys: Vec<Vec<u64>> = points.iter().map(crate::averaged::table_key).collect();
+            let mut count: HashMap<&Vec<u64>, usize> = HashMap::new();
+            for (k, p) in keys.iter().zip(&points) {
+                if p.vibrates() {
+                    *count.entry(k).or_default() += 1;
+                }
+            }
+            keys.iter()
+                .map(|k| count.get(k).copied().unwrap_or(0))
+                .collect()
+        };
         Plan {
             points,
             refs,
             point_ref,
             effects: spec.effects.clone(),
             check_level: check::level(spec),
+            table_share,
         }
     }
 
@@ -313,6 +330,21 @@ fn run_task(plan: &Plan, t: Task, opts: &RunOptions, solver: &mut Solver) -> Run
         let mut r = sim::simulate_with(plan.params(t), &plan.effects, &full, solver)
             .expect("parameters and options were validated");
         r.tier_reason = crate::averaged::TierReason::Check;
+        return r;
+    }
+    // Under auto, a point alone with its table is not worth the table.
+    if let Task::Point(i) = t
+        && opts.tier == crate::averaged::Tier::Auto
+        && plan.table_share[i] < 2
+        && crate::averaged::needs_table(plan.params(t), plan.effects.is_empty(), opts.tier)
+    {
+        let full = RunOptions {
+            tier: crate::averaged::Tier::Full,
+            ..opts.clone()
+        };
+        let mut r = sim::simulate_with(plan.params(t), &plan.effects, &full, solver)
+            .expect("parameters and options were validated");
+        r.tier_reason = crate::averaged::TierReason::Unshared;
         return r;
     }
     sim::simulate_with(plan.params(t), &plan.effects, opts, solver)
