@@ -450,27 +450,21 @@ pub fn simulate_with(
 fn serve(rig: &Rig, none: bool, t_end: f64, opts: &RunOptions, solver: &mut Solver) -> RunResult {
     let clock = Instant::now();
     let (tier, tier_reason, table) = crate::averaged::choose(&rig.p, none, opts.tier);
-    let averaged = table.map(|t| averaged_run(&rig.p, &t, t_end, opts, clock));
-    match averaged {
-        Some(Ok(mut r)) => {
-            r.tier = tier;
-            r.tier_reason = tier_reason;
-            r
-        }
-        // The window left the law: the full model serves, and the time of the try counts.
-        Some(Err(_)) => {
-            let mut r = integrate(rig, t_end, opts, solver);
-            r.tier_reason = TierReason::LeftLaw;
-            r.wall_time = clock.elapsed().as_secs_f64();
-            r
-        }
-        None => {
-            let mut r = integrate(rig, t_end, opts, solver);
-            r.tier = tier;
-            r.tier_reason = tier_reason;
-            r
-        }
-    }
+    // The full model serves where no law was handed over, or where the averaged run's window
+    // left it (then the try's time counts too).
+    let (mut r, tier, tier_reason) = match table.map(|t| averaged_run(&rig.p, &t, t_end, opts)) {
+        Some(Ok(r)) => (r, tier, tier_reason),
+        Some(Err(_)) => (
+            integrate(rig, t_end, opts, solver),
+            Tier::Full,
+            TierReason::LeftLaw,
+        ),
+        None => (integrate(rig, t_end, opts, solver), tier, tier_reason),
+    };
+    r.tier = tier;
+    r.tier_reason = tier_reason;
+    r.wall_time = clock.elapsed().as_secs_f64();
+    r
 }
 
 /// Relative tolerance of the averaged slow model's integration: a hundredth of the run's
@@ -489,7 +483,6 @@ fn averaged_run(
     table: &crate::averaged::Table,
     t_end: f64,
     opts: &RunOptions,
-    clock: Instant,
 ) -> Result<RunResult, f64> {
     let trace = opts.trace.then_some(opts.trace_points);
     let slow =
@@ -504,7 +497,8 @@ fn averaged_run(
         measures: slow.measures,
         t_end,
         window_start: window_start(p, t_end),
-        wall_time: clock.elapsed().as_secs_f64(),
+        // Set by serve, the table's share of it included.
+        wall_time: 0.0,
         continued_from: None,
         level_error: None,
         tier: Tier::Averaged,

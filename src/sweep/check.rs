@@ -165,9 +165,9 @@ impl Comparison {
     }
 }
 
-/// The comparison of point `i` of a plan with `n` points with vibration, where it was checked
-/// (its full run has measures, as has its averaged run and their reference).
-fn compare(spec: &SweepSpec, plan: &Plan, res: &Results, n: usize, i: usize) -> Option<Comparison> {
+/// The comparison of point `i`, where it was checked (its full run has measures, as has its
+/// averaged run and their reference); `random` says whether it was drawn in the random share.
+fn compare(plan: &Plan, res: &Results, i: usize, random: bool) -> Option<Comparison> {
     let avg = averaged_run(res, i)?;
     let full = measured(res.checks[i].as_ref())?;
     let rf = measured(res.refs[plan.point_ref[i]].as_ref())?;
@@ -177,7 +177,7 @@ fn compare(spec: &SweepSpec, plan: &Plan, res: &Results, n: usize, i: usize) -> 
     let lv = plan.check_level;
     Some(Comparison {
         point: i,
-        random: random_share(spec, n, i),
+        random,
         r: (ra, rb),
         mean_force: (fa, fb),
         // NaN on either side (a reference without stick-slip) agrees only with NaN.
@@ -190,26 +190,14 @@ fn compare(spec: &SweepSpec, plan: &Plan, res: &Results, n: usize, i: usize) -> 
 /// Whether the full run of point `i` replaces its averaged one ([`Comparison::replaced`]);
 /// false where it was not checked.
 pub fn replaced(plan: &Plan, res: &Results, i: usize) -> bool {
-    let (Some(avg), Some(full), Some(rf)) = (
-        averaged_run(res, i),
-        measured(res.checks[i].as_ref()),
-        measured(res.refs[plan.point_ref[i]].as_ref()),
-    ) else {
-        return false;
-    };
-    let ra = crate::sim::reduction(&avg.measures, &rf.measures).0;
-    let rb = crate::sim::reduction(&full.measures, &rf.measures).0;
-    let (fa, fb) = (avg.measures.mean_force, full.measures.mean_force);
-    let lv = plan.check_level;
-    let within_r = (ra - rb).abs() <= R_TOL || (ra.is_nan() && rb.is_nan());
-    !within_r || !((fa / fb - 1.0).abs() <= FORCE_TOL) || (ra < lv) != (rb < lv)
+    compare(plan, res, i, false).is_some_and(|c| c.replaced())
 }
 
 /// Every comparison of the sweep so far, by point.
 pub fn comparisons(spec: &SweepSpec, plan: &Plan, res: &Results) -> Vec<Comparison> {
     let n = with_vibration(plan);
     (0..plan.points.len())
-        .filter_map(|i| compare(spec, plan, res, n, i))
+        .filter_map(|i| compare(plan, res, i, random_share(spec, n, i)))
         .collect()
 }
 

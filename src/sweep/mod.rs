@@ -320,35 +320,34 @@ pub struct SweepOutcome {
     pub check: check::Summary,
 }
 
-/// Runs one task with the given solver: a check with the full model.
+/// Runs one task with the given solver: a check with the full model, and under auto a point
+/// alone with its table of the averaged law too (the table would cost what the full run does).
 fn run_task(plan: &Plan, t: Task, opts: &RunOptions, solver: &mut Solver) -> RunResult {
-    if let Task::Check(_) = t {
-        let full = RunOptions {
-            tier: crate::averaged::Tier::Full,
-            ..opts.clone()
-        };
-        let mut r = sim::simulate_with(plan.params(t), &plan.effects, &full, solver)
+    use crate::averaged::{Tier, TierReason};
+    let p = plan.params(t);
+    let full_because = match t {
+        Task::Check(_) => Some(TierReason::Check),
+        Task::Point(i)
+            if opts.tier == Tier::Auto
+                && plan.table_share[i] < 2
+                && crate::averaged::needs_table(p, plan.effects.is_empty(), opts.tier) =>
+        {
+            Some(TierReason::Unshared)
+        }
+        _ => None,
+    };
+    let Some(why) = full_because else {
+        return sim::simulate_with(p, &plan.effects, opts, solver)
             .expect("parameters and options were validated");
-        r.tier_reason = crate::averaged::TierReason::Check;
-        return r;
-    }
-    // Under auto, a point alone with its table is not worth the table.
-    if let Task::Point(i) = t
-        && opts.tier == crate::averaged::Tier::Auto
-        && plan.table_share[i] < 2
-        && crate::averaged::needs_table(plan.params(t), plan.effects.is_empty(), opts.tier)
-    {
-        let full = RunOptions {
-            tier: crate::averaged::Tier::Full,
-            ..opts.clone()
-        };
-        let mut r = sim::simulate_with(plan.params(t), &plan.effects, &full, solver)
-            .expect("parameters and options were validated");
-        r.tier_reason = crate::averaged::TierReason::Unshared;
-        return r;
-    }
-    sim::simulate_with(plan.params(t), &plan.effects, opts, solver)
-        .expect("parameters and options were validated")
+    };
+    let full = RunOptions {
+        tier: Tier::Full,
+        ..opts.clone()
+    };
+    let mut r = sim::simulate_with(p, &plan.effects, &full, solver)
+        .expect("parameters and options were validated");
+    r.tier_reason = why;
+    r
 }
 
 /// The tasks of grid points `points` (flat indices): their references first, then the points
