@@ -192,6 +192,9 @@ fn census_of_bad_input() {
     // Sweep files, each with one fault.
     let sw = |name: &str, text: &str| w(&format!("{name}.toml"), text);
     sw("unknown_key", &format!("{SWEEP}colour = 1\n"));
+    sw("check_share", &format!("{SWEEP}[check]\nshare = 2.0\n"));
+    sw("check_key", &format!("{SWEEP}[check]\nevery = 3\n"));
+    sw("bad_tier", &format!("{SWEEP}tier = \"hybrid\"\n"));
     sw("bad_axis", "[[axis]]\nname = \"speed\"\nvalues = [1.0]\n");
     sw(
         "count0",
@@ -504,6 +507,36 @@ fn census_of_bad_input() {
             s(&["sweep", "unknown_key.toml"]),
             2,
             vec!["unknown_key.toml", "colour"],
+        ),
+        (
+            s(&["sweep", "check_share.toml"]),
+            2,
+            vec!["check_share.toml", "share", "2", "0 to 1"],
+        ),
+        (
+            s(&["sweep", "check_key.toml"]),
+            2,
+            vec!["check_key.toml", "every", "share, min_points, band"],
+        ),
+        (
+            s(&["sweep", "bad_tier.toml"]),
+            2,
+            vec!["bad_tier.toml", "tier", "hybrid", "auto, averaged, full"],
+        ),
+        (
+            s(&["run", "--tier", "sometimes"]),
+            2,
+            vec!["sometimes", "auto, averaged, full"],
+        ),
+        (
+            s(&["bench", "--tiers", "auto", "-o", "b.h5"]),
+            2,
+            vec!["tiers", "auto", "full, averaged"],
+        ),
+        (
+            s(&["plot", "--law", "missing.toml"]),
+            2,
+            vec!["missing.toml"],
         ),
         (
             s(&["sweep", "bad_axis.toml"]),
