@@ -35,8 +35,10 @@ use crate::model::{Params, contact};
 use crate::ode::{Method, OdeSystem, Options, OutputGrid, Solver, Status};
 
 /// The fast subsystem with its variational equations: state
-/// `[v, s, w, S_vv, S_vs, S_vF, S_sv, S_ss, S_sF, S_wv, S_ws, S_wF]`, where `S_ij = ∂y_i/∂p_j`
-/// for `y = (v, s, w)` and `p = (v(0), s(0), F)`.
+/// `[v, s, w, S_vv, S_sv, S_wv, S_vs, S_ss, S_ws, S_vF, S_sF, S_wF]`, where `S_ij = ∂y_i/∂p_j`
+/// for `y = (v, s, w)` and `p = (v(0), s(0), F)`: the base states, then the sensitivities
+/// column by column, so that the Newton iteration matrix is four copies of the base system's
+/// 3 × 3 Jacobian ([`OdeSystem::jacobian_blocks`]).
 struct Fast<'a> {
     p: &'a Params,
     /// Frozen drive force \[N\].
@@ -82,35 +84,28 @@ impl OdeSystem for Fast<'_> {
         let (f, a) = self.base(t, y[0], y[1]);
         dy[..3].copy_from_slice(&f);
         // S' = A S + ∂f/∂p, with ∂f/∂F = (1/m, 0, 0) and the initial values not in f.
-        for i in 0..3 {
-            for j in 0..3 {
-                let mut acc = 0.0;
-                for k in 0..3 {
-                    acc += a[i * 3 + k] * y[3 + k * 3 + j];
-                }
+        for j in 0..3 {
+            let col = &y[3 + 3 * j..6 + 3 * j];
+            for i in 0..3 {
+                let mut acc = a[i * 3] * col[0] + a[i * 3 + 1] * col[1] + a[i * 3 + 2] * col[2];
                 if i == 0 && j == 2 {
                     acc += 1.0 / self.p.m;
                 }
-                dy[3 + i * 3 + j] = acc;
+                dy[3 + 3 * j + i] = acc;
             }
         }
     }
 
     fn jacobian(&self, t: f64, y: &[f64], jac: &mut [f64]) {
-        // The base block, and A on the diagonal of each sensitivity column; the second
-        // derivatives (∂A/∂y · S) are left out: the simplified Newton iteration of Radau IIA
-        // needs an iteration matrix, not the exact Jacobian.
+        // A on the diagonal of each of the four blocks; the second derivatives (∂A/∂y · S) are
+        // left out: the simplified Newton iteration of Radau IIA needs an iteration matrix, not
+        // the exact Jacobian.
         let (_, a) = self.base(t, y[0], y[1]);
         jac.fill(0.0);
-        for i in 0..3 {
-            for k in 0..3 {
-                jac[i * 12 + k] = a[i * 3 + k];
-            }
-        }
-        for j in 0..3 {
+        for b in 0..4 {
             for i in 0..3 {
                 for k in 0..3 {
-                    jac[(3 + i * 3 + j) * 12 + 3 + k * 3 + j] = a[i * 3 + k];
+                    jac[(3 * b + i) * 12 + 3 * b + k] = a[i * 3 + k];
                 }
             }
         }
@@ -120,9 +115,13 @@ impl OdeSystem for Fast<'_> {
         if i < 3 {
             self.scale_y[i]
         } else {
-            let (r, c) = ((i - 3) / 3, (i - 3) % 3);
+            let (c, r) = ((i - 3) / 3, (i - 3) % 3);
             self.scale_y[r] / self.scale_p[c]
         }
+    }
+
+    fn jacobian_blocks(&self) -> usize {
+        4
     }
 }
 
@@ -198,6 +197,9 @@ pub struct Orbit {
     pub force: f64,
     /// Its slope `dF_eff/dV` \[N s/m\], exact through the shooting Jacobian.
     pub slope: f64,
+    /// The family's tangent `d(v(0), s(0))/dV` at this orbit (the slope is the force's
+    /// component): the continuation's first-order predictor of the next node's start.
+    pub tangent: [f64; 2],
     /// Body velocity \[m/s\] and contact deformation \[m\] at the period's start (phase 0 of
     /// `u'(t) = v_a cos ωt`): the orbit's fast state, for a hand-over to the full model.
     pub start: [f64; 2],
@@ -336,8 +338,13 @@ impl<'a> Shooter<'a> {
         if rep.status != Status::Success {
             return Err(AveragingError::Integration(rep.status.name()));
         }
+        // Row-major (rows v, s, w; columns v0, s0, F) from the column-by-column state.
         let mut s = [0.0; 9];
-        s.copy_from_slice(&y[3..]);
+        for i in 0..3 {
+            for j in 0..3 {
+                s[i * 3 + j] = y[3 + 3 * j + i];
+            }
+        }
         Ok(([y[0], y[1], y[2]], s))
     }
 
@@ -371,7 +378,8 @@ impl<'a> Shooter<'a> {
             // below what the Hermite interpolation and the contraction test need).
             if step < 1e3 * self.opts.rtol && norm < 1e3 * self.opts.rtol.max(1e-12) {
                 // dx/dV solves J dx = (0, 0, 1): the tangent of the family of orbits.
-                let slope = solve3(&j, &[0.0, 0.0, 1.0]).map_or(f64::NAN, |d| d[2]);
+                let d = solve3(&j, &[0.0, 0.0, 1.0]).unwrap_or([f64::NAN; 3]);
+                let slope = d[2];
                 let multipliers = eig2([s[0], s[1], s[3], s[4]]);
                 let drift = (-slope * t / self.p.m).exp();
                 let fast = if multipliers[0].1 != 0.0 {
@@ -385,6 +393,7 @@ impl<'a> Shooter<'a> {
                     v_mean,
                     force: x[2],
                     slope,
+                    tangent: [d[0], d[1]],
                     start: [x[0], x[1]],
                     multipliers,
                     fast,
@@ -489,6 +498,11 @@ pub struct Table {
     /// (continued from either end): the fast motion there is not periodic with the forcing
     /// (period doubling, chaos, a fold), and the law is undefined.
     pub gaps: Vec<(f64, f64)>,
+    /// The nodes' `V` alone, for the lookups of the slow model's every step.
+    at: Vec<f64>,
+    /// Per interval `k` (nodes `k − 1` and `k`; entry 0 unused): bit 0 set where it is no gap,
+    /// bit 1 where, besides, both nodes' orbits contract ([`Table::valid_at`]).
+    flags: Vec<u8>,
 }
 
 impl Table {
@@ -539,11 +553,7 @@ impl Table {
             }
         }
         if quick && stopped_at.is_some() {
-            return Ok(Table {
-                nodes,
-                stopped_at,
-                gaps: vec![],
-            });
+            return Ok(Table::of(nodes, stopped_at, vec![]));
         }
         // Refinement, left to right: an interval whose midpoint the cubic misses is split and its
         // halves looked at in turn; one whose midpoint has no orbit (from either end) is a gap.
@@ -581,54 +591,80 @@ impl Table {
                 }
             }
         }
-        let nodes = done;
-        Ok(Table {
+        Ok(Table::of(done, stopped_at, gaps))
+    }
+
+    /// The table of these nodes (by increasing `V`), with its lookup arrays.
+    fn of(nodes: Vec<Orbit>, stopped_at: Option<f64>, gaps: Vec<(f64, f64)>) -> Table {
+        let at: Vec<f64> = nodes.iter().map(|o| o.v_mean).collect();
+        let flags = (0..nodes.len())
+            .map(|k| {
+                if k == 0 {
+                    return 0;
+                }
+                let (l, r) = (&nodes[k - 1], &nodes[k]);
+                let mid = 0.5 * (l.v_mean + r.v_mean);
+                let open = !gaps.iter().any(|&(lo, hi)| mid > lo && mid < hi);
+                u8::from(open) | (u8::from(open && l.contracting() && r.contracting()) << 1)
+            })
+            .collect();
+        Table {
             nodes,
             stopped_at,
             gaps,
-        })
+            at,
+            flags,
+        }
     }
 
     /// `F_eff(V)` \[N\] by cubic Hermite interpolation on the exact slopes; odd in `V`. `None`
-    /// beyond the table.
+    /// beyond the table or inside a gap.
     pub fn force(&self, v: f64) -> Option<f64> {
-        let (l, r) = self.interval(v.abs())?;
-        let f = hermite(l, r, v.abs());
-        Some(if v < 0.0 { -f } else { f })
+        self.law(v).map(|(f, _)| f)
     }
 
-    /// The two nodes around `|V| = a` (one node twice at `a = 0` or a single-node table);
-    /// `None` beyond the table or inside a gap.
-    fn interval(&self, a: f64) -> Option<(&Orbit, &Orbit)> {
-        let last = self.nodes.last()?;
-        if a > last.v_mean || self.in_gap(a) {
-            return None;
-        }
-        let i = self.nodes.partition_point(|o| o.v_mean < a).max(1);
-        Some((&self.nodes[i - 1], &self.nodes[i.min(self.nodes.len() - 1)]))
-    }
-}
-
-impl Table {
-    /// `dF_eff/dV` \[N s/m\] of the interpolant; even in `V`. `None` beyond the table.
+    /// `dF_eff/dV` \[N s/m\] of the interpolant; even in `V`. `None` beyond the table or inside
+    /// a gap.
     pub fn slope(&self, v: f64) -> Option<f64> {
+        self.law(v).map(|(_, d)| d)
+    }
+
+    /// [`Table::force`] and [`Table::slope`] at `v` from one lookup.
+    pub fn law(&self, v: f64) -> Option<(f64, f64)> {
         let a = v.abs();
-        let (l, r) = self.interval(a)?;
+        let k = self.interval(a)?;
+        let (l, r) = (&self.nodes[k - 1], &self.nodes[k.min(self.nodes.len() - 1)]);
         let h = r.v_mean - l.v_mean;
         if h <= 0.0 {
-            return Some(l.slope);
+            return Some((l.force.copysign(v), l.slope));
         }
         let s = (a - l.v_mean) / h;
+        let (h00, h10, h01, h11) = (
+            (1.0 + 2.0 * s) * (1.0 - s) * (1.0 - s),
+            s * (1.0 - s) * (1.0 - s),
+            s * s * (3.0 - 2.0 * s),
+            s * s * (s - 1.0),
+        );
+        let f = h00 * l.force + h10 * h * l.slope + h01 * r.force + h11 * h * r.slope;
         let d00 = 6.0 * s * s - 6.0 * s;
         let d10 = 3.0 * s * s - 4.0 * s + 1.0;
-        let d01 = -d00;
         let d11 = 3.0 * s * s - 2.0 * s;
-        Some((d00 * l.force + d01 * r.force) / h + d10 * l.slope + d11 * r.slope)
+        let d = d00 * (l.force - r.force) / h + d10 * l.slope + d11 * r.slope;
+        Some((if v < 0.0 { -f } else { f }, d))
     }
 
-    /// Whether `|V|` lies strictly inside one of the [`Table::gaps`].
-    fn in_gap(&self, v: f64) -> bool {
-        self.gaps.iter().any(|&(lo, hi)| v > lo && v < hi)
+    /// Index `k ≥ 1` of the interval (nodes `k − 1`, `k`) around `|V| = a` (`k` = 1 with one
+    /// node, which then stands twice); `None` beyond the table or inside a gap.
+    fn interval(&self, a: f64) -> Option<usize> {
+        let last = *self.at.last()?;
+        if !(a <= last) {
+            return None;
+        }
+        let k = self.at.partition_point(|&x| x < a).max(1);
+        if k < self.nodes.len() && self.flags[k] & 1 == 0 && a > self.at[k - 1] && a < self.at[k] {
+            return None;
+        }
+        Some(k)
     }
 
     /// Whether every node's orbit is [`Orbit::contracting`] and the table has no gap and
@@ -651,9 +687,44 @@ impl Table {
             return self.stopped_at.is_none() && last.contracting();
         }
         match self.interval(a) {
-            Some((l, r)) => l.contracting() && r.contracting(),
+            Some(k) if k < self.nodes.len() => self.flags[k] & 2 != 0,
+            // A one-node table.
+            Some(_) => last.contracting(),
             None => false,
         }
+    }
+}
+
+impl Table {
+    /// The `V` of least modulus in `[lo, hi]` where the law may not stand for the vibration
+    /// ([`Table::valid_at`] false), `None` where it may everywhere in the range.
+    pub fn first_invalid(&self, lo: f64, hi: f64) -> Option<f64> {
+        // The moduli visited: a range through zero covers [0, max |V|].
+        let (a, b) = if lo <= 0.0 && hi >= 0.0 {
+            (0.0, (-lo).max(hi))
+        } else {
+            (lo.abs().min(hi.abs()), lo.abs().max(hi.abs()))
+        };
+        let sign = if hi < 0.0 { -1.0 } else { 1.0 };
+        let n = self.nodes.len();
+        let Some(&last) = self.at.last() else {
+            return Some(sign * a);
+        };
+        if n >= 2 {
+            let first = self.at.partition_point(|&x| x < a).max(1);
+            for k in first..n {
+                if self.at[k - 1] > b {
+                    break;
+                }
+                if self.flags[k] & 2 == 0 {
+                    return Some(sign * a.max(self.at[k - 1]));
+                }
+            }
+        }
+        if b > last && !self.valid_at(b) {
+            return Some(sign * a.max(last));
+        }
+        (n == 1 && !self.valid_at(a)).then_some(sign * a)
     }
 }
 
@@ -670,9 +741,9 @@ impl Slow<'_> {
         // Beyond the table the vibration's share of the friction has faded and the Stribeck
         // term decayed (table_span): the law goes on with the viscous slope.
         let last = self.table.nodes.last().expect("a table has nodes");
-        match (self.table.force(v), self.table.slope(v)) {
-            (Some(f), Some(d)) => (f, d),
-            _ => (
+        match self.table.law(v) {
+            Some(fd) => fd,
+            None => (
                 (last.force + self.p.h_v * (v.abs() - last.v_mean).max(0.0)).copysign(v),
                 self.p.h_v,
             ),
@@ -712,7 +783,8 @@ impl OdeSystem for Slow<'_> {
 #[derive(Clone, Debug)]
 pub struct SlowRun {
     /// The measures over the steady window (the drive force needs no smoothing: it carries no
-    /// ripple at `f`). Where the slide at `v_d` is stable and the run ends on it, or settles
+    /// ripple at `f`), the mean force over the window's whole stick-slip cycles where it holds
+    /// two drops or more ([`crate::measures::Analyzer::cycle_mean`]). Where the slide at `v_d` is stable and the run ends on it, or settles
     /// onto it (no slip in the window, the force's swing shrinking from the window's first half
     /// to its second), the mean force is the averaged law's `F_eff(v_d)` itself, and dF, where
     /// no slip fell in the window, 0: the settled slide has no oscillation left.
@@ -775,14 +847,19 @@ pub fn simulate_slow_with(
     let sys = Slow { p, table };
     let window = crate::sim::window_start(p, t_end);
     let mid = 0.5 * (window + t_end);
-    let mut left_law = None;
+    // The range of V the window visits (V is continuous: every value between is visited too).
+    let mut seen = (f64::INFINITY, f64::NEG_INFINITY);
     // The drive force's range over each half of the window: a decaying approach to the slide.
     let mut halves = [(f64::INFINITY, f64::NEG_INFINITY); 2];
-    let mut an = Analyzer::new(
+    // Blocks as a full run keeps them, for the mean over whole cycles.
+    let block = (t_end / 4000.0).max(dt);
+    let mut an = Analyzer::with_blocks(
         1,
         window,
         DROP_THRESHOLD * (p.f_s - p.f_c),
         STICK_VELOCITY * p.v_d,
+        block,
+        (t_end / block) as usize + 2,
     );
     let mut y = [0.0, 0.0];
     let opts = Options {
@@ -803,8 +880,8 @@ pub fn simulate_slow_with(
     let rep = solver.solve(&sys, 0.0, t_end, &mut y, &opts, grid, |t, y| {
         let f = p.k_d * y[0] + p.h_d * (p.v_d - y[1]);
         an.push(t, f, y[1]);
-        if t >= window && left_law.is_none() && !table.valid_at(y[1]) {
-            left_law = Some(y[1]);
+        if t >= window {
+            seen = (seen.0.min(y[1]), seen.1.max(y[1]));
         }
         if t >= window {
             let h = &mut halves[usize::from(t >= mid)];
@@ -825,7 +902,16 @@ pub fn simulate_slow_with(
         }
         i += 1;
     });
+    let left_law = (seen.0 <= seen.1)
+        .then(|| table.first_invalid(seen.0, seen.1))
+        .flatten();
     let mut measures = an.finish();
+    // The window's mean over its whole cycles: a full run ends where the window's mean agrees
+    // with it (its early stop), while the slow run's window ends where its planned time does,
+    // and a cut cycle biases the plain mean by up to 0.7 % (3000 Hz, v_a/v_d 0.4).
+    if let Some(m) = an.cycle_mean(window) {
+        measures.mean_force = m;
+    }
     // The steady slide: stable where F_eff' + h_d > 0 (the linearised slow model's damping);
     // reached where the end state lies on it, or settling onto it where no slip falls in the
     // window and the force's swing shrinks from the window's first half to its second (a
@@ -1072,12 +1158,13 @@ pub fn table_span(p: &Params) -> f64 {
 }
 
 /// The options of [`shared_table`]: the defaults but the one-period integration at `rtol`
-/// 1e-6. At 3000 Hz, `v_a/v_d` = 0.4 (`k_d` = 11 700 N/m, `v_d` = 0.5 mm/s) the law at `v_d`
-/// agrees with that at 1e-9 to 1e-5 N, and the slow model's dF and mean force with those on the
-/// 1e-7 table to 1e-5 N, at 0.3 of the work of 1e-9 (33 nodes). At 1e-5 the Hermite checks
-/// see the integration's noise and add nodes (47): no cheaper.
+/// 1e-5. At 3000 Hz, `v_a/v_d` = 0.4 (`k_d` = 11 700 N/m, `v_d` = 0.5 mm/s) the law agrees with
+/// a table at `rtol` 1e-9 and `force_tol` 1e-5 N to 1.2e-3 N everywhere on `[0, table_span]`
+/// (33 nodes; 7e-4 N at `rtol` 1e-6, for 1.8 times the work), at 4000 Hz to 1.9e-3 N; the
+/// slow model's `r` moves by less than 1e-4 between the two (`examples` of the bench,
+/// benches/tiers/README.md).
 pub const SHARED: AveragingOptions = AveragingOptions {
-    rtol: 1e-6,
+    rtol: 1e-5,
     max_newton: 30,
     force_tol: 1e-3,
     max_nodes: 400,
@@ -1203,11 +1290,19 @@ pub fn choose(
 
 /// The orbit at `v`, continued from `from` along its tangent; halves the stride on failure.
 fn reach(sh: &mut Shooter<'_>, from: &Orbit, v: f64) -> Result<Orbit, AveragingError> {
-    // The start of the orbit at `to` from `o`: the velocity shifted with the mean, the force
-    // along its slope (the tangent of s0 is not kept).
+    // The start of the orbit at `to` from `o`, along the family's tangent.
     let guess = |o: &Orbit, to: f64| {
         let dv = to - o.v_mean;
-        [o.start[0] + dv, o.start[1], o.force + o.slope * dv]
+        let t = if o.tangent.iter().all(|x| x.is_finite()) {
+            o.tangent
+        } else {
+            [1.0, 0.0]
+        };
+        [
+            o.start[0] + t[0] * dv,
+            o.start[1] + t[1] * dv,
+            o.force + o.slope * dv,
+        ]
     };
     let mut base = *from;
     let mut err = None;

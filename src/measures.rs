@@ -404,6 +404,23 @@ impl Analyzer {
         cycle_measures(drops, all.mean(), all.stick_fraction())
     }
 
+    /// The mean force over the whole stick-slip cycles of the window from `start` (first to last
+    /// peak of a drop there, whole blocks): the window's mean without the bias of the cycle its
+    /// ends cut, up to half a cycle's swing over the number of cycles. `None` without block
+    /// statistics or with fewer than two drops in the window.
+    pub fn cycle_mean(&self, start: f64) -> Option<f64> {
+        let z = self.whole.as_ref()?;
+        let drops = &z.drops[z.drops.partition_point(|d| d.peak_t < start)..];
+        if drops.len() < 2 {
+            return None;
+        }
+        let w = self.blocks_from(start);
+        let a = w.partition_point(|b| b.start < drops[0].peak_t);
+        let b = w.partition_point(|b| b.start < drops[drops.len() - 1].peak_t);
+        let t = Totals::of(&w[a..b]);
+        (t.n > 0).then(|| t.mean())
+    }
+
     /// Whether the window `[t/2, t]` (whole blocks) already gives the stick-slip amplitude and
     /// the mean force to the requested precision: at least `min_drops` drops whose peaks lie in
     /// it, a standard error of their mean of at most `stderr` \[N\], and a mean force that differs

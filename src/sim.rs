@@ -467,11 +467,12 @@ fn serve(rig: &Rig, none: bool, t_end: f64, opts: &RunOptions, solver: &mut Solv
     r
 }
 
-/// Relative tolerance of the averaged slow model's integration: a hundredth of the run's
-/// `rtol`, within 1e-10 to 1e-6 (its ~140 steps per stick-slip cycle cost little; the test
-/// against full runs used 1e-8, the default's).
+/// Relative tolerance of the averaged slow model's integration: a tenth of the run's `rtol`,
+/// within 1e-10 to 1e-6. At the default's 1e-7, dF and the mean force lie within 3e-5 N of
+/// those at 1e-10 on five cases from 2000 to 4000 Hz, `k_d` 1000 to 40 000 N/m (the table's own
+/// error is 1e-3 N), at 0.7 of the steps of 1e-8.
 fn slow_rtol(opts: &RunOptions) -> f64 {
-    (opts.ode.rtol * 1e-2).clamp(1e-10, 1e-6)
+    (opts.ode.rtol * 1e-1).clamp(1e-10, 1e-6)
 }
 
 /// A run of the averaged slow model over the full run's simulated time `t_end`, the drive

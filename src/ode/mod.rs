@@ -66,6 +66,17 @@ pub trait OdeSystem {
     fn scale(&self, _i: usize) -> f64 {
         1.0
     }
+
+    /// Number `k` of identical diagonal blocks the Newton iteration may use for the Jacobian
+    /// (default 1: the whole matrix). With `k > 1` (and `n` a multiple of `k`), Radau IIA factorises
+    /// only the leading `(n/k) × (n/k)` block of [`jacobian`](Self::jacobian) and solves each of
+    /// the `k` consecutive slices of the state with it: the iteration matrix of a system and its
+    /// forward sensitivities stored column by column, where the simplified Newton iteration drops
+    /// the second derivatives. The step's result and error control are those of the whole
+    /// system; only the linear algebra shrinks (by `k³` in the factorisation).
+    fn jacobian_blocks(&self) -> usize {
+        1
+    }
 }
 
 /// `∂f/∂t` by a forward difference in `t` (the default of [`OdeSystem::time_derivative`],

@@ -74,6 +74,9 @@ pub(crate) fn eigenvalues() -> (f64, f64, f64) {
 
 pub(crate) struct Radau5 {
     n: usize,
+    /// Size of the diagonal block the iteration matrices are built from
+    /// ([`OdeSystem::jacobian_blocks`]); `n` for a dense Jacobian.
+    m: usize,
     u1: f64,
     alph: f64,
     beta: f64,
@@ -122,6 +125,7 @@ impl Radau5 {
         let v = || vec![0.0; n];
         Radau5 {
             n,
+            m: n,
             u1,
             alph,
             beta,
@@ -168,6 +172,7 @@ impl Radau5 {
 
     /// Builds and factorises `E1 = γ/h I − J` and `E2 = (α + iβ)/h I − J`.
     fn factorize(&mut self, st: &mut Stats) -> bool {
+        // Only the leading m × m block (the whole matrix unless the system declares blocks).
         let n = self.n;
         let fac1 = self.u1 / self.h;
         let alphn = self.alph / self.h;
@@ -233,6 +238,18 @@ impl Stepper for Radau5 {
     }
 
     fn start<S: OdeSystem>(&mut self, sys: &S, t0: f64, y0: &[f64], h: f64, st: &mut Stats) {
+        let k = sys.jacobian_blocks();
+        let m = if k > 1 && self.n % k == 0 {
+            self.n / k
+        } else {
+            self.n
+        };
+        if m != self.m {
+            // Sized once per system, not per step.
+            self.m = m;
+            self.e1 = DenseLu::new(m);
+            self.e2 = DenseLu::new(m);
+        }
         self.t = t0;
         self.h = h;
         self.y.copy_from_slice(y0);
@@ -353,8 +370,12 @@ impl Stepper for Radau5 {
                 self.ctmp[i] =
                     Complex64::new(r2 + s2 * alphn - s3 * betan, r3 + s3 * alphn + s2 * betan);
             }
-            self.e1.solve(&mut self.z1);
-            self.e2.solve(&mut self.ctmp);
+            for c in self.z1.chunks_mut(self.m) {
+                self.e1.solve(c);
+            }
+            for c in self.ctmp.chunks_mut(self.m) {
+                self.e2.solve(c);
+            }
             for i in 0..n {
                 self.z2[i] = self.ctmp[i].re;
                 self.z3[i] = self.ctmp[i].im;
@@ -425,7 +446,9 @@ impl Stepper for Radau5 {
             self.w2[i] = f2;
             self.tmp[i] = f2 + self.f0[i];
         }
-        self.e1.solve(&mut self.tmp);
+        for c in self.tmp.chunks_mut(self.m) {
+            self.e1.solve(c);
+        }
         let mut err = error_norm(&self.tmp, &self.y, &self.y, &self.atol, self.rtol);
         if !(err < 1.0) && (self.first || self.reject) {
             for i in 0..n {
@@ -436,7 +459,9 @@ impl Stepper for Radau5 {
             for i in 0..n {
                 self.tmp[i] = self.w1[i] + self.w2[i];
             }
-            self.e1.solve(&mut self.tmp);
+            for c in self.tmp.chunks_mut(self.m) {
+                self.e1.solve(c);
+            }
             err = error_norm(&self.tmp, &self.y, &self.y, &self.atol, self.rtol);
         }
         if !err.is_finite() {
