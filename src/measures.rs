@@ -686,6 +686,29 @@ mod tests {
     }
 
     #[test]
+    fn cycle_mean_removes_the_bias_of_a_cut_cycle() {
+        // The saw-tooth's mean over whole cycles is 8 N (the average of 5 and 11 along both
+        // straight flanks). A window from 4.1 s to 9.6 s holds half a rise more than whole cycles, so its
+        // plain mean lies off 8; the mean from the first to the last peak does not.
+        let dt = 1e-3;
+        let mut a = Analyzer::with_blocks(1, 4.1, 0.1, 1e-4, 1e-2, 1000);
+        for k in 0..9_600 {
+            let t = k as f64 * dt;
+            a.push(t, saw(t), 1.0);
+        }
+        let plain = a.finish().mean_force;
+        let whole = a.cycle_mean(4.1).expect("drops in the window");
+        assert!(
+            (plain - 8.0).abs() > 0.04,
+            "the cut window's mean {plain} should be biased"
+        );
+        assert!((whole - 8.0).abs() < 0.01, "mean over whole cycles {whole}");
+        // Without block statistics there is nothing to cut at.
+        let b = Analyzer::new(1, 4.3, 0.1, 1e-4);
+        assert!(b.cycle_mean(4.3).is_none());
+    }
+
+    #[test]
     fn saw_tooth_gives_its_drop_period_and_mean() {
         let dt = 1e-3;
         // Window starts in the middle of a fall: that partial drop must not count; the last

@@ -467,6 +467,15 @@ fn serve(rig: &Rig, none: bool, t_end: f64, opts: &RunOptions, solver: &mut Solv
     r
 }
 
+/// Sampling of the averaged slow model \[s\]: as a run without vibration samples (its force
+/// carries no ripple either: 40 samples per slip, 2000 per cycle, [`sampling`]), never finer than
+/// one forcing period (the slow model holds nothing within one). Against sampling every period,
+/// dF and the mean force move by at most 1.1e-4 (relative) on six cases from 2000 to 4000 Hz,
+/// `k_d` 1000 to 40 000 N/m, at up to 8 times fewer samples.
+fn slow_dt(p: &Params) -> f64 {
+    sampling(&p.without_vibration(), 1).0.max(1.0 / p.f)
+}
+
 /// Relative tolerance of the averaged slow model's integration: a tenth of the run's `rtol`,
 /// within 1e-10 to 1e-6. At the default's 1e-7, dF and the mean force lie within 3e-5 N of
 /// those at 1e-10 on five cases from 2000 to 4000 Hz, `k_d` 1000 to 40 000 N/m (the table's own
@@ -476,7 +485,7 @@ fn slow_rtol(opts: &RunOptions) -> f64 {
 }
 
 /// A run of the averaged slow model over the full run's simulated time `t_end`, the drive
-/// force sampled once per forcing period (a full run's force smoothed over one period); `Err`
+/// force sampled as [`slow_dt`] says (no ripple: it stands for a full run's force smoothed over one period); `Err`
 /// with the mean velocity where its steady window left the law
 /// ([`SlowRun::left_law`](crate::averaged::SlowRun::left_law)).
 fn averaged_run(
@@ -487,7 +496,7 @@ fn averaged_run(
 ) -> Result<RunResult, f64> {
     let trace = opts.trace.then_some(opts.trace_points);
     let slow =
-        crate::averaged::simulate_slow_with(p, table, t_end, 1.0 / p.f, slow_rtol(opts), trace)
+        crate::averaged::simulate_slow_with(p, table, t_end, slow_dt(p), slow_rtol(opts), trace)
             .map_err(|_| 0.0)?;
     if let Some(v) = slow.left_law {
         return Err(v);

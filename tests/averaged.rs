@@ -81,7 +81,12 @@ fn small_amplitude_creep_slope() {
     );
     let mut sh = Shooter::new(&p, AveragingOptions::default()).expect("valid");
     let o = sh.orbit(0.0, [0.0, 0.0, 0.0]).expect("the orbit at V = 0");
-    assert!(o.force.abs() < 1e-9, "symmetry: F_eff(0) = {}", o.force);
+    // Zero by symmetry, to the one-period integration's tolerance (rtol 1e-9 of F_c).
+    assert!(
+        o.force.abs() < 10.0 * 1e-9 * p.f_c,
+        "symmetry: F_eff(0) = {}",
+        o.force
+    );
     let w = p.omega();
     let num = p.m * w * w;
     let den = num_complex::Complex64::new(p.k_t - p.m * w * w, w * p.h_t);
