@@ -239,7 +239,7 @@ impl Stepper for Radau5 {
 
     fn start<S: OdeSystem>(&mut self, sys: &S, t0: f64, y0: &[f64], h: f64, st: &mut Stats) {
         let k = sys.jacobian_blocks();
-        let m = if k > 1 && self.n % k == 0 {
+        let m = if k > 1 && self.n.is_multiple_of(k) {
             self.n / k
         } else {
             self.n
