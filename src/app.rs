@@ -452,6 +452,12 @@ pub fn sweep_cmd(a: &SweepArgs) -> Result<(), AppError> {
             outcome.journal_dropped
         );
     }
+    if outcome.tables_loaded > 0 {
+        crate::say!(
+            "{} table(s) of the averaged law loaded from the journal",
+            outcome.tables_loaded
+        );
+    }
     crate::say!(
         "wrote {}: {} points, {} runs made, {} resumed, {} failed, {:.1} s",
         outcome.out.display(),

@@ -733,6 +733,95 @@ impl Table {
     }
 }
 
+impl Table {
+    /// The table as space-separated fields, every float in its shortest round-trip form (so a
+    /// table read back is the one written, bit for bit): `V_stop` (NaN where the continuation
+    /// reached its end), the gap count and each gap's ends, the node count and per node
+    /// `V, F, F', tangent (2), start (2), multipliers (4), fast (2), iterations, rhs_evals`.
+    pub fn to_fields(&self) -> String {
+        use std::fmt::Write;
+        let mut s = String::new();
+        let _ = write!(
+            s,
+            "{:e} {}",
+            self.stopped_at.unwrap_or(f64::NAN),
+            self.gaps.len()
+        );
+        for (lo, hi) in &self.gaps {
+            let _ = write!(s, " {lo:e} {hi:e}");
+        }
+        let _ = write!(s, " {}", self.nodes.len());
+        for o in &self.nodes {
+            let m = o.multipliers;
+            for x in [
+                o.v_mean,
+                o.force,
+                o.slope,
+                o.tangent[0],
+                o.tangent[1],
+                o.start[0],
+                o.start[1],
+                m[0].0,
+                m[0].1,
+                m[1].0,
+                m[1].1,
+                o.fast.0,
+                o.fast.1,
+            ] {
+                let _ = write!(s, " {x:e}");
+            }
+            let _ = write!(s, " {} {}", o.iterations, o.rhs_evals);
+        }
+        s
+    }
+
+    /// The table of [`Table::to_fields`]; `None` where a field is missing, malformed or left
+    /// over.
+    pub fn from_fields(s: &str) -> Option<Table> {
+        let mut it = s.split_ascii_whitespace();
+        let mut x = || it.next()?.parse::<f64>().ok();
+        let stop = x()?;
+        let n_gaps = x()?;
+        if !(n_gaps >= 0.0 && n_gaps.fract() == 0.0 && n_gaps < 1e6) {
+            return None;
+        }
+        let mut gaps = Vec::with_capacity(n_gaps as usize);
+        for _ in 0..n_gaps as usize {
+            gaps.push((x()?, x()?));
+        }
+        let n = x()?;
+        if !(n >= 1.0 && n.fract() == 0.0 && n <= 100_000.0) {
+            return None;
+        }
+        let mut nodes = Vec::with_capacity(n as usize);
+        for _ in 0..n as usize {
+            let mut v = [0.0; 13];
+            for e in v.iter_mut() {
+                *e = x()?;
+            }
+            let (iters, rhs) = (x()?, x()?);
+            if !(iters >= 0.0 && rhs >= 0.0 && iters.fract() == 0.0 && rhs.fract() == 0.0) {
+                return None;
+            }
+            nodes.push(Orbit {
+                v_mean: v[0],
+                force: v[1],
+                slope: v[2],
+                tangent: [v[3], v[4]],
+                start: [v[5], v[6]],
+                multipliers: [(v[7], v[8]), (v[9], v[10])],
+                fast: (v[11], v[12]),
+                iterations: iters as usize,
+                rhs_evals: rhs as u64,
+            });
+        }
+        if x().is_some() || !nodes.windows(2).all(|w| w[0].v_mean < w[1].v_mean) {
+            return None;
+        }
+        Some(Table::of(nodes, stop.is_finite().then_some(stop), gaps))
+    }
+}
+
 /// The slow model of the averaged rig: the spring's stretch `z = v_d t − x` and the body's
 /// mean velocity `V`, with the vibration replaced by `F_eff`:
 /// `z' = v_d − V`, `m V' = k_d z + h_d (v_d − V) − F_eff(V)`.
@@ -1223,6 +1312,27 @@ pub fn shared_table(p: &Params) -> Result<std::sync::Arc<Table>, AveragingError>
     // wait for it.
     cell.get_or_init(|| Table::build(p, table_span(p), SHARED).map(Arc::new))
         .clone()
+}
+
+/// The table of `p` where this process has built or loaded it already; `None` otherwise (it is
+/// not built here).
+pub fn cached_table(p: &Params) -> Option<std::sync::Arc<Table>> {
+    let cell = tables()
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .get(&table_key(p))?
+        .clone();
+    cell.get()?.as_ref().ok().cloned()
+}
+
+/// Hands [`shared_table`] a table kept from an earlier process (a sweep's journal) under its
+/// [`table_key`], so that it is not built again. A table already there stays.
+pub fn preload(key: Vec<u64>, table: Table) {
+    let cell = {
+        let mut map = tables().lock().unwrap_or_else(|e| e.into_inner());
+        map.entry(key).or_default().clone()
+    };
+    let _ = cell.set(Ok(std::sync::Arc::new(table)));
 }
 
 /// What identifies the table of `p` in [`shared_table`]: the bits of every parameter but

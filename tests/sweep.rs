@@ -1245,15 +1245,26 @@ fn averaged_points_are_checked_and_resume_and_merge_bit_for_bit() {
     let resumed = dir.path().join("resumed.h5");
     let shard_runs = sweep::shard::runs_path(&sweep::shard::Shard { index: 0, count: 2 }.path(&m));
     std::fs::copy(&shard_runs, sweep::journal::path_for(&resumed)).unwrap();
+    // The shard journaled the tables its averaged points used (one per va_ratio): the resumed
+    // sweep loads them
+    // instead of building them (a new process), and the file is the same bit for bit.
+    let kept = std::fs::read_to_string(&shard_runs).unwrap();
+    assert!(
+        kept.lines().any(|l| l.starts_with("tab ")),
+        "no table in the journal"
+    );
     let (ok, log) = stickslip(&[
         "sweep",
         fs,
         "-o",
         resumed.to_str().unwrap(),
         "--resume",
-        "-q",
         "--no-plot",
     ]);
     assert!(ok && !log.contains(" 0 resumed"), "{log}");
+    assert!(
+        log.contains("3 table(s) of the averaged law loaded from the journal"),
+        "{log}"
+    );
     same_sweep(&a, &resumed);
 }

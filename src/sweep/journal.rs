@@ -20,6 +20,11 @@
 //! ([`TierReason::code`]).
 //! Floats use Rust's shortest round-trip form, so resumed results are bit-identical. Only lines
 //! ended by a newline are read.
+//!
+//! Lines `tab <key> <fields> ~<checksum>` keep the tables of the averaged law that the sweep's
+//! averaged runs used ([`format_table`]), each written once, before the first run that used it:
+//! a resumed sweep or shard loads them instead of building them again (building is
+//! deterministic, so either way the results are the same bit for bit).
 
 use crate::averaged::{Tier, TierReason};
 use crate::measures::Measures;
@@ -225,6 +230,8 @@ pub fn read(path: &Path, fp: &str) -> Result<(Vec<(Task, RunResult)>, usize), St
     let torn = usize::from(text.last().is_some_and(|&b| b != b'\n'));
     let mut dropped = torn;
     let records = lines
+        // Tables of the averaged law are read by read_tables.
+        .filter(|l| !l.starts_with("tab "))
         .filter_map(|l| {
             let r = parse_record(l);
             dropped += usize::from(r.is_none());
@@ -232,6 +239,44 @@ pub fn read(path: &Path, fp: &str) -> Result<(Vec<(Task, RunResult)>, usize), St
         })
         .collect();
     Ok((records, dropped))
+}
+
+/// The journal line of the averaged law's table `t` under its key
+/// ([`crate::averaged::table_key`]): `tab <key as hex words joined by commas> <fields of
+/// Table::to_fields> ~<checksum>`.
+pub fn format_table(key: &[u64], t: &crate::averaged::Table) -> String {
+    let key: Vec<String> = key.iter().map(|k| format!("{k:x}")).collect();
+    let body = format!("tab {} {}", key.join(","), t.to_fields());
+    let sum = checksum(&body);
+    format!("{body} {sum}")
+}
+
+/// The tables of the averaged law a journal keeps (see [`format_table`]); damaged lines are
+/// skipped (their tables are built again, identical, where a run needs them).
+pub fn read_tables(path: &Path) -> Vec<(Vec<u64>, crate::averaged::Table)> {
+    let Ok(text) = std::fs::read(path) else {
+        return vec![];
+    };
+    let whole = text
+        .iter()
+        .rposition(|&b| b == b'\n')
+        .map_or(&text[..0], |p| &text[..p]);
+    String::from_utf8_lossy(whole)
+        .lines()
+        .filter(|l| l.starts_with("tab "))
+        .filter_map(|l| {
+            let (body, sum) = l.rsplit_once(' ')?;
+            if checksum(body) != sum {
+                return None;
+            }
+            let (key, fields) = body.strip_prefix("tab ")?.split_once(' ')?;
+            let key = key
+                .split(',')
+                .map(|k| u64::from_str_radix(k, 16).ok())
+                .collect::<Option<Vec<u64>>>()?;
+            Some((key, crate::averaged::Table::from_fields(fields)?))
+        })
+        .collect()
 }
 
 /// An open journal, appending.
@@ -276,6 +321,13 @@ impl Journal {
         self.file.write_all(line.as_bytes())
     }
 
+    /// Appends the averaged law's table `t` (key `key`), kept so that a resumed sweep does not
+    /// build it again.
+    pub fn record_table(&mut self, key: &[u64], t: &crate::averaged::Table) -> std::io::Result<()> {
+        let line = format_table(key, t) + "\n";
+        self.file.write_all(line.as_bytes())
+    }
+
     /// Forces the journal to disk.
     pub fn sync(&mut self) -> std::io::Result<()> {
         self.file.sync_data()
@@ -290,6 +342,41 @@ impl Journal {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn tables_round_trip_bit_for_bit_and_damaged_ones_are_skipped() {
+        use crate::averaged::{SHARED, Table};
+        let mut p = crate::model::Params {
+            f: 3000.0,
+            ..Default::default()
+        };
+        p.set_v_a(0.4 * p.v_d);
+        let t = Table::build(&p, 4.0 * p.v_d, SHARED).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("j");
+        let key = crate::averaged::table_key(&p);
+        let mut j = Journal::create(&path, "abc").unwrap();
+        j.record_table(&key, &t).unwrap();
+        let mut bad = format_table(&[7], &t);
+        // One digit changed: the checksum no longer matches.
+        let k = bad.find(' ').unwrap() + 3;
+        bad.replace_range(k..k + 1, if &bad[k..k + 1] == "1" { "2" } else { "1" });
+        writeln!(j.file, "{bad}").unwrap();
+        drop(j);
+        let back = read_tables(&path);
+        assert_eq!(back.len(), 1);
+        assert_eq!(back[0].0, key);
+        assert_eq!(back[0].1.to_fields(), t.to_fields());
+        assert_eq!(back[0].1, t);
+        // Table lines are not runs, nor damaged runs.
+        let (records, dropped) = read(&path, "abc").unwrap();
+        assert!(records.is_empty());
+        assert_eq!(dropped, 0);
+        // Trailing or missing fields are refused.
+        assert!(Table::from_fields(&(t.to_fields() + " 1")).is_none());
+        let f = t.to_fields();
+        assert!(Table::from_fields(f.rsplit_once(' ').unwrap().0).is_none());
+    }
 
     #[test]
     fn records_round_trip_bit_for_bit_including_nan() {

@@ -310,6 +310,8 @@ pub struct SweepOutcome {
     pub runs_resumed: usize,
     /// Journal lines dropped as damaged on resuming (their runs were made again).
     pub journal_dropped: usize,
+    /// Tables of the averaged law loaded from the journal on resuming (not built again).
+    pub tables_loaded: usize,
     /// Points whose run (or reference) did not succeed.
     pub failed: usize,
     /// Wall time of this invocation \[s\].
@@ -399,6 +401,8 @@ struct Executor<'a> {
     made: usize,
     /// A run came back interrupted ([`crate::interrupt`]): ask for no more.
     interrupted: bool,
+    /// The keys of the averaged law's tables the journal holds.
+    tables: std::collections::HashSet<Vec<u64>>,
 }
 
 impl Executor<'_> {
@@ -452,6 +456,24 @@ impl Executor<'_> {
         if r.status == Status::Interrupted {
             self.interrupted = true;
             return;
+        }
+        // The table an averaged run used goes to the journal before the run's record, once: a
+        // resumed sweep (or shard) loads it instead of building it again.
+        if r.tier == crate::averaged::Tier::Averaged {
+            let p = self.plan.params(t);
+            let key = crate::averaged::table_key(p);
+            if !self.tables.contains(&key)
+                && let Some(table) = crate::averaged::cached_table(p)
+            {
+                match self.journal.record_table(&key, &table) {
+                    Ok(()) => {
+                        self.tables.insert(key);
+                    }
+                    Err(e) => {
+                        io_error.get_or_insert(format!("{}: {e}", self.journal.path().display()));
+                    }
+                }
+            }
         }
         if let Err(e) = self.journal.record(t, &r) {
             io_error.get_or_insert(format!("{}: {e}", self.journal.path().display()));
@@ -675,6 +697,7 @@ pub fn run(spec: &SweepSpec, opts: &SweepOptions) -> Result<SweepOutcome, SweepE
                 .0
                 .len(),
             journal_dropped: 0,
+            tables_loaded: 0,
             failed: 0,
             wall_time: start.elapsed().as_secs_f64(),
             out: target,
@@ -683,6 +706,7 @@ pub fn run(spec: &SweepSpec, opts: &SweepOptions) -> Result<SweepOutcome, SweepE
     }
     let mut resumed = 0;
     let mut journal_dropped = 0;
+    let mut kept_tables = std::collections::HashSet::new();
     let mut journal = if jpath.exists() && !opts.overwrite {
         if !opts.resume {
             return Err(SweepError::State(format!(
@@ -692,6 +716,11 @@ pub fn run(spec: &SweepSpec, opts: &SweepOptions) -> Result<SweepOutcome, SweepE
         }
         let (records, dropped) = journal::read(&jpath, &fp).map_err(SweepError::State)?;
         journal_dropped = dropped;
+        // The averaged law's tables kept by the interrupted sweep: loaded, not built again.
+        for (key, table) in journal::read_tables(&jpath) {
+            kept_tables.insert(key.clone());
+            crate::averaged::preload(key, table);
+        }
         resumed = results.absorb(&plan, records);
         Journal::append(&jpath)
             .map_err(|e| SweepError::State(format!("{}: {e}", jpath.display())))?
@@ -757,7 +786,9 @@ pub fn run(spec: &SweepSpec, opts: &SweepOptions) -> Result<SweepOutcome, SweepE
         last_checkpoint: Instant::now(),
         made: 0,
         interrupted: false,
+        tables: kept_tables,
     };
+    let tables_loaded_n = exec.tables.len();
     // The tasks of the first round: the whole grid, or the coarse grid of a refinement (the
     // shard's part of either).
     let first = tasks_of(&plan, &first_points(spec, |i| owned[i]));
@@ -832,6 +863,7 @@ pub fn run(spec: &SweepSpec, opts: &SweepOptions) -> Result<SweepOutcome, SweepE
         runs_made,
         runs_resumed: resumed,
         journal_dropped,
+        tables_loaded: tables_loaded_n,
         failed,
         wall_time: start.elapsed().as_secs_f64(),
         out: target,
