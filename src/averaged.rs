@@ -271,6 +271,10 @@ pub struct Shooter<'a> {
     period: f64,
     scale_y: [f64; 3],
     scale_p: [f64; 3],
+    /// First step of the next one-period integration: the step the last one proposed at its
+    /// end (the orbit is periodic, so its end is the next one's start); 0 at first (chosen
+    /// automatically).
+    h0: f64,
 }
 
 impl<'a> Shooter<'a> {
@@ -298,6 +302,7 @@ impl<'a> Shooter<'a> {
             period,
             scale_y: [vs, ss, vs * period],
             scale_p: [vs, ss, p.f_c],
+            h0: 0.0,
         })
     }
 
@@ -328,6 +333,7 @@ impl<'a> Shooter<'a> {
             atol: self.opts.rtol,
             // A few steps per period at least: the forcing must be resolved.
             h_max: self.period / 8.0,
+            h0: self.h0,
             ..Options::default()
         };
         let rep = self.solver.solve(
@@ -341,8 +347,10 @@ impl<'a> Shooter<'a> {
         );
         *rhs += rep.stats.rhs_evals;
         if rep.status != Status::Success {
+            self.h0 = 0.0;
             return Err(AveragingError::Integration(rep.status.name()));
         }
+        self.h0 = rep.h_next.min(self.period / 8.0);
         // Row-major (rows v, s, w; columns v0, s0, F) from the column-by-column state.
         let mut s = [0.0; 9];
         for i in 0..3 {

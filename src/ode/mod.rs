@@ -507,6 +507,9 @@ pub struct RunReport {
     pub t: f64,
     /// Work done.
     pub stats: Stats,
+    /// The step size the method proposed after its last step (units of t; 0 where it took
+    /// none): a good `h0` for an integration that continues from where this one ended.
+    pub h_next: f64,
 }
 
 /// Weighted RMS norm of `e` (see the module docs): the single definition all methods use.
@@ -784,12 +787,13 @@ fn drive<M: Stepper, S: OdeSystem>(
     m.set_tolerances(opts.rtol, atol);
     let mut st = Stats::default();
     let stats = &mut st;
-    let finish = |status, t, y0: &mut [f64], y: &[f64], stats: &Stats| {
+    let finish = |status, t, y0: &mut [f64], y: &[f64], stats: &Stats, h_next: f64| {
         y0.copy_from_slice(y);
         RunReport {
             status,
             t,
             stats: *stats,
+            h_next,
         }
     };
     if y0.iter().any(|v| !v.is_finite()) {
@@ -797,6 +801,7 @@ fn drive<M: Stepper, S: OdeSystem>(
             status: Status::NonFinite,
             t: t0,
             stats: *stats,
+            h_next: 0.0,
         };
     }
     // Output times before t0 are skipped; the one at t0 is the initial state.
@@ -811,6 +816,7 @@ fn drive<M: Stepper, S: OdeSystem>(
                 status: Status::Success,
                 t: t0,
                 stats: *stats,
+                h_next: 0.0,
             };
         }
     }
@@ -820,6 +826,7 @@ fn drive<M: Stepper, S: OdeSystem>(
             status: Status::Success,
             t: t0,
             stats: *stats,
+            h_next: 0.0,
         };
     }
     let h_max = opts.h_max.min(span);
@@ -855,7 +862,7 @@ fn drive<M: Stepper, S: OdeSystem>(
         let remaining = t1 - t;
         if remaining <= 1e-14 * t1.abs().max(1.0) {
             let t_end = t;
-            return finish(Status::Success, t_end, y0, m.y(), stats);
+            return finish(Status::Success, t_end, y0, m.y(), stats, m.h());
         }
         let mut h = m.h().min(h_max);
         // Land on t1 exactly without a sliver step at the end.
@@ -865,22 +872,22 @@ fn drive<M: Stepper, S: OdeSystem>(
             h = 0.5 * remaining;
         }
         if 0.1 * h <= t.abs() * f64::EPSILON || h <= 0.0 {
-            return finish(Status::StepTooSmall, t, y0, m.y(), stats);
+            return finish(Status::StepTooSmall, t, y0, m.y(), stats, m.h());
         }
         m.set_h(h);
         if attempts >= opts.max_steps {
-            return finish(Status::MaxSteps, t, y0, m.y(), stats);
+            return finish(Status::MaxSteps, t, y0, m.y(), stats, m.h());
         }
         // A relaxed load every 256 attempts: microseconds apart, never measurable.
         if attempts.is_multiple_of(256) && crate::interrupt::requested() {
-            return finish(Status::Interrupted, t, y0, m.y(), stats);
+            return finish(Status::Interrupted, t, y0, m.y(), stats, m.h());
         }
         attempts += 1;
         match m.attempt(sys, stats) {
             StepOutcome::Accepted => {
                 let t_new = m.t();
                 if m.y().iter().any(|v| !v.is_finite()) {
-                    return finish(Status::NonFinite, t_new, y0, m.y(), stats);
+                    return finish(Status::NonFinite, t_new, y0, m.y(), stats, m.h());
                 }
                 // The last step lands on t1 up to round-off; snap output times there.
                 let t_hi = if (t_new - t1).abs() <= 1e-14 * t1.abs().max(1.0) {
@@ -897,7 +904,7 @@ fn drive<M: Stepper, S: OdeSystem>(
                     let g = k;
                     k += 1;
                     if !observe(tk, out) {
-                        return finish(Status::Success, tk, y0, out, stats);
+                        return finish(Status::Success, tk, y0, out, stats, m.h());
                     }
                     let Some((e, own)) = env else { continue };
                     strobe.record(g, out);
@@ -922,7 +929,7 @@ fn drive<M: Stepper, S: OdeSystem>(
                         strobe.synth(gj, out);
                         let tj = grid.time(gj);
                         if !observe(tj, out) {
-                            return finish(Status::Success, tj, y0, out, stats);
+                            return finish(Status::Success, tj, y0, out, stats, m.h());
                         }
                     }
                     strobe.landed(out);
@@ -934,7 +941,7 @@ fn drive<M: Stepper, S: OdeSystem>(
                 }
             }
             StepOutcome::Rejected => {}
-            StepOutcome::Failed(status) => return finish(status, t, y0, m.y(), stats),
+            StepOutcome::Failed(status) => return finish(status, t, y0, m.y(), stats, m.h()),
         }
     }
 }
