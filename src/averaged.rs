@@ -46,8 +46,11 @@ const SENS_LOOSE: f64 = 10.0;
 
 struct Fast<'a> {
     p: &'a Params,
-    /// Frozen drive force \[N\].
+    /// Frozen drive force \[N\] (at `t = 0`, where `ramp` is not zero).
     force: f64,
+    /// Rate at which the drive force rises \[N/s\]: 0 for the orbits, the drive's loading
+    /// rate `k_d v_d` for [`escape_force`].
+    ramp: f64,
     /// Velocity amplitude of the substrate \[m/s\].
     v_a: f64,
     /// Angular frequency \[1/s\].
@@ -64,7 +67,7 @@ impl Fast<'_> {
         let v_r = v - self.v_a * (self.omega * t).cos();
         let c = contact(self.p, v_r, s);
         let m = self.p.m;
-        let f = [(self.force - c.force) / m, c.s_dot, v];
+        let f = [(self.force + self.ramp * t - c.force) / m, c.s_dot, v];
         let a = [
             -c.dforce_dvr / m,
             -c.dforce_ds / m,
@@ -127,6 +130,27 @@ impl OdeSystem for Fast<'_> {
 
     fn jacobian_blocks(&self) -> usize {
         4
+    }
+}
+
+/// The fast subsystem alone (`v`, `s`, `w = ∫ v dt`) at a frozen drive force, for
+/// [`escape_force`].
+struct FastBase<'a>(Fast<'a>);
+
+impl OdeSystem for FastBase<'_> {
+    fn dim(&self) -> usize {
+        3
+    }
+    fn rhs(&self, t: f64, y: &[f64], dy: &mut [f64]) {
+        let (f, _) = self.0.base(t, y[0], y[1]);
+        dy.copy_from_slice(&f);
+    }
+    fn jacobian(&self, t: f64, y: &[f64], jac: &mut [f64]) {
+        let (_, a) = self.0.base(t, y[0], y[1]);
+        jac.copy_from_slice(&a);
+    }
+    fn scale(&self, i: usize) -> f64 {
+        self.0.scale_y[i]
     }
 }
 
@@ -318,6 +342,7 @@ impl<'a> Shooter<'a> {
         let sys = Fast {
             p: self.p,
             force,
+            ramp: 0.0,
             v_a: self.v_a,
             omega: self.omega,
             scale_y: self.scale_y,
@@ -828,6 +853,109 @@ impl Table {
         }
         Some(Table::of(nodes, stop.is_finite().then_some(stop), gaps))
     }
+}
+
+impl Table {
+    /// The law with its rising branch cut at `f_esc` \[N\]: where the fast motion escapes from
+    /// its low-velocity attractor at a frozen drive force below the law's peak (below the
+    /// contact resonance the period-1 orbit there does not contract, and the attractor that
+    /// holds the body is chaotic), the slow model must slip at `f_esc`, not at the fold. The
+    /// nodes above `f_esc` between the rising and the falling branch are replaced by a flat
+    /// stretch at `f_esc`, taken as valid; the rest is the law. `None` where the law never
+    /// rises above `f_esc` or never falls back below it.
+    pub fn capped(&self, f_esc: f64) -> Option<Table> {
+        let n = &self.nodes;
+        let i = n.iter().position(|o| o.force > f_esc)?;
+        let j = i + n[i..].iter().position(|o| o.force < f_esc)?;
+        if i == 0 {
+            return None;
+        }
+        // Where each branch crosses f_esc, linearly between its nodes.
+        let cross = |a: &Orbit, b: &Orbit| {
+            a.v_mean + (f_esc - a.force) / (b.force - a.force) * (b.v_mean - a.v_mean)
+        };
+        let flat = |v: f64, like: &Orbit| Orbit {
+            v_mean: v,
+            force: f_esc,
+            slope: 0.0,
+            multipliers: [(0.0, 0.0); 2],
+            fast: (0.0, 0.0),
+            ..*like
+        };
+        let mut nodes: Vec<Orbit> = n[..i].to_vec();
+        nodes.push(flat(cross(&n[i - 1], &n[i]), &n[i - 1]));
+        nodes.push(flat(cross(&n[j - 1], &n[j]), &n[j]));
+        nodes.extend_from_slice(&n[j..]);
+        nodes.dedup_by(|b, a| b.v_mean <= a.v_mean);
+        Some(Table::of(nodes, self.stopped_at, vec![]))
+    }
+}
+
+/// The drive force \[N\] at which the body escapes from the low-velocity attractor of the fast
+/// motion while the drive loads it, where that comes before the law's peak; `None` where every
+/// orbit of the law's rising branch contracts (the slow model then slips at the law's own fold),
+/// or the body holds up to the peak.
+///
+/// Below the contact resonance the period-1 orbit of the rising branch stops contracting before
+/// the law's peak, and the attractor that holds the body there is not periodic: it lets the body
+/// go at a lower force than the fold of `F_eff`. How much lower depends on how long the force
+/// dwells near it (at 1500 Hz, v_a/v_d 0.4, a frozen force held 200 periods per level gave
+/// 9.415 to 9.45 N by the levels' spacing), so the force here rises as the drive raises it
+/// while the body sticks, at `k_d v_d`, from the last contracting orbit of the rising branch;
+/// the escape is the first period whose mean velocity exceeds twice the peak's `V`.
+/// [`Table::capped`] then gives the law the slow model slips by.
+pub fn escape_force(p: &Params, table: &Table) -> Option<f64> {
+    let n = &table.nodes;
+    let peak = (0..n.len()).max_by(|&a, &b| n[a].force.total_cmp(&n[b].force))?;
+    let first_bad = n[..=peak].iter().position(|o| !o.contracting())?;
+    let lo = first_bad.checked_sub(1)?;
+    let (f_lo, f_hi, v_peak) = (n[lo].force, n[peak].force, n[peak].v_mean);
+    let rate = p.k_d * p.v_d;
+    let period = 1.0 / p.f;
+    let sh = Shooter::new(p, SHARED).ok()?;
+    let sys = FastBase(Fast {
+        p,
+        force: f_lo,
+        ramp: rate,
+        v_a: sh.v_a,
+        omega: sh.omega,
+        scale_y: sh.scale_y,
+        scale_p: sh.scale_p,
+    });
+    let opts = Options {
+        rtol: 1e-7,
+        atol: 1e-7,
+        h_max: period / 8.0,
+        ..Options::default()
+    };
+    // The ramp to the peak, whole periods (the orbit's phase 0 at each).
+    let periods = ((f_hi - f_lo) / rate / period).ceil() as u64 + 1;
+    let grid = OutputGrid {
+        start: 0.0,
+        step: period,
+        count: periods + 1,
+    };
+    let mut y = [n[lo].start[0], n[lo].start[1], 0.0];
+    let mut last_w = 0.0;
+    let mut escaped = None;
+    let rep = Solver::new(Method::Radau5).solve_until(
+        &sys,
+        0.0,
+        periods as f64 * period,
+        &mut y,
+        &opts,
+        grid,
+        |t, y| {
+            let v = (y[2] - last_w) / period;
+            last_w = y[2];
+            if t > 0.0 && v > 2.0 * v_peak {
+                escaped = Some(f_lo + rate * t);
+                return false;
+            }
+            true
+        },
+    );
+    (rep.status == Status::Success).then_some(escaped).flatten()
 }
 
 /// The slow model of the averaged rig: the spring's stretch `z = v_d t − x` and the body's
