@@ -688,8 +688,8 @@ mod tests {
     #[test]
     fn cycle_mean_removes_the_bias_of_a_cut_cycle() {
         // The saw-tooth's mean over whole cycles is 8 N (the average of 5 and 11 along both
-        // straight flanks). A window from 4.1 s to 9.6 s holds half a rise more than whole cycles, so its
-        // plain mean lies off 8; the mean from the first to the last peak does not.
+        // straight flanks). A window from 4.1 s to 9.6 s holds half a rise more than whole
+        // cycles, so its plain mean lies off 8; the mean from the first to the last peak does not.
         let dt = 1e-3;
         let mut a = Analyzer::with_blocks(1, 4.1, 0.1, 1e-4, 1e-2, 1000);
         for k in 0..9_600 {

@@ -84,6 +84,22 @@ fn checksum(body: &str) -> String {
     format!("~{h:08x}")
 }
 
+/// The body of a line whose checksum (its last field) matches; `None` for a damaged line.
+fn checked(line: &str) -> Option<&str> {
+    let (body, sum) = line.rsplit_once(' ')?;
+    (sum.starts_with('~') && checksum(body) == sum).then_some(body)
+}
+
+/// The whole lines of a journal's bytes: a last line without its newline was torn by a kill
+/// mid-write, and a torn number may still parse (a float cut short), so it is left out.
+fn whole_lines(text: &[u8]) -> std::borrow::Cow<'_, str> {
+    let whole = text
+        .iter()
+        .rposition(|&b| b == b'\n')
+        .map_or(&text[..0], |p| &text[..p]);
+    String::from_utf8_lossy(whole)
+}
+
 /// Formats one record (without the newline), its checksum last.
 pub fn format_record(task: Task, r: &RunResult) -> String {
     let body = format_body(task, r);
@@ -131,10 +147,7 @@ fn format_body(task: Task, r: &RunResult) -> String {
 /// Parses one record; `None` for a torn or foreign line.
 pub fn parse_record(line: &str) -> Option<(Task, RunResult)> {
     // Records end with their checksum; one that does not match is damaged.
-    let (body, sum) = line.rsplit_once(' ')?;
-    if !sum.starts_with('~') || checksum(body) != sum {
-        return None;
-    }
+    let body = checked(line)?;
     let f: Vec<&str> = body.split(' ').collect();
     // 26 fields; 24 in journals written before runs had tiers (every run full), 23 before
     // extrapolated levels had an error bound, 22 before predicted windows, 21 before the
@@ -210,13 +223,7 @@ pub fn parse_record(line: &str) -> Option<(Task, RunResult)> {
 /// that does not parse as a record); their runs are made again.
 pub fn read(path: &Path, fp: &str) -> Result<(Vec<(Task, RunResult)>, usize), String> {
     let text = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
-    // Only whole lines count: a last line without its newline was torn by a kill mid-write,
-    // and a torn number may still parse (a float cut short), so it is dropped unread.
-    let whole = text
-        .iter()
-        .rposition(|&b| b == b'\n')
-        .map_or(&text[..0], |p| &text[..p]);
-    let whole = String::from_utf8_lossy(whole);
+    let whole = whole_lines(&text);
     let mut lines = whole.lines();
     let first = lines.next().unwrap_or_default();
     if first != header(fp) {
@@ -257,19 +264,11 @@ pub fn read_tables(path: &Path) -> Vec<(Vec<u64>, crate::averaged::Table)> {
     let Ok(text) = std::fs::read(path) else {
         return vec![];
     };
-    let whole = text
-        .iter()
-        .rposition(|&b| b == b'\n')
-        .map_or(&text[..0], |p| &text[..p]);
-    String::from_utf8_lossy(whole)
+    whole_lines(&text)
         .lines()
         .filter(|l| l.starts_with("tab "))
         .filter_map(|l| {
-            let (body, sum) = l.rsplit_once(' ')?;
-            if checksum(body) != sum {
-                return None;
-            }
-            let (key, fields) = body.strip_prefix("tab ")?.split_once(' ')?;
+            let (key, fields) = checked(l)?.strip_prefix("tab ")?.split_once(' ')?;
             let key = key
                 .split(',')
                 .map(|k| u64::from_str_radix(k, 16).ok())
