@@ -1117,11 +1117,16 @@ pub fn case_summary(c: &CaseResult, o: &RunOptions) -> String {
         o.tier,
         c.run.tier_reason.text()
     );
-    if c.run.tier == crate::averaged::Tier::Averaged {
+    if c.run.tier.uses_law() {
         let _ = writeln!(
             s,
-            "          the averaged slow model; its statistics below leave out the law's table \
-             (shared by every run of the same f, u0, v_d and contact)"
+            "          {}; its statistics below leave out the law's table \
+             (shared by every run of the same f, u0, v_d and contact)",
+            if c.run.tier == crate::averaged::Tier::Hybrid {
+                "the averaged slow model with full windows in the law's zones"
+            } else {
+                "the averaged slow model"
+            }
         );
     }
     let st = c.total_stats();

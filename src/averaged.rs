@@ -728,6 +728,32 @@ impl Table {
 }
 
 impl Table {
+    /// The fast state `(v(0), s(0))` at phase 0 of the orbit at mean velocity `v`, for a hand-over
+    /// to the full model: linear between the nodes around `v`, the end node's beyond the table,
+    /// across a gap the nearer node's; at `v < 0` (a body sliding back, which the law's symmetry
+    /// maps to phase `π`, not 0) the orbit at rest's. The full model settles onto its own orbit
+    /// from there within a few periods.
+    pub fn start_at(&self, v: f64) -> [f64; 2] {
+        let a = v.max(0.0);
+        let n = self.nodes.len();
+        let k = self.at.partition_point(|&x| x < a).clamp(1, n.max(2) - 1);
+        let (lo, hi) = (&self.nodes[(k - 1).min(n - 1)], &self.nodes[k.min(n - 1)]);
+        let h = hi.v_mean - lo.v_mean;
+        let w = if h > 0.0 {
+            ((a - lo.v_mean) / h).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        let gap = k < n && self.flags[k] & 1 == 0;
+        let w = if gap { w.round() } else { w };
+        [
+            lo.start[0] + w * (hi.start[0] - lo.start[0]),
+            lo.start[1] + w * (hi.start[1] - lo.start[1]),
+        ]
+    }
+}
+
+impl Table {
     /// The `V` of least modulus in `[lo, hi]` where the law may not stand for the vibration
     /// ([`Table::valid_at`] false), `None` where it may everywhere in the range.
     pub fn first_invalid(&self, lo: f64, hi: f64) -> Option<f64> {
@@ -955,9 +981,9 @@ pub fn escape_force(p: &Params, table: &Table) -> Option<f64> {
 /// The slow model of the averaged rig: the spring's stretch `z = v_d t − x` and the body's
 /// mean velocity `V`, with the vibration replaced by `F_eff`:
 /// `z' = v_d − V`, `m V' = k_d z + h_d (v_d − V) − F_eff(V)`.
-struct Slow<'a> {
-    p: &'a Params,
-    table: &'a Table,
+pub(crate) struct Slow<'a> {
+    pub(crate) p: &'a Params,
+    pub(crate) table: &'a Table,
 }
 
 impl Slow<'_> {
@@ -1182,11 +1208,21 @@ pub enum Tier {
     Averaged,
     /// The full model, every forcing period integrated.
     Full,
+    /// The averaged slow model where its law holds, the full model in windows where the mean
+    /// velocity passes zones where it does not ([`crate::hybrid`]); the full model where there
+    /// is no law.
+    Hybrid,
 }
 
 impl Tier {
+    /// Whether a run served by this tier used the averaged law (alone or between hybrid
+    /// windows): its table belongs to the sweep's journal and its result to the sweep's check.
+    pub fn uses_law(self) -> bool {
+        matches!(self, Tier::Averaged | Tier::Hybrid)
+    }
+
     /// Every tier, in the order help texts list them.
-    pub const ALL: [Tier; 3] = [Tier::Auto, Tier::Averaged, Tier::Full];
+    pub const ALL: [Tier; 4] = [Tier::Auto, Tier::Averaged, Tier::Hybrid, Tier::Full];
 
     /// The name on the command line and in files.
     pub fn name(self) -> &'static str {
@@ -1194,13 +1230,16 @@ impl Tier {
             Tier::Auto => "auto",
             Tier::Averaged => "averaged",
             Tier::Full => "full",
+            Tier::Hybrid => "hybrid",
         }
     }
 
-    /// The code in journals and HDF5 files of the tier that served a run: 0 full, 1 averaged.
+    /// The code in journals and HDF5 files of the tier that served a run: 0 full, 1 averaged,
+    /// 2 hybrid.
     pub fn code(self) -> u8 {
         match self {
             Tier::Averaged => 1,
+            Tier::Hybrid => 2,
             _ => 0,
         }
     }
@@ -1210,6 +1249,7 @@ impl Tier {
         match c {
             0 => Some(Tier::Full),
             1 => Some(Tier::Averaged),
+            2 => Some(Tier::Hybrid),
             _ => None,
         }
     }
@@ -1227,14 +1267,7 @@ impl std::str::FromStr for Tier {
         Tier::ALL
             .into_iter()
             .find(|t| t.name() == s)
-            .ok_or_else(|| {
-                let hint = if s == "hybrid" {
-                    " (hybrid windows are not available)"
-                } else {
-                    ""
-                };
-                format!("unknown tier '{s}'{hint}: allowed are auto, averaged, full")
-            })
+            .ok_or_else(|| format!("unknown tier '{s}': allowed are auto, averaged, hybrid, full"))
     }
 }
 
@@ -1275,11 +1308,22 @@ pub enum TierReason {
     Unshared,
     /// The vibration's velocity amplitude lies below [`MIN_VA_RATIO`] times the drive velocity.
     SmallAmplitude,
+    /// `hybrid` was asked for and its law exists.
+    AskedHybrid,
+    /// Under `auto`, the averaged run's steady window passed zones where the law does not
+    /// stand for the vibration ([`TierReason::LeftLaw`]), and hybrid windows integrated the full
+    /// model there ([`crate::hybrid`]).
+    Zones,
+    /// A hybrid run was asked for, but the law's continuation stopped short of its span: the
+    /// orbits it did not reach may hide the attractor the body escapes from (1000 Hz, `v_a/v_d`
+    /// 0.4: a hybrid run on a three-node table gave dF 3.30 N for the full model's 2.20 N). The
+    /// full model served.
+    PartialLaw,
 }
 
 impl TierReason {
     /// Every reason, by code.
-    pub const ALL: [TierReason; 13] = [
+    pub const ALL: [TierReason; 16] = [
         TierReason::Asked,
         TierReason::NoVibration,
         TierReason::TwoStage,
@@ -1293,6 +1337,9 @@ impl TierReason {
         TierReason::BelowResonance,
         TierReason::Unshared,
         TierReason::SmallAmplitude,
+        TierReason::AskedHybrid,
+        TierReason::Zones,
+        TierReason::PartialLaw,
     ];
 
     /// The name in files.
@@ -1311,6 +1358,9 @@ impl TierReason {
             TierReason::BelowResonance => "below_resonance",
             TierReason::Unshared => "unshared",
             TierReason::SmallAmplitude => "small_amplitude",
+            TierReason::AskedHybrid => "asked_hybrid",
+            TierReason::Zones => "zones",
+            TierReason::PartialLaw => "partial_law",
         }
     }
 
@@ -1364,6 +1414,18 @@ impl TierReason {
             TierReason::SmallAmplitude => {
                 "the vibration's velocity amplitude is below a tenth of the drive velocity: at \
                  breakaway the body crosses the averaged law's rise within a fraction of a period"
+            }
+            TierReason::AskedHybrid => {
+                "hybrid was asked for and its law exists: the averaged law where it holds, the \
+                 full model in windows where it does not"
+            }
+            TierReason::Zones => {
+                "the averaged run's steady window passed mean velocities where the fast orbit \
+                 does not contract: hybrid windows integrated the full model there"
+            }
+            TierReason::PartialLaw => {
+                "the averaged law's continuation stopped short of its span, and the orbits it did \
+                 not reach may hide the attractor the body escapes from: the full model served"
             }
             TierReason::LeftLaw => {
                 "the averaged run's steady window reached mean velocities where the fast orbit \
@@ -1540,12 +1602,12 @@ pub fn choose(
     }
     match shared_table(p) {
         Ok(t) if t.nodes.len() >= 2 => {
-            let why = if tier == Tier::Auto {
-                TierReason::Valid
-            } else {
-                TierReason::AskedAveraged
+            let (tier, why) = match tier {
+                Tier::Auto => (Tier::Averaged, TierReason::Valid),
+                Tier::Hybrid => (Tier::Hybrid, TierReason::AskedHybrid),
+                _ => (Tier::Averaged, TierReason::AskedAveraged),
             };
-            (Tier::Averaged, why, Some(t))
+            (tier, why, Some(t))
         }
         _ => full(TierReason::NoLaw),
     }

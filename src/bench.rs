@@ -111,8 +111,10 @@ pub struct BenchOptions {
     /// Timed repetitions per point (median reported).
     pub repeats: usize,
     /// Tiers to run (`crate::averaged::Tier`): `Full` runs every method and envelope above;
-    /// `Averaged` adds one setting, `averaged`, the averaged slow model at each tolerance (its
-    /// table built afresh for every repeat, so the time includes it). Default `[Full]`.
+    /// `Averaged` adds one setting, `averaged`, the averaged slow model at each tolerance, and
+    /// `Hybrid` one more, `hybrid`, hybrid windows (the full model's windows with `auto` and
+    /// envelope following at [`crate::sim::DEFAULT_ENVELOPE`]); each builds its table afresh for
+    /// every repeat, so the time includes it. Default `[Full]`.
     pub tiers: Vec<crate::averaged::Tier>,
 }
 
@@ -172,8 +174,10 @@ impl BenchRow {
     /// The method with its envelope tolerance, as `dopri5` or `auto+envelope1e-4`; `averaged`
     /// for the averaged tier.
     pub fn setting(&self) -> String {
-        if self.tier == crate::averaged::Tier::Averaged {
-            return "averaged".to_string();
+        match self.tier {
+            crate::averaged::Tier::Averaged => return "averaged".to_string(),
+            crate::averaged::Tier::Hybrid => return "hybrid".to_string(),
+            _ => {}
         }
         setting_name(self.method, self.envelope)
     }
@@ -267,6 +271,9 @@ pub fn run(
         }
         if o.tiers.contains(&Tier::Averaged) {
             settings.push((Method::Radau5, None, Tier::Averaged));
+        }
+        if o.tiers.contains(&Tier::Hybrid) {
+            settings.push((Method::Auto, Some(sim::DEFAULT_ENVELOPE), Tier::Hybrid));
         }
         for (m, envelope, tier) in settings {
             let mut solver = Solver::new(m);

@@ -309,8 +309,9 @@ pub struct BenchArgs {
     /// Timed repeats per point (median reported), 1 to 100.
     #[arg(long, default_value_t = 3)]
     pub repeats: usize,
-    /// Tiers (comma-separated): full (every method and envelope) and averaged (one more
-    /// setting: the averaged slow model, its table built afresh for each repeat). Default: full.
+    /// Tiers (comma-separated): full (every method and envelope), averaged (one more setting:
+    /// the averaged slow model) and hybrid (one more: hybrid windows, auto with envelope 1e-4
+    /// inside them); each builds its table afresh for every repeat. Default: full.
     #[arg(long, value_delimiter = ',', value_name = "TIERS")]
     pub tiers: Vec<crate::averaged::Tier>,
     /// Output HDF5 file; diagrams go beside it (<stem>_<case>.png/.svg).
@@ -377,7 +378,7 @@ impl BenchArgs {
             return Err(CliError::Flag {
                 flag: "tiers".into(),
                 value: "auto".into(),
-                msg: "a benchmark compares tiers: give full, averaged or both".into(),
+                msg: "a benchmark compares tiers: give full, averaged, hybrid or several".into(),
             });
         }
         if !self.tiers.is_empty() {
@@ -694,8 +695,10 @@ pub struct RunArgs {
 
     /// Which model serves a run with vibration: auto (averages the vibration out where the
     /// averaged law of body and contact is valid and the forcing is 20 or more times faster than
-    /// the drive oscillator, else full), averaged (wherever the law exists) or full (every
-    /// period integrated). Default auto. The result says which served and why.
+    /// the drive oscillator, hybrid windows where the run passes zones of the law that are not,
+    /// else full), averaged (wherever the law exists), hybrid (the averaged law with the full
+    /// model in windows where it is not valid) or full (every period integrated). Default auto.
+    /// The result says which served and why.
     #[arg(long, value_name = "TIER")]
     pub tier: Option<crate::averaged::Tier>,
 

@@ -24,7 +24,7 @@
 //! periodic = true    # without vibration, continue along the limit cycle once it repeats
 //! envelope = 1e-4    # skip vibration periods where the envelope is smooth (default 1e-4;
 //!                    # false: integrate every period)
-//! tier = "auto"      # auto (default): the vibration averaged out where valid; averaged; full
+//! tier = "auto"      # auto (default): the vibration averaged out where valid; averaged; hybrid; full
 //! ```
 
 use crate::model::effects::{self, EffectKind, Effects};
@@ -375,7 +375,13 @@ pub fn apply_run(doc: &Doc, table: &toml::Table, o: &mut RunOptions) -> Result<(
             "tier" => {
                 o.tier = v
                     .as_str()
-                    .ok_or_else(|| doc.err(sec, k, "expected \"auto\", \"averaged\" or \"full\""))?
+                    .ok_or_else(|| {
+                        doc.err(
+                            sec,
+                            k,
+                            "expected \"auto\", \"averaged\", \"hybrid\" or \"full\"",
+                        )
+                    })?
                     .parse()
                     .map_err(|e: String| doc.err(sec, k, e))?;
             }

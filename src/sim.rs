@@ -445,21 +445,28 @@ pub fn simulate_with(
 
 /// A run of `rig` (without model extensions where `none`) to `t_end`, served by the tier
 /// [`averaged::choose`](crate::averaged::choose) picks for `opts.tier`: the full integration
-/// ([`integrate`]) or the averaged slow model ([`crate::averaged::simulate_slow_with`]), with
-/// the tier and its reason recorded.
+/// ([`integrate`]), the averaged slow model ([`crate::averaged::simulate_slow_with`]) or hybrid
+/// windows ([`crate::hybrid`]), with the tier and its reason recorded. Where an averaged run's
+/// window leaves the law, `auto` goes on with hybrid windows and `averaged` with the full model;
+/// where a hybrid run finds the law's continuation stopped short, the full model serves.
 fn serve(rig: &Rig, none: bool, t_end: f64, opts: &RunOptions, solver: &mut Solver) -> RunResult {
     let clock = Instant::now();
     let (tier, tier_reason, table) = crate::averaged::choose(&rig.p, none, opts.tier);
-    // The full model serves where no law was handed over, or where the averaged run's window
-    // left it (then the try's time counts too).
-    let (mut r, tier, tier_reason) = match table.map(|t| averaged_run(&rig.p, &t, t_end, opts)) {
-        Some(Ok(r)) => (r, tier, tier_reason),
-        Some(Err(_)) => (
-            integrate(rig, t_end, opts, solver),
-            Tier::Full,
-            TierReason::LeftLaw,
-        ),
-        None => (integrate(rig, t_end, opts, solver), tier, tier_reason),
+    let full = |solver: &mut Solver, why| (integrate(rig, t_end, opts, solver), Tier::Full, why);
+    let hybrid = |solver: &mut Solver, t, why| match hybrid_run(rig, t, t_end, opts, solver) {
+        Ok(r) => (r, Tier::Hybrid, why),
+        Err(_) => full(solver, TierReason::PartialLaw),
+    };
+    // The full model serves where no law was handed over; the time of a try that failed
+    // counts too.
+    let (mut r, tier, tier_reason) = match (tier, table) {
+        (_, None) => full(solver, tier_reason),
+        (Tier::Hybrid, Some(t)) => hybrid(solver, &t, tier_reason),
+        (_, Some(t)) => match averaged_run(&rig.p, &t, t_end, opts) {
+            Ok(r) => (r, tier, tier_reason),
+            Err(_) if opts.tier == Tier::Auto => hybrid(solver, &t, TierReason::Zones),
+            Err(_) => full(solver, TierReason::LeftLaw),
+        },
     };
     r.tier = tier;
     r.tier_reason = tier_reason;
@@ -514,6 +521,44 @@ fn averaged_run(
         tier: Tier::Averaged,
         tier_reason: TierReason::Valid,
         trace: slow.trace,
+    })
+}
+
+/// A hybrid run ([`crate::hybrid`]) over the full run's simulated time `t_end`: the slow model at
+/// [`slow_rtol`], the full windows with `solver` at the run's options and sampling.
+fn hybrid_run(
+    rig: &Rig,
+    table: &crate::averaged::Table,
+    t_end: f64,
+    opts: &RunOptions,
+    solver: &mut Solver,
+) -> Result<RunResult, crate::averaged::AveragingError> {
+    let (_, k) = sampling(&rig.p, opts.samples_per_period);
+    let envelope = opts.envelope.map(|tol| envelope_for(&rig.p, k, tol));
+    let trace = opts.trace.then_some(opts.trace_points);
+    let h = crate::hybrid::simulate_hybrid(
+        rig,
+        table,
+        t_end,
+        slow_rtol(opts),
+        &opts.ode,
+        k,
+        envelope.as_ref(),
+        solver,
+        trace,
+    )?;
+    Ok(RunResult {
+        status: h.status,
+        stats: h.stats,
+        measures: h.measures,
+        t_end,
+        window_start: window_start(&rig.p, t_end),
+        wall_time: 0.0,
+        continued_from: None,
+        level_error: None,
+        tier: Tier::Hybrid,
+        tier_reason: TierReason::AskedHybrid,
+        trace: h.trace,
     })
 }
 
@@ -976,7 +1021,7 @@ pub const ENVELOPE_LONG_INNER: f64 = 1e-4;
 /// a fiftieth of the stick-slip cycle (so a jump never hides more than 2 % of a loading ramp),
 /// and, where that allows long jumps, a long settling and a tight integration tolerance
 /// ([`ENVELOPE_LONG_JUMP`]).
-fn envelope_for(p: &Params, k: usize, tol: f64) -> Envelope {
+pub fn envelope_for(p: &Params, k: usize, tol: f64) -> Envelope {
     let per_cycle = p.cycle_estimate() * p.f;
     let max_jump = ((per_cycle / 50.0).floor() as u64).max(2);
     let base = Envelope::new(k as u64);

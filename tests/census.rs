@@ -194,7 +194,7 @@ fn census_of_bad_input() {
     sw("unknown_key", &format!("{SWEEP}colour = 1\n"));
     sw("check_share", &format!("{SWEEP}[check]\nshare = 2.0\n"));
     sw("check_key", &format!("{SWEEP}[check]\nevery = 3\n"));
-    sw("bad_tier", &format!("{SWEEP}tier = \"hybrid\"\n"));
+    sw("bad_tier", &format!("{SWEEP}tier = \"windows\"\n"));
     sw("bad_axis", "[[axis]]\nname = \"speed\"\nvalues = [1.0]\n");
     sw(
         "count0",
@@ -521,12 +521,17 @@ fn census_of_bad_input() {
         (
             s(&["sweep", "bad_tier.toml"]),
             2,
-            vec!["bad_tier.toml", "tier", "hybrid", "auto, averaged, full"],
+            vec![
+                "bad_tier.toml",
+                "tier",
+                "windows",
+                "auto, averaged, hybrid, full",
+            ],
         ),
         (
             s(&["run", "--tier", "sometimes"]),
             2,
-            vec!["sometimes", "auto, averaged, full"],
+            vec!["sometimes", "auto, averaged, hybrid, full"],
         ),
         (
             s(&["bench", "--tiers", "auto", "-o", "b.h5"]),

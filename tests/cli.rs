@@ -925,14 +925,25 @@ fn the_tier_that_served_a_run_is_recorded_and_bad_tiers_are_refused() {
         (ra - rf).abs() <= 0.005,
         "r {ra} averaged against {rf} full"
     );
+    // Hybrid windows asked for: said so, and the same r where the law holds throughout.
+    let mut hybrid_args = base.to_vec();
+    hybrid_args.extend(["--tier", "hybrid"]);
+    let hybrid = stickslip(&hybrid_args);
+    let jh: serde_json::Value = serde_json::from_slice(&hybrid.stdout).unwrap();
+    assert_eq!(
+        (jh["tier"].as_str(), jh["tier_reason"].as_str()),
+        (Some("hybrid"), Some("asked_hybrid"))
+    );
+    let rh = jh["r"].as_f64().unwrap();
+    assert!((rh - rf).abs() <= 0.005, "r {rh} hybrid against {rf} full");
     // Refused: a flag and a case file's key, each naming what is allowed.
     let mut bad = base.to_vec();
-    bad.extend(["--tier", "hybrid"]);
+    bad.extend(["--tier", "windows"]);
     let e = stickslip(&bad);
     let msg = String::from_utf8_lossy(&e.stderr);
     assert_eq!(e.status.code(), Some(2), "{msg}");
     assert!(
-        msg.contains("hybrid") && msg.contains("auto, averaged, full"),
+        msg.contains("windows") && msg.contains("auto, averaged, hybrid, full"),
         "{msg}"
     );
     let case = dir.path().join("case.toml");
@@ -945,7 +956,9 @@ fn the_tier_that_served_a_run_is_recorded_and_bad_tiers_are_refused() {
     let msg = String::from_utf8_lossy(&e.stderr);
     assert_eq!(e.status.code(), Some(2), "{msg}");
     assert!(
-        msg.contains("tier") && msg.contains("sometimes") && msg.contains("auto, averaged, full"),
+        msg.contains("tier")
+            && msg.contains("sometimes")
+            && msg.contains("auto, averaged, hybrid, full"),
         "{msg}"
     );
 }

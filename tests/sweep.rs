@@ -1268,3 +1268,99 @@ fn averaged_points_are_checked_and_resume_and_merge_bit_for_bit() {
     );
     same_sweep(&a, &resumed);
 }
+
+const HYBRID: &str = r#"
+name = "hybrid"
+[fixed]
+v_d = 0.5e-3
+f = 1500.0
+[[axis]]
+name = "k_d"
+values = [8000.0, 11700.0]
+[[axis]]
+name = "va_ratio"
+values = [0.0, 0.4]
+[run]
+tier = "hybrid"
+[check]
+share = 1.0
+min_points = 0
+"#;
+
+/// Under `tier = "hybrid"` below the contact resonance the vibrated points say so (`tier` 2,
+/// reason `asked_hybrid`), every one is checked with the full model (share 1), the file is the
+/// same bit for bit from one and two threads, and a sweep resumed from a shard's runs loads
+/// the shared table from the journal and writes the same file, as h5py reads them.
+#[test]
+fn hybrid_points_are_checked_and_resume_bit_for_bit() {
+    let dir = tempfile::tempdir().unwrap();
+    let spec = SweepSpec::parse("hybrid.toml", HYBRID).unwrap();
+    let a = dir.path().join("a.h5");
+    let b = dir.path().join("b.h5");
+    let oa = sweep::run(&spec, &opts(&a, 1)).unwrap();
+    let ob = sweep::run(&spec, &opts(&b, 2)).unwrap();
+    assert_eq!(read_all(&a), read_all(&b));
+    let c = oa.check;
+    assert_eq!(c, ob.check);
+    eprintln!("{}", c.line());
+    assert_eq!((c.averaged, c.checked), (2, 2), "{c:?}");
+    let f = H5File::open(&a).unwrap();
+    let read = |n: &str| f.dataset(n).unwrap().read_raw::<f64>().unwrap();
+    let (tier, why) = (read("tier"), read("tier_reason"));
+    for i in 0..tier.len() {
+        // A vibrated point whose check disagreed carries its full run (reason 8, check).
+        let want = if i % 2 == 0 {
+            (0.0, 1.0)
+        } else if tier[i] == 0.0 {
+            (0.0, 8.0)
+        } else {
+            (2.0, 13.0)
+        };
+        assert_eq!((tier[i], why[i]), want, "point {i}");
+    }
+    let full_vibrated = (0..tier.len()).filter(|&i| i % 2 == 1 && tier[i] == 0.0).count();
+    assert_eq!(full_vibrated, c.replaced);
+    let file = write(dir.path(), "hybrid.toml", HYBRID);
+    let fs = file.to_str().unwrap();
+    let m = dir.path().join("m.h5");
+    // The shard that ran a hybrid point journaled its table.
+    let mut shard_runs = None;
+    for index in 0..2 {
+        let shard = format!("{index}/2");
+        let (ok, log) = stickslip(&[
+            "sweep",
+            fs,
+            "-o",
+            m.to_str().unwrap(),
+            "--shard",
+            &shard,
+            "-q",
+        ]);
+        assert!(ok, "{log}");
+        let runs = sweep::shard::runs_path(&sweep::shard::Shard { index, count: 2 }.path(&m));
+        if std::fs::read_to_string(&runs)
+            .unwrap()
+            .lines()
+            .any(|l| l.starts_with("tab "))
+        {
+            shard_runs = Some(runs);
+        }
+    }
+    let shard_runs = shard_runs.expect("a shard journaled the table");
+    let resumed = dir.path().join("resumed.h5");
+    std::fs::copy(&shard_runs, sweep::journal::path_for(&resumed)).unwrap();
+    let (ok, log) = stickslip(&[
+        "sweep",
+        fs,
+        "-o",
+        resumed.to_str().unwrap(),
+        "--resume",
+        "--no-plot",
+    ]);
+    assert!(ok && !log.contains(" 0 resumed"), "{log}");
+    assert!(
+        log.contains("1 table(s) of the averaged law loaded from the journal"),
+        "{log}"
+    );
+    same_sweep(&a, &resumed);
+}

@@ -189,7 +189,9 @@ def run(
         Envelope-following tolerance (default 1e-4); ``False`` integrates every period.
     tier:
         Which model serves a run with vibration: ``"auto"`` (default: the vibration averaged
-        out where the averaged law is valid, else the full model), ``"averaged"`` or ``"full"``.
+        out where the averaged law is valid, hybrid windows where the run passes zones where it
+        is not, else the full model), ``"averaged"``, ``"hybrid"`` (the averaged law with the
+        full model in windows where it is not valid) or ``"full"``.
         ``Run.tier`` and ``Run.tier_reason`` say which served and why.
     effects:
         Model extensions: ``{"aging": {"b": 0.03}}``, ``["viscous"]`` or ``"aging:b=0.03"``.
@@ -248,8 +250,10 @@ def run(
     elif envelope is not None and envelope is not True:
         args += ["--envelope", _number("envelope", envelope)]
     if tier is not None:
-        if tier not in ("auto", "averaged", "full"):
-            raise ValueError(f"tier = {tier!r}: must be \"auto\", \"averaged\" or \"full\"")
+        if tier not in ("auto", "averaged", "hybrid", "full"):
+            raise ValueError(
+                f"tier = {tier!r}: must be \"auto\", \"averaged\", \"hybrid\" or \"full\""
+            )
         args += ["--tier", tier]
     for spec in _effect_specs(effects):
         args += ["--effect", spec]

@@ -17,7 +17,6 @@
 
 use super::spec::SweepSpec;
 use super::{Plan, Results, measured};
-use crate::averaged::Tier;
 use crate::config::{ConfigError, Doc};
 use crate::output::{self, OutputError, h5err};
 use std::path::Path;
@@ -118,7 +117,7 @@ fn with_vibration(plan: &Plan) -> usize {
 
 /// The averaged run of point `i` (its own run, where the averaged model served it).
 fn averaged_run(res: &Results, i: usize) -> Option<&crate::sim::RunResult> {
-    measured(res.points[i].as_ref()).filter(|r| r.tier == Tier::Averaged)
+    measured(res.points[i].as_ref()).filter(|r| r.tier.uses_law())
 }
 
 /// The points among those `owned` to check: each averaged point with measures in the random
@@ -204,8 +203,10 @@ pub fn comparisons(spec: &SweepSpec, plan: &Plan, res: &Results) -> Vec<Comparis
 /// The checks of a sweep summed up.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Summary {
-    /// Points the averaged model served.
+    /// Points the averaged model served (alone or between hybrid windows).
     pub averaged: usize,
+    /// Of them, served with hybrid windows.
+    pub hybrid: usize,
     /// Of them, checked with the full model.
     pub checked: usize,
     /// Checked and within [`R_TOL`] in `r`.
@@ -221,17 +222,21 @@ pub struct Summary {
 impl Summary {
     /// One line for the sweep's summary.
     pub fn line(&self) -> String {
+        let averaged = if self.hybrid > 0 {
+            format!(
+                "{} points averaged ({} with hybrid windows)",
+                self.averaged, self.hybrid
+            )
+        } else {
+            format!("{} points averaged", self.averaged)
+        };
         if self.checked == 0 {
-            return format!(
-                "{} points averaged, none checked with the full model",
-                self.averaged
-            );
+            return format!("{averaged}, none checked with the full model");
         }
         let pc = |n: usize| 100.0 * n as f64 / self.checked as f64;
         format!(
-            "{} points averaged, {} checked with the full model: {:.1} % within |dr| <= {R_TOL}, \
+            "{averaged}, {} checked with the full model: {:.1} % within |dr| <= {R_TOL}, \
              {:.1} % within {} % in mean force, {} boundary side changes; {} replaced by their full runs",
-            self.averaged,
             self.checked,
             pc(self.within_r),
             pc(self.within_force),
@@ -248,6 +253,11 @@ pub fn summary(spec: &SweepSpec, plan: &Plan, res: &Results) -> Summary {
     Summary {
         averaged: (0..plan.points.len())
             .filter(|&i| averaged_run(res, i).is_some())
+            .count(),
+        hybrid: (0..plan.points.len())
+            .filter(|&i| {
+                averaged_run(res, i).is_some_and(|r| r.tier == crate::averaged::Tier::Hybrid)
+            })
             .count(),
         checked: c.len(),
         within_r: c.iter().filter(|c| c.within_r).count(),

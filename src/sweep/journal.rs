@@ -16,7 +16,7 @@
 //! with `kind` `ref`, `pt` or `chk` (a full-model check of an averaged point), `continued_from` NaN where the run was integrated to its end and
 //! `predicted` 1 where the measures are the settled level extrapolated from the window, else 0,
 //! and `level_error` that level's error bound \[N\] (NaN where not extrapolated), `tier` the
-//! model that served the run (0 full, 1 averaged: [`Tier::code`]) and `tier_reason` why
+//! model that served the run (0 full, 1 averaged, 2 hybrid: [`Tier::code`]) and `tier_reason` why
 //! ([`TierReason::code`]).
 //! Floats use Rust's shortest round-trip form, so resumed results are bit-identical. Only lines
 //! ended by a newline are read.

@@ -459,7 +459,7 @@ impl Executor<'_> {
         }
         // The table an averaged run used goes to the journal before the run's record, once: a
         // resumed sweep (or shard) loads it instead of building it again.
-        if r.tier == crate::averaged::Tier::Averaged {
+        if r.tier.uses_law() {
             let p = self.plan.params(t);
             let key = crate::averaged::table_key(p);
             if !self.tables.contains(&key)

@@ -102,8 +102,12 @@ def test_tiers_say_which_model_served_and_agree() -> None:
     assert 10 * auto.stats["rhs_evals"] < full.stats["rhs_evals"]
     low = stickslip.run(k_d=11_700, v_d=0.5e-3, f=1500, va_ratio=0.4, trace=False)
     assert (low.tier, low.tier_reason) == ("full", "below_resonance")
+    # Below it, hybrid windows asked for: the full model inside the law's zones only.
+    hyb = stickslip.run(k_d=11_700, v_d=0.5e-3, f=1500, va_ratio=0.4, trace=False, tier="hybrid")
+    assert (hyb.tier, hyb.tier_reason) == ("hybrid", "asked_hybrid")
+    assert abs(hyb.r - low.r) <= 0.005
     with pytest.raises(ValueError, match="tier"):
-        stickslip.run(f=3000, va_ratio=0.4, tier="hybrid")
+        stickslip.run(f=3000, va_ratio=0.4, tier="windows")
 
 
 def test_trace_is_a_dataset_with_units() -> None:

@@ -1,0 +1,262 @@
+//! Hybrid windows: the averaged slow model where its law holds, the full model where it does not.
+//!
+//! Below the contact resonance the fast orbit of body and contact period-doubles or turns
+//! chaotic in zones of the mean velocity `V` ([`Table::valid_at`] false), and a pure averaged
+//! run slips at the wrong force (1500 Hz, `v_a/v_d` 0.4: `r` 0.52 for 0.37). A hybrid run follows
+//! the slow model `z' = v_d − V`, `m V' = k_d z + h_d (v_d − V) − F_eff(V)` and hands over to the
+//! full model wherever `V` enters such a zone, and back where the full motion has settled onto a
+//! contracting period-1 orbit again:
+//!
+//! - **slow → full**, at the first period boundary `t = nT` (phase 0 of `u' = v_a cos ωt`) whose
+//!   `V` lies in a zone: `x = v_d t − z`, and the body velocity and contact deformation of the
+//!   table's orbit at `V` ([`Table::start_at`]);
+//! - **full → slow**, at the end of a whole period whose mean velocity `V̄` lies where the law
+//!   holds, once the stroboscopic body velocity `v(nT)` has changed by at most
+//!   [`SETTLE_STROBE`] `· max(v_a, |V̄|)` from one period's change to the next's (and each
+//!   change by at most [`SETTLE_DRIFT`] times that: a period-1 orbit drifting with `V`): the slow state
+//!   restarts from the period's means, moved from the period's middle to its end (`z = z̄ +
+//!   (v_d − V̄) T/2`, `V = V̄ + (V̄ − V̄_prev)/2`, consistent to second order).
+//!
+//! Both models feed one [`Analyzer`] one sample per period: the slow model's drive force (it
+//! stands for the force smoothed over a period), and in full windows the period mean of the
+//! measured force, which is the full run's smoothed force at the period's end. The measures are
+//! those of docs/model.md on that series; the mean force is the mean over the window's whole
+//! cycles ([`Analyzer::cycle_mean`]).
+//!
+//! The rules follow `../shared/research/AVERAGING.md` §4.3 (a prototype written apart from this
+//! code); `benches/tiers/README.md` measures them against the full model.
+
+use crate::averaged::{AveragingError, Slow, Table};
+use crate::measures::{Analyzer, DROP_THRESHOLD, Measures, STICK_VELOCITY};
+use crate::model::{Rig, V, X};
+use crate::ode::{Envelope, Method, OdeSystem, Options, OutputGrid, Solver, Stats, Status};
+use crate::sim::Trace;
+
+/// Largest change of the stroboscopic body velocity over one period, relative to
+/// `max(v_a, |V̄|)`, for a full window to hand back to the slow model (over each of the last two
+/// periods). The study's value.
+pub const SETTLE_STROBE: f64 = 1e-3;
+
+/// Largest change of the stroboscopic body velocity over one period, in units of the
+/// [`SETTLE_STROBE`] bound, for a full window to hand back: the drift of a period-1 orbit whose
+/// mean velocity moves with the drive force (2.5e-7 m/s per period where the stick's creep
+/// approaches a zone at 1500 Hz, `v_a/v_d` 0.4: 1.25 units).
+pub const SETTLE_DRIFT: f64 = 10.0;
+
+/// A hybrid run: its measures, work and windows.
+#[derive(Clone, Debug)]
+pub struct HybridRun {
+    /// The measures of docs/model.md over the steady window, from one sample per period.
+    pub measures: Measures,
+    /// How the run ended: the first failure of either model, else success.
+    pub status: Status,
+    /// The work of both models together.
+    pub stats: Stats,
+    /// One sample per period (decimated to the trace's length where asked for): the fast
+    /// channels `s`, `v_r` and `u` are NaN, `F_d` is the period's mean.
+    pub trace: Option<Trace>,
+    /// Full windows opened.
+    pub windows: u32,
+    /// Forcing periods integrated by the full model.
+    pub full_periods: u64,
+    /// Forcing periods in the run.
+    pub periods: u64,
+}
+
+/// Where the run stands: the slow state `(z, V)` or the full state.
+enum Mode {
+    Slow([f64; 2]),
+    Full([f64; 3]),
+}
+
+/// A hybrid run of `rig` (the base model, vibrating from `t = 0`) to `t_end`: the slow model at
+/// relative tolerance `slow_rtol`, the full windows with `solver` at `ode`, `k` samples per
+/// period in the windows (the full run's sampling, [`crate::sim::sampling`]); at most `trace`
+/// samples kept where given.
+pub fn simulate_hybrid(
+    rig: &Rig,
+    table: &Table,
+    t_end: f64,
+    slow_rtol: f64,
+    ode: &Options,
+    k: usize,
+    envelope: Option<&Envelope>,
+    solver: &mut Solver,
+    trace: Option<usize>,
+) -> Result<HybridRun, AveragingError> {
+    let p = &rig.p;
+    if let Some(v) = table.stopped_at {
+        return Err(AveragingError::Invalid(format!(
+            "the averaged law's continuation stopped at {v} m/s, short of its span: use the full \
+             model"
+        )));
+    }
+    if table.nodes.len() < 2 || rig.dim() != 3 || p.two_stage() || !p.vibrates() {
+        return Err(AveragingError::Invalid(
+            "a hybrid run needs the base model vibrating from t = 0 and a law of two nodes or \
+             more"
+                .into(),
+        ));
+    }
+    let period = 1.0 / p.f;
+    let periods = (t_end / period).floor() as u64;
+    let window = crate::sim::window_start(p, t_end);
+    let block = (t_end / 4000.0).max(period);
+    let mut an = Analyzer::with_blocks(
+        1,
+        window,
+        DROP_THRESHOLD * (p.f_s - p.f_c),
+        STICK_VELOCITY * p.v_d,
+        block,
+        (t_end / block) as usize + 2,
+    );
+    let stride = trace.map(|n| (periods + 1).div_ceil(n.max(1) as u64).max(1));
+    let mut tr = stride.map(|_| Trace::default());
+    let mut sample = |n: u64, f: f64, v: f64, z: f64| {
+        let t = n as f64 * period;
+        an.push(t, f, v);
+        if let (Some(tr), Some(s)) = (tr.as_mut(), stride)
+            && n.is_multiple_of(s)
+        {
+            tr.t.push(t);
+            tr.f_d.push(f);
+            tr.f_d_smooth.push(f);
+            tr.x_s.push(p.v_d * t - z);
+            tr.x_d.push(p.v_d * t);
+            tr.s.push(f64::NAN);
+            tr.v_r.push(f64::NAN);
+            tr.v.push(v);
+            tr.u.push(f64::NAN);
+        }
+    };
+    let force = |z: f64, v: f64| p.k_d * z + p.h_d * (p.v_d - v);
+    let slow_sys = Slow { p, table };
+    let slow_opts = Options {
+        rtol: slow_rtol,
+        atol: slow_rtol,
+        ..Options::default()
+    };
+    let mut slow = Solver::new(Method::Radau5);
+    let mut stats = Stats::default();
+    let mut status = Status::Success;
+    let (mut windows, mut full_periods) = (0u32, 0u64);
+    let mut n = 0u64;
+    let mut mode = Mode::Slow([0.0, 0.0]);
+    sample(0, 0.0, 0.0, 0.0);
+    let v_a = p.v_a();
+    while n < periods && status == Status::Success {
+        let t0 = n as f64 * period;
+        match mode {
+            Mode::Slow(mut y) => {
+                let grid = OutputGrid {
+                    start: t0,
+                    step: period,
+                    count: periods - n + 1,
+                };
+                let mut i = n;
+                let mut into_zone = false;
+                let t_stop = periods as f64 * period;
+                let rep =
+                    slow.solve_until(&slow_sys, t0, t_stop, &mut y, &slow_opts, grid, |_, y| {
+                        if i > n {
+                            sample(i, force(y[0], y[1]), y[1], y[0]);
+                        }
+                        i += 1;
+                        into_zone = !table.valid_at(y[1]);
+                        // The sample at t0 is the state handed over, already taken.
+                        !into_zone || i == n + 1
+                    });
+                stats += rep.stats;
+                status = rep.status;
+                n = i - 1;
+                if into_zone && n < periods {
+                    let t = n as f64 * period;
+                    let [v0, s0] = table.start_at(y[1]);
+                    mode = Mode::Full([p.v_d * t - y[0], v0, s0]);
+                    windows += 1;
+                } else {
+                    mode = Mode::Slow(y);
+                }
+            }
+            Mode::Full(mut y) => {
+                let dt = period / k as f64;
+                let grid = OutputGrid {
+                    start: t0,
+                    step: dt,
+                    count: (periods - n) * k as u64 + 1,
+                };
+                let t_stop = periods as f64 * period;
+                // Sums over the current period, the last two strobes' changes, the last means.
+                let (mut sf, mut sv, mut sz) = (0.0, 0.0, 0.0);
+                let mut strobe = y[V];
+                let mut steps = [f64::INFINITY, f64::NEG_INFINITY];
+                let mut last_mean = f64::NAN;
+                let mut j = 0usize;
+                let mut m = n;
+                let mut handed: Option<[f64; 2]> = None;
+                let rep =
+                    solver.solve_envelope(rig, t0, t_stop, &mut y, ode, grid, envelope, |t, y| {
+                        if j == 0 {
+                            j = 1;
+                            return true;
+                        }
+                        sf += rig.measured_force(t, y);
+                        sv += y[V];
+                        sz += p.v_d * t - y[X];
+                        if j < k {
+                            j += 1;
+                            return true;
+                        }
+                        j = 1;
+                        m += 1;
+                        let kf = k as f64;
+                        let (f_bar, v_bar, z_bar) = (sf / kf, sv / kf, sz / kf);
+                        (sf, sv, sz) = (0.0, 0.0, 0.0);
+                        sample(m, f_bar, v_bar, z_bar);
+
+                        steps = [steps[1], y[V] - strobe];
+                        strobe = y[V];
+                        let tol = SETTLE_STROBE * v_a.max(v_bar.abs());
+                        let prev = last_mean;
+                        last_mean = v_bar;
+                        // Settled onto a period-1 orbit that may drift with the mean velocity: the
+                        // strobe's change steady from period to period, and small.
+                        let settled = (steps[1] - steps[0]).abs() <= tol
+                            && steps[1].abs() <= SETTLE_DRIFT * tol;
+                        if settled && table.valid_at(v_bar) {
+                            let v_end = if prev.is_finite() {
+                                v_bar + 0.5 * (v_bar - prev)
+                            } else {
+                                v_bar
+                            };
+                            handed = Some([z_bar + (p.v_d - v_bar) * 0.5 * period, v_end]);
+                            return false;
+                        }
+                        true
+                    });
+                stats += rep.stats;
+                status = rep.status;
+                full_periods += m - n;
+
+                n = m;
+                mode = match handed {
+                    Some(s) => Mode::Slow(s),
+                    None => Mode::Full(y),
+                };
+            }
+        }
+    }
+    let mut measures = an.finish();
+    if let Some(m) = an.cycle_mean(window) {
+        measures.mean_force = m;
+    }
+    Ok(HybridRun {
+        measures,
+        status,
+        stats,
+        trace: tr,
+        windows,
+        full_periods,
+        periods,
+    })
+}
