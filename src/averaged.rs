@@ -1076,6 +1076,22 @@ pub fn simulate_slow(
 /// reported as `F_eff(v_d)`.
 pub const SLIDE_TOL: f64 = 1e-4;
 
+/// The analyser of a run sampled once every `dt` seconds without ripple (the slow model's, a
+/// hybrid run's): no smoothing, the window of a full run of `t_end`, blocks as a full run keeps
+/// them (for the mean over whole cycles).
+pub(crate) fn slow_analyzer(p: &Params, t_end: f64, dt: f64) -> crate::measures::Analyzer {
+    use crate::measures::{Analyzer, DROP_THRESHOLD, STICK_VELOCITY};
+    let block = (t_end / 4000.0).max(dt);
+    Analyzer::with_blocks(
+        1,
+        crate::sim::window_start(p, t_end),
+        DROP_THRESHOLD * (p.f_s - p.f_c),
+        STICK_VELOCITY * p.v_d,
+        block,
+        (t_end / block) as usize + 2,
+    )
+}
+
 /// [`simulate_slow`], keeping at most `trace` samples of the slow states (evenly decimated)
 /// where given.
 pub fn simulate_slow_with(
@@ -1093,7 +1109,6 @@ pub fn simulate_slow_with(
             table.stopped_at
         )));
     }
-    use crate::measures::{Analyzer, DROP_THRESHOLD, STICK_VELOCITY};
     let sys = Slow { p, table };
     let window = crate::sim::window_start(p, t_end);
     let mid = 0.5 * (window + t_end);
@@ -1101,16 +1116,7 @@ pub fn simulate_slow_with(
     let mut seen = (f64::INFINITY, f64::NEG_INFINITY);
     // The drive force's range over each half of the window: a decaying approach to the slide.
     let mut halves = [(f64::INFINITY, f64::NEG_INFINITY); 2];
-    // Blocks as a full run keeps them, for the mean over whole cycles.
-    let block = (t_end / 4000.0).max(dt);
-    let mut an = Analyzer::with_blocks(
-        1,
-        window,
-        DROP_THRESHOLD * (p.f_s - p.f_c),
-        STICK_VELOCITY * p.v_d,
-        block,
-        (t_end / block) as usize + 2,
-    );
+    let mut an = slow_analyzer(p, t_end, dt);
     let mut y = [0.0, 0.0];
     let opts = Options {
         rtol,
@@ -1138,15 +1144,7 @@ pub fn simulate_slow_with(
         if let (Some(tr), Some(k)) = (tr.as_mut(), stride)
             && i.is_multiple_of(k)
         {
-            tr.t.push(t);
-            tr.f_d.push(f);
-            tr.f_d_smooth.push(f);
-            tr.x_s.push(p.v_d * t - y[0]);
-            tr.x_d.push(p.v_d * t);
-            tr.s.push(f64::NAN);
-            tr.v_r.push(f64::NAN);
-            tr.v.push(y[1]);
-            tr.u.push(f64::NAN);
+            tr.push_slow(t, f, p.v_d * t - y[0], p.v_d * t, y[1]);
         }
         i += 1;
     });

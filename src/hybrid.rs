@@ -11,30 +11,31 @@
 //!   `V` lies in a zone: `x = v_d t − z`, and the body velocity and contact deformation of the
 //!   table's orbit at `V` ([`Table::start_at`]);
 //! - **full → slow**, at the end of a whole period whose mean velocity `V̄` lies where the law
-//!   holds, once the stroboscopic body velocity `v(nT)` has changed by at most
-//!   [`SETTLE_STROBE`] `· max(v_a, |V̄|)` from one period's change to the next's (and each
-//!   change by at most [`SETTLE_DRIFT`] times that: a period-1 orbit drifting with `V`): the slow state
-//!   restarts from the period's means, moved from the period's middle to its end (`z = z̄ +
+//!   holds, once the stroboscopic body velocity `v(nT)` changes steadily (its change over the
+//!   last period differs from the one before by at most [`SETTLE_STROBE`] `· max(v_a, |V̄|)`,
+//!   and is at most [`SETTLE_DRIFT`] times that: a period-1 orbit drifting with `V`): the slow
+//!   state restarts from the period's means, moved from the period's middle to its end (`z = z̄ +
 //!   (v_d − V̄) T/2`, `V = V̄ + (V̄ − V̄_prev)/2`, consistent to second order).
 //!
-//! Both models feed one [`Analyzer`] one sample per period: the slow model's drive force (it
-//! stands for the force smoothed over a period), and in full windows the period mean of the
+//! Both models feed one [`Analyzer`](crate::measures::Analyzer) one sample per period: the slow
+//! model's drive force (it stands for the force smoothed over a period), and in full windows the period mean of the
 //! measured force, which is the full run's smoothed force at the period's end. The measures are
 //! those of docs/model.md on that series; the mean force is the mean over the window's whole
-//! cycles ([`Analyzer::cycle_mean`]).
+//! cycles ([`Analyzer::cycle_mean`](crate::measures::Analyzer::cycle_mean)).
 //!
 //! The rules follow `../shared/research/AVERAGING.md` §4.3 (a prototype written apart from this
 //! code); `benches/tiers/README.md` measures them against the full model.
 
 use crate::averaged::{AveragingError, Slow, Table};
-use crate::measures::{Analyzer, DROP_THRESHOLD, Measures, STICK_VELOCITY};
+use crate::measures::Measures;
 use crate::model::{Rig, V, X};
 use crate::ode::{Envelope, Method, OdeSystem, Options, OutputGrid, Solver, Stats, Status};
 use crate::sim::Trace;
 
-/// Largest change of the stroboscopic body velocity over one period, relative to
-/// `max(v_a, |V̄|)`, for a full window to hand back to the slow model (over each of the last two
-/// periods). The study's value.
+/// Largest difference between the stroboscopic body velocity's changes over the last two
+/// periods, relative to `max(v_a, |V̄|)`, for a full window to hand back to the slow model: the
+/// motion has settled onto a period-1 orbit (a period-2 orbit alternates, ringing decays). The
+/// averaging study's bound (which it put on the changes themselves).
 pub const SETTLE_STROBE: f64 = 1e-3;
 
 /// Largest change of the stroboscopic body velocity over one period, in units of the
@@ -101,15 +102,7 @@ pub fn simulate_hybrid(
     let period = 1.0 / p.f;
     let periods = (t_end / period).floor() as u64;
     let window = crate::sim::window_start(p, t_end);
-    let block = (t_end / 4000.0).max(period);
-    let mut an = Analyzer::with_blocks(
-        1,
-        window,
-        DROP_THRESHOLD * (p.f_s - p.f_c),
-        STICK_VELOCITY * p.v_d,
-        block,
-        (t_end / block) as usize + 2,
-    );
+    let mut an = crate::averaged::slow_analyzer(p, t_end, period);
     let stride = trace.map(|n| (periods + 1).div_ceil(n.max(1) as u64).max(1));
     let mut tr = stride.map(|_| Trace::default());
     let mut sample = |n: u64, f: f64, v: f64, z: f64| {
@@ -118,15 +111,7 @@ pub fn simulate_hybrid(
         if let (Some(tr), Some(s)) = (tr.as_mut(), stride)
             && n.is_multiple_of(s)
         {
-            tr.t.push(t);
-            tr.f_d.push(f);
-            tr.f_d_smooth.push(f);
-            tr.x_s.push(p.v_d * t - z);
-            tr.x_d.push(p.v_d * t);
-            tr.s.push(f64::NAN);
-            tr.v_r.push(f64::NAN);
-            tr.v.push(v);
-            tr.u.push(f64::NAN);
+            tr.push_slow(t, f, p.v_d * t - z, p.v_d * t, v);
         }
     };
     let force = |z: f64, v: f64| p.k_d * z + p.h_d * (p.v_d - v);

@@ -311,6 +311,20 @@ pub struct Trace {
 }
 
 impl Trace {
+    /// Appends a sample of a model without the fast states (the averaged slow model, a hybrid
+    /// run's period samples): the force also as the smoothed one, `s`, `v_r` and `u` NaN.
+    pub(crate) fn push_slow(&mut self, t: f64, f: f64, x_s: f64, x_d: f64, v: f64) {
+        self.t.push(t);
+        self.f_d.push(f);
+        self.f_d_smooth.push(f);
+        self.x_s.push(x_s);
+        self.x_d.push(x_d);
+        self.s.push(f64::NAN);
+        self.v_r.push(f64::NAN);
+        self.v.push(v);
+        self.u.push(f64::NAN);
+    }
+
     /// Channel names, units and meanings, in file order.
     pub const CHANNELS: [(&'static str, &'static str, &'static str); 9] = [
         ("t", "s", "time"),

@@ -1318,7 +1318,9 @@ fn hybrid_points_are_checked_and_resume_bit_for_bit() {
         };
         assert_eq!((tier[i], why[i]), want, "point {i}");
     }
-    let full_vibrated = (0..tier.len()).filter(|&i| i % 2 == 1 && tier[i] == 0.0).count();
+    let full_vibrated = (0..tier.len())
+        .filter(|&i| i % 2 == 1 && tier[i] == 0.0)
+        .count();
     assert_eq!(full_vibrated, c.replaced);
     let file = write(dir.path(), "hybrid.toml", HYBRID);
     let fs = file.to_str().unwrap();
