@@ -5,7 +5,11 @@
 //! about `sample` grid points (dense sweeps) or planes (`[refine]` sweeps), with the reference
 //! runs they need, dealt from the scrambled order, so it spreads over the whole grid. It runs to
 //! a temporary folder, removed afterwards. Each run's cost is its wall time on one thread (runs
-//! are single-threaded), i.e. CPU seconds.
+//! are single-threaded), i.e. CPU seconds. The tables of the averaged law the sample needs are
+//! built first, timed, and each point is charged its share of its table (the table's time over
+//! the number of the sweep's points that share it), as the whole sweep builds each table once.
+//! The full-model checks of averaged points (a 1 % share and the band about the level) are not
+//! in the estimate.
 //!
 //! - Dense sweep: `CPU = c_pt N_pt + c_ref N_ref`, the sample means of runs with vibration and of
 //!   references times their counts in the whole sweep; the stated uncertainty is one standard
@@ -98,7 +102,10 @@ pub fn estimate(
     std::fs::create_dir_all(&dir)
         .map_err(|e| SweepError::State(format!("{}: {e}", dir.display())))?;
     let out = dir.join("sample.h5");
+    let plan = Plan::new(spec);
+    let owners = shard::owners(spec, count);
     let t0 = Instant::now();
+    let tables = build_tables(spec, &plan, &owners);
     let opts = SweepOptions {
         out: out.clone(),
         threads,
@@ -117,8 +124,11 @@ pub fn estimate(
     });
     let _ = std::fs::remove_dir_all(&dir);
     let (records, _) = records?;
-    let plan = Plan::new(spec);
-    let owners = shard::owners(spec, count);
+    // A point's run with its share of its table: the runs found the sample's tables built.
+    let cost = |t: &Task, r: &crate::sim::RunResult| match *t {
+        Task::Point(i) => r.wall_time + tables.get(&i).copied().unwrap_or(0.0),
+        _ => r.wall_time,
+    };
     // Dense sweeps: the sample's points; [refine] sweeps: its planes, counted below.
     let sampled = owners.iter().filter(|&&o| o == 0).count();
     let longest_run = records.iter().map(|(_, r)| r.wall_time).fold(0.0, f64::max);
@@ -149,7 +159,7 @@ pub fn estimate(
             let pts: Vec<f64> = records
                 .iter()
                 .filter(|(t, _)| matches!(t, Task::Point(_)))
-                .map(|(_, r)| r.wall_time)
+                .map(|(t, r)| cost(t, r))
                 .collect();
             let refs: Vec<f64> = records
                 .iter()
@@ -183,10 +193,10 @@ pub fn estimate(
         Some(_) => {
             // Per unit: a plane, or a group of planes that guide each other.
             let (plane, _) = shard::groups(spec);
-            let mut cost = std::collections::BTreeMap::<usize, f64>::new();
+            let mut per_plane = std::collections::BTreeMap::<usize, f64>::new();
             for (i, &o) in owners.iter().enumerate() {
                 if o == 0 {
-                    cost.entry(plane[i]).or_default();
+                    per_plane.entry(plane[i]).or_default();
                 }
             }
             for (t, r) in &records {
@@ -198,9 +208,9 @@ pub fn estimate(
                             .expect("a reference the shard made serves one of its points")]
                     }
                 };
-                *cost.entry(p).or_default() += r.wall_time;
+                *per_plane.entry(p).or_default() += cost(t, r);
             }
-            let per: Vec<f64> = cost.values().copied().collect();
+            let per: Vec<f64> = per_plane.values().copied().collect();
             let (c, s) = mean_sd(&per);
             let k = per.len() as f64;
             Estimate {
@@ -217,6 +227,41 @@ pub fn estimate(
             }
         }
     })
+}
+
+/// Builds, timed, the tables of the averaged law that the sample's points (those `owners` gives
+/// to shard 0) will look up, before their runs, and returns per such point its share of its
+/// table's time \[s\]: the time over the number of the whole sweep's points that share the
+/// table ([`Plan::table_share`]). In the sample a table serves a point or two; in the sweep it
+/// serves every `k_d`, `h_d` of its `(f, u0, v_d)`, so a run's own wall time would charge
+/// each point with a whole table.
+fn build_tables(
+    spec: &SweepSpec,
+    plan: &Plan,
+    owners: &[usize],
+) -> std::collections::HashMap<usize, f64> {
+    use crate::averaged::{Tier, needs_table, shared_table, table_key};
+    let tier = spec.run.tier;
+    let none = plan.effects.is_empty();
+    let mut took = std::collections::HashMap::<Vec<u64>, f64>::new();
+    let mut share = std::collections::HashMap::new();
+    for (i, p) in plan.points.iter().enumerate() {
+        // Under auto a point alone with its table runs in full (`unshared`): none is built.
+        if owners[i] != 0
+            || !needs_table(p, none, tier)
+            || (tier == Tier::Auto && plan.table_share[i] < 2)
+        {
+            continue;
+        }
+        let key = table_key(p);
+        let secs = *took.entry(key).or_insert_with(|| {
+            let t = Instant::now();
+            let _ = shared_table(p);
+            t.elapsed().as_secs_f64()
+        });
+        share.insert(i, secs / plan.table_share[i].max(1) as f64);
+    }
+    share
 }
 
 impl Estimate {
@@ -323,5 +368,58 @@ mod tests {
     fn slurm_times_read_as_slurm_writes_them() {
         assert_eq!(slurm_time(59.2), "00:01:00");
         assert_eq!(slurm_time(3600.0 * 25.0 + 61.0), "1-01:01:01");
+    }
+
+    /// Under auto, the sample's points that average (above the resonance, sharing their table
+    /// with another point) are charged their share of their table, built once; points below the
+    /// resonance, without vibration or alone with their table (`unshared`) build none.
+    #[test]
+    fn tables_are_charged_by_their_share_of_the_sweep() {
+        let spec = SweepSpec::parse(
+            "t.toml",
+            r#"
+name = "t"
+[fixed]
+v_d = 0.5e-3
+[[axis]]
+name = "k_d"
+values = [8000.0, 11700.0]
+[[axis]]
+name = "f"
+values = [1000.0, 3000.0, 4000.0]
+[[axis]]
+name = "va_ratio"
+values = [0.0, 0.4]
+"#,
+        )
+        .unwrap();
+        let plan = Plan::new(&spec);
+        let n = plan.points.len();
+        // The 4000 Hz points' k_d = 11 700 N/m left out of the sample: the one at 8000 N/m still
+        // shares its table with it in the sweep.
+        let owners: Vec<usize> = (0..n)
+            .map(|i| usize::from(plan.points[i].f == 4000.0 && plan.points[i].k_d == 11_700.0))
+            .collect();
+        let share = build_tables(&spec, &plan, &owners);
+        let mut got: Vec<usize> = share.keys().copied().collect();
+        got.sort();
+        let want: Vec<usize> = (0..n)
+            .filter(|&i| plan.points[i].vibrates() && plan.points[i].f > 2000.0 && owners[i] == 0)
+            .collect();
+        assert_eq!(got, want);
+        let at = |f: f64| {
+            let v: Vec<f64> = want
+                .iter()
+                .filter(|&&i| plan.points[i].f == f)
+                .map(|i| share[i])
+                .collect();
+            v
+        };
+        // At 3000 Hz both k_d share one build; each is charged the same half of it.
+        let (s3, s4) = (at(3000.0), at(4000.0));
+        assert_eq!(s3.len(), 2);
+        assert!(s3[0] > 0.0 && s3[0] == s3[1], "{s3:?}");
+        assert_eq!(s4.len(), 1);
+        assert!(s4[0] > 0.0);
     }
 }
