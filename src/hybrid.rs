@@ -131,6 +131,7 @@ pub fn simulate_hybrid(
     let v_a = p.v_a();
     while n < periods && status == Status::Success {
         let t0 = n as f64 * period;
+        let from = n;
         match mode {
             Mode::Slow(mut y) => {
                 let grid = OutputGrid {
@@ -140,7 +141,9 @@ pub fn simulate_hybrid(
                 };
                 let mut i = n;
                 let mut into_zone = false;
-                let t_stop = periods as f64 * period;
+                // The grid's own last time: a span end computed apart can fall short of it by a
+                // rounding and leave the last sample out.
+                let t_stop = grid.time(grid.count - 1);
                 let rep =
                     slow.solve_until(&slow_sys, t0, t_stop, &mut y, &slow_opts, grid, |_, y| {
                         if i > n {
@@ -170,7 +173,7 @@ pub fn simulate_hybrid(
                     step: dt,
                     count: (periods - n) * k as u64 + 1,
                 };
-                let t_stop = periods as f64 * period;
+                let t_stop = grid.time(grid.count - 1);
                 // Sums over the current period, the last two strobes' changes, the last means.
                 let (mut sf, mut sv, mut sz) = (0.0, 0.0, 0.0);
                 let mut strobe = y[V];
@@ -229,6 +232,10 @@ pub fn simulate_hybrid(
                     None => Mode::Full(y),
                 };
             }
+        }
+        // Every segment ends a period or more on; one that did not cannot go on.
+        if n == from && status == Status::Success {
+            status = Status::StepTooSmall;
         }
     }
     let mut measures = an.finish();

@@ -388,6 +388,25 @@ fn hybrid_windows_reproduce_the_full_model_below_the_resonance() {
     );
     assert!(run.windows >= run.measures.cycles);
     assert!(run.full_periods > 0 && 2 * run.full_periods < run.periods);
+    // A given simulated time whose last period boundary a grid's rounding puts past the span's
+    // end (30 s at 1741 Hz): the run ends, served by its windows.
+    let mut q = p;
+    q.f = 1741.0;
+    q.set_v_a(0.4 * q.v_d);
+    let long = RunOptions {
+        t_end: Some(30.0),
+        ..with(Tier::Hybrid)
+    };
+    let l = run_case(&q, &long, &mut Solver::new(Method::Auto)).expect("a run");
+    assert_eq!(
+        (l.run.status, l.run.tier),
+        (stickslip::ode::Status::Success, Tier::Hybrid)
+    );
+    assert!(
+        l.run.measures.cycles >= 20,
+        "{} cycles",
+        l.run.measures.cycles
+    );
     // A law whose continuation stopped short: the full model serves.
     p.f = 1000.0;
     p.set_v_a(0.4 * p.v_d);
