@@ -18,8 +18,8 @@
 //!   (v_d − V̄) T/2`, `V = V̄ + (V̄ − V̄_prev)/2`, consistent to second order).
 //!
 //! Both models feed one [`Analyzer`](crate::measures::Analyzer) one sample per period: the slow
-//! model's drive force (it stands for the force smoothed over a period), and in full windows the period mean of the
-//! measured force, which is the full run's smoothed force at the period's end. The measures are
+//! model's drive force (it stands for the force smoothed over a period), and in full windows the
+//! period mean of the measured force, which is the full run's smoothed force at the period's end. The measures are
 //! those of docs/model.md on that series; the mean force is the mean over the window's whole
 //! cycles ([`Analyzer::cycle_mean`](crate::measures::Analyzer::cycle_mean)).
 //!
@@ -201,7 +201,6 @@ pub fn simulate_hybrid(
                         let (f_bar, v_bar, z_bar) = (sf / kf, sv / kf, sz / kf);
                         (sf, sv, sz) = (0.0, 0.0, 0.0);
                         sample(m, f_bar, v_bar, z_bar);
-
                         steps = [steps[1], y[V] - strobe];
                         strobe = y[V];
                         let tol = SETTLE_STROBE * v_a.max(v_bar.abs());
@@ -225,7 +224,6 @@ pub fn simulate_hybrid(
                 stats += rep.stats;
                 status = rep.status;
                 full_periods += m - n;
-
                 n = m;
                 mode = match handed {
                     Some(s) => Mode::Slow(s),
