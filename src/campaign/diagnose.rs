@@ -58,7 +58,9 @@
 //! Jacobian there); where that fit converged inside its plausible range and a significant gap
 //! remains, every other candidate is fitted together with it (forward selection), and a second
 //! effect is named by the same rule against the first (at least [`MIN_SECOND`] of the gap the
-//! first leaves; a tie among seconds names none, with a warning).
+//! first leaves; a tie among seconds names none, with a warning), and only where one of its
+//! fingerprints is present in the recordings ([`fingerprint`]): beside a first effect of
+//! another form than the data's, any candidate can take up part of that form's misfit.
 
 use super::features::{FEATURES, Feature, N_FEATURES, PHASES};
 use super::fit::{self, FitOptions, FitResult, Model, Target};
@@ -1057,14 +1059,19 @@ fn decide(ranked: &[Ranked], share: impl Fn(f64) -> f64, min_share: f64) -> Opti
 
 /// [`decide`], with every candidate it would name or tie checked for its fingerprints against
 /// `from`, the model the candidates extend ([`fingerprint::check`]): one whose fingerprint is
-/// absent is rejected (with the reason) and the decision taken again without it. The ranking is
-/// then reordered so that the candidates not rejected come first, in their order of evidence.
+/// absent is rejected (with the reason) and the decision taken again without it. With
+/// `need_present` (a second effect beside a named one) a candidate is rejected too unless one
+/// of its fingerprints is present: beside a first effect whose form differs from the data's,
+/// any other candidate can take up the rest of that form's misfit, so only one that shows its
+/// own physics in the trace is named. The ranking is then reordered so that the candidates not
+/// rejected come first, in their order of evidence.
 fn vetted(
     ranked: &mut [Ranked],
     recs: &[&Recording],
     from: &Model,
     share: impl Fn(f64) -> f64,
     min_share: f64,
+    need_present: bool,
 ) -> Option<Vec<usize>> {
     // The measured statistics and `from`'s, made once for every candidate checked here.
     let mut reference: Option<fingerprint::Reference> = None;
@@ -1084,6 +1091,22 @@ fn vetted(
                 .find(|c| c.seen == fingerprint::Seen::Absent)
             {
                 ranked[j].rejected = Some(format!("its fingerprint is absent: {}", c.line()));
+                any = true;
+            } else if need_present
+                && !ranked[j]
+                    .fingerprints
+                    .iter()
+                    .any(|c| c.seen == fingerprint::Seen::Present)
+            {
+                let seen: Vec<String> = ranked[j].fingerprints.iter().map(|c| c.line()).collect();
+                ranked[j].rejected = Some(format!(
+                    "a second effect needs a fingerprint present, none is: {}",
+                    if seen.is_empty() {
+                        "none checked".to_string()
+                    } else {
+                        seen.join("; ")
+                    }
+                ));
                 any = true;
             }
         }
@@ -1183,7 +1206,14 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
     let verdict = if no_gap {
         Verdict::NoSignificantGap
     } else {
-        match vetted(&mut ranking, &all.recs, &base.model, share, MIN_PARTIAL) {
+        match vetted(
+            &mut ranking,
+            &all.recs,
+            &base.model,
+            share,
+            MIN_PARTIAL,
+            false,
+        ) {
             None => Verdict::Unexplained,
             Some(t) if t.len() > 1 => {
                 tie = t.iter().map(|&j| ranking[j].effect).collect();
@@ -1285,6 +1315,7 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
                 &first_fit.model,
                 first_share,
                 MIN_SECOND,
+                true,
             ) {
                 Some(t) if t.len() == 1 => {
                     let s2 = &second[0];

@@ -20,7 +20,7 @@
 //! | `restick_ripple` \[N\] | re-stick | RMS of the smoothed force about the loading line over the first fifth of the loading |
 //! | `mean_force` \[N\] | whole cycle | mean of the force over the window |
 //! | `drive_ripple` \[m\] | whole cycle | RMS of `x_d` about a straight line, less the noise estimated from its differences |
-//! | `r` [-] | whole cycle | dF over dF of the recording without vibration at the same `v_d`, `k_d` (set by the campaign) |
+//! | `r` [-] | whole cycle | dF over dF of the recording without vibration at the same `v_d`, `k_d` (set by the campaign), where that recording shows a stick-slip ([`is_reference`]) |
 //! | `F_amp_f`, `F_amp_2f` \[N\] | forcing | amplitude of the raw force at `f` and `2f` (vibrated stages) |
 //! | `F_phase_f`, `F_phase_2f` \[rad\] | forcing | their phase against the nominal substrate motion `u0 sin(ω (t − t_on))` |
 //! | `x_s_amp_f` \[m\], `x_s_phase_f` \[rad\] | forcing | the same for the body displacement at `f` |
@@ -408,6 +408,33 @@ pub fn extract(f: &[f64], x_d: Option<&[f64]>, dt: f64, freq: f64) -> FeatureSet
         stderr,
         cycles,
     }
+}
+
+/// Standard deviation of the white noise on a sampled signal, from the median absolute
+/// difference of successive samples (`σ = median|Δy| / (0.6745 √2)`): robust to the few fast
+/// changes of a slip, which a variance of the differences would count as noise.
+pub fn noise_sd(y: &[f64]) -> f64 {
+    let mut d: Vec<f64> = y.windows(2).map(|w| (w[1] - w[0]).abs()).collect();
+    if d.is_empty() {
+        return f64::NAN;
+    }
+    let mid = d.len() / 2;
+    let (_, m, _) = d.select_nth_unstable_by(mid, f64::total_cmp);
+    *m / (0.674_489_75 * std::f64::consts::SQRT_2)
+}
+
+/// Least stick-slip amplitude, in standard deviations of the force's noise ([`noise_sd`]), of
+/// a resting stage that serves as the reference of `r`: below it the stage shows no stick-slip
+/// and `r`, a ratio of two noise levels there, is left undefined.
+pub const REFERENCE_MIN_SNR: f64 = 10.0;
+
+/// Whether a resting stage's measured force (samples `f` of the stage, features `fs`) shows a
+/// stick-slip that can be the reference of `r`: two cycles or more, of an amplitude of
+/// [`REFERENCE_MIN_SNR`] noise standard deviations or more (the noise estimated on the steady
+/// window, the second half).
+pub fn is_reference(f: &[f64], fs: &FeatureSet) -> bool {
+    let sd = noise_sd(&f[f.len() / 2..]);
+    fs.cycles >= 2 && fs.get(Feature::DF) >= REFERENCE_MIN_SNR * sd
 }
 
 /// The alias of frequency `x` \[Hz\] under sampling at `fs` \[Hz\]: in `[0, fs/2]`.

@@ -559,6 +559,11 @@ impl<'a> Target<'a> {
                             resting(u) && same_drive(&recs[u.0].params, &recs[i].params)
                         })
                     })
+                    // A reference without a stick-slip gives no `r` (a ratio of noise levels).
+                    .filter(|&j| {
+                        let (k, st) = units[j];
+                        super::features::is_reference(&recs[k].f_d[st.lo..st.hi], &measured[j])
+                    })
             })
             .collect();
         fill_r(&mut measured, &reference);
@@ -1438,10 +1443,31 @@ pub fn starts(target: &Target, base: &FitResult, kind: EffectKind) -> Vec<Model>
             .collect();
     }
     if grid.iter().any(|g| !g.is_empty()) {
+        // Viscous friction is partly absorbed by the base parameters: a base fit to a campaign
+        // whose stick-slip dies out as the drive speeds up lowers the breakaway level (F_s, v_s)
+        // until stick-slip fades everywhere, a basin the viscous term cannot leave in a few
+        // steps. Its grid is scanned from the nominal F_s, v_s and h_d as well, with F_c
+        // lowered by the term's force at the campaign's mean drive velocity (the sliding force
+        // kept).
+        let nominal = (kind == EffectKind::Viscous).then(|| {
+            let mut m = m0.clone();
+            let p = Params::default();
+            (m.f_s, m.v_s, m.h_d) = (p.f_s, p.v_s, p.h_d);
+            m
+        });
+        let v_mean =
+            target.recs.iter().map(|r| r.params.v_d).sum::<f64>() / target.recs.len() as f64;
         for g in grid {
             let mut m = m0.clone();
             for &(n, v) in &g {
                 let _ = m.effects.set(kind, n, v);
+            }
+            if let Some(nom) = &nominal {
+                let mut mn = nom.clone();
+                mn.effects = m.effects.clone();
+                let h_v = m.effects.get(kind, "h_v").unwrap_or(0.0);
+                mn.f_c = (m.f_c - h_v * v_mean).max(0.5 * m.f_c);
+                candidates.push(mn);
             }
             candidates.push(m);
         }
