@@ -58,9 +58,10 @@
 //! Jacobian there); where that fit converged inside its plausible range and a significant gap
 //! remains, every other candidate is fitted together with it (forward selection), and a second
 //! effect is named by the same rule against the first (at least [`MIN_SECOND`] of the gap the
-//! first leaves; a tie among seconds names none, with a warning), and only where one of its
-//! fingerprints is present in the recordings ([`fingerprint`]): beside a first effect of
-//! another form than the data's, any candidate can take up part of that form's misfit.
+//! first leaves; a tie among seconds names none, with a warning), and, where its fingerprints
+//! can test it, only where one of them is present in the recordings ([`fingerprint`]): beside
+//! a first effect of another form than the data's, any candidate can take up part of that
+//! form's misfit.
 
 use super::features::{FEATURES, Feature, N_FEATURES, PHASES};
 use super::fit::{self, FitOptions, FitResult, Model, Target};
@@ -1060,10 +1061,11 @@ fn decide(ranked: &[Ranked], share: impl Fn(f64) -> f64, min_share: f64) -> Opti
 /// [`decide`], with every candidate it would name or tie checked for its fingerprints against
 /// `from`, the model the candidates extend ([`fingerprint::check`]): one whose fingerprint is
 /// absent is rejected (with the reason) and the decision taken again without it. With
-/// `need_present` (a second effect beside a named one) a candidate is rejected too unless one
-/// of its fingerprints is present: beside a first effect whose form differs from the data's,
-/// any other candidate can take up the rest of that form's misfit, so only one that shows its
-/// own physics in the trace is named. The ranking is then reordered so that the candidates not
+/// `need_present` (a second effect beside a named one) a candidate whose fingerprints can test
+/// it is rejected too unless one of them is present: beside a first effect whose form differs
+/// from the data's, any other candidate can take up the rest of that form's misfit, so only one
+/// that shows its own physics in the trace is named (one that predicts nothing a family could
+/// show, a screw error's, stands on its features as a first effect does). The ranking is then reordered so that the candidates not
 /// rejected come first, in their order of evidence.
 fn vetted(
     ranked: &mut [Ranked],
@@ -1093,6 +1095,10 @@ fn vetted(
                 ranked[j].rejected = Some(format!("its fingerprint is absent: {}", c.line()));
                 any = true;
             } else if need_present
+                && ranked[j]
+                    .fingerprints
+                    .iter()
+                    .any(|c| c.seen != fingerprint::Seen::NotTestable)
                 && !ranked[j]
                     .fingerprints
                     .iter()
