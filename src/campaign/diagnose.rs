@@ -1065,8 +1065,8 @@ fn decide(ranked: &[Ranked], share: impl Fn(f64) -> f64, min_share: f64) -> Opti
 /// it is rejected too unless one of them is present: beside a first effect whose form differs
 /// from the data's, any other candidate can take up the rest of that form's misfit, so only one
 /// that shows its own physics in the trace is named (one that predicts nothing a family could
-/// show, a screw error's, stands on its features as a first effect does). The ranking is then reordered so that the candidates not
-/// rejected come first, in their order of evidence.
+/// show, a screw error's, stands on its features as a first effect does). The ranking is then
+/// reordered so that the candidates not rejected come first, in their order of evidence.
 fn vetted(
     ranked: &mut [Ranked],
     recs: &[&Recording],

@@ -1449,22 +1449,17 @@ pub fn starts(target: &Target, base: &FitResult, kind: EffectKind) -> Vec<Model>
         // steps. Its grid is scanned from the nominal F_s, v_s and h_d as well, with F_c
         // lowered by the term's force at the campaign's mean drive velocity (the sliding force
         // kept).
-        let nominal = (kind == EffectKind::Viscous).then(|| {
-            let mut m = m0.clone();
-            let p = Params::default();
-            (m.f_s, m.v_s, m.h_d) = (p.f_s, p.v_s, p.h_d);
-            m
-        });
         let v_mean =
             target.recs.iter().map(|r| r.params.v_d).sum::<f64>() / target.recs.len() as f64;
+        let nominal = Params::default();
         for g in grid {
             let mut m = m0.clone();
             for &(n, v) in &g {
                 let _ = m.effects.set(kind, n, v);
             }
-            if let Some(nom) = &nominal {
-                let mut mn = nom.clone();
-                mn.effects = m.effects.clone();
+            if kind == EffectKind::Viscous {
+                let mut mn = m.clone();
+                (mn.f_s, mn.v_s, mn.h_d) = (nominal.f_s, nominal.v_s, nominal.h_d);
                 let h_v = m.effects.get(kind, "h_v").unwrap_or(0.0);
                 mn.f_c = (m.f_c - h_v * v_mean).max(0.5 * m.f_c);
                 candidates.push(mn);
