@@ -22,7 +22,8 @@
 //!
 //! [`Table::build`] continues the orbit in `V` from 0 (where symmetry gives `F = 0`) to a
 //! chosen `V_max`, with nodes added by bisection until cubic Hermite interpolation on the exact
-//! slopes predicts every midpoint to the force tolerance. Each node keeps its orbit's state and
+//! slopes predicts every midpoint to the force tolerance (the midpoints found for that check are
+//! nodes too). Each node keeps its orbit's state and
 //! multipliers, so a caller can tell where the table may serve (a contracting period-1 orbit)
 //! and where it may not.
 //!
@@ -547,7 +548,8 @@ impl Table {
     /// Builds the table for `p` from `V = 0` to `v_max`: continuation along the family of
     /// orbits (each node starts from the last one's orbit moved along its tangent), nodes
     /// bisected until every midpoint agrees with the Hermite cubic of its neighbours to
-    /// `force_tol`.
+    /// `force_tol` (each midpoint's orbit, found for the check from the cubic of its neighbours'
+    /// starts and tangents, stays a node).
     pub fn build(p: &Params, v_max: f64, opts: AveragingOptions) -> Result<Table, AveragingError> {
         if !(v_max > 0.0 && v_max.is_finite()) {
             return Err(AveragingError::Invalid(format!(
@@ -612,13 +614,24 @@ impl Table {
                 left = right;
                 continue;
             }
-            let found = reach(&mut sh, &left, mid).or_else(|_| reach(&mut sh, &right, mid));
+            // The midpoint's start from the cubic of both ends (values and tangents): Newton
+            // then takes 1.4 iterations per orbit for 1.9 from one end's tangent, and its first
+            // period, nearer the orbit, fewer steps (at 3000 Hz, `v_a/v_d` 0.4: 0.68 of the
+            // right-hand sides). Where it fails, continuation from either end.
+            let found = sh
+                .orbit(mid, between(&left, &right, mid))
+                .or_else(|_| reach(&mut sh, &left, mid))
+                .or_else(|_| reach(&mut sh, &right, mid));
             match found {
                 Ok(o) if (hermite(&left, &right, mid) - o.force).abs() > tol => {
                     pending.push(right);
                     pending.push(o);
                 }
-                Ok(_) => {
+                // The midpoint's orbit, found for the check, is kept: it costs nothing more and
+                // the law between the halves is closer still (at 3000 Hz, `v_a/v_d` 0.4, within
+                // 1.8e-4 N of a table at `rtol` 1e-9 and `force_tol` 1e-5 N, for 8e-4 N).
+                Ok(o) => {
+                    done.push(o);
                     done.push(right);
                     left = right;
                 }
@@ -1616,11 +1629,7 @@ fn reach(sh: &mut Shooter<'_>, from: &Orbit, v: f64) -> Result<Orbit, AveragingE
     // The start of the orbit at `to` from `o`, along the family's tangent.
     let guess = |o: &Orbit, to: f64| {
         let dv = to - o.v_mean;
-        let t = if o.tangent.iter().all(|x| x.is_finite()) {
-            o.tangent
-        } else {
-            [1.0, 0.0]
-        };
+        let t = finite_tangent(o);
         [
             o.start[0] + t[0] * dv,
             o.start[1] + t[1] * dv,
@@ -1641,6 +1650,36 @@ fn reach(sh: &mut Shooter<'_>, from: &Orbit, v: f64) -> Result<Orbit, AveragingE
         }
     }
     Err(err.expect("tried"))
+}
+
+/// The start `(v(0), s(0), F)` of the orbit at `v` between orbits `a` and `b`: the cubic
+/// Hermite interpolant of their starts and forces on the family's tangents and slopes.
+fn between(a: &Orbit, b: &Orbit, v: f64) -> [f64; 3] {
+    let h = b.v_mean - a.v_mean;
+    let s = (v - a.v_mean) / h;
+    let (h00, h10, h01, h11) = (
+        (1.0 + 2.0 * s) * (1.0 - s) * (1.0 - s),
+        s * (1.0 - s) * (1.0 - s),
+        s * s * (3.0 - 2.0 * s),
+        s * s * (s - 1.0),
+    );
+    let cubic =
+        |x0: f64, d0: f64, x1: f64, d1: f64| h00 * x0 + h10 * h * d0 + h01 * x1 + h11 * h * d1;
+    let (ta, tb) = (finite_tangent(a), finite_tangent(b));
+    [
+        cubic(a.start[0], ta[0], b.start[0], tb[0]),
+        cubic(a.start[1], ta[1], b.start[1], tb[1]),
+        hermite(a, b, v),
+    ]
+}
+
+/// The orbit's tangent where finite, `(1, 0)` (the body's velocity follows `V`) where not.
+fn finite_tangent(o: &Orbit) -> [f64; 2] {
+    if o.tangent.iter().all(|x| x.is_finite()) {
+        o.tangent
+    } else {
+        [1.0, 0.0]
+    }
 }
 
 /// Cubic Hermite interpolation of the force between two orbits at `v`.
