@@ -1144,20 +1144,19 @@ pub fn case_summary(c: &CaseResult, o: &RunOptions) -> String {
         st.lu_decomps,
         wall
     );
-    // Without vibration: where the limit cycle took over (the reference's, with vibration).
-    let continued = c
-        .run
-        .continued_from
-        .or_else(|| c.reference.as_ref().and_then(|r| r.continued_from));
-    if let Some(t) = continued {
+    // Where a limit cycle took over: the run's own (without vibration, or the averaged slow
+    // model's), else its reference's.
+    let continued = c.run.continued_from.map(|t| (t, "")).or_else(|| {
+        c.reference
+            .as_ref()
+            .and_then(|r| r.continued_from)
+            .map(|t| (t, " of the reference"))
+    });
+    if let Some((t, whose)) = continued {
         let _ = writeln!(
             s,
             "          samples after {t:.3} s read off the repeating stick-slip cycle{}",
-            if c.reference.is_some() {
-                " of the reference"
-            } else {
-                ""
-            }
+            whose
         );
     }
     s

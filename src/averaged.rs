@@ -1068,6 +1068,9 @@ pub struct SlowRun {
     /// rest passes the law at zero force, where the orbit of a small vibration need not
     /// contract.
     pub left_law: Option<f64>,
+    /// Time \[s\] from which the samples were read off the slow model's limit cycle instead of
+    /// integrated ([`simulate_slow_with`]'s `periodic`); `None` where every one was integrated.
+    pub continued_from: Option<f64>,
 }
 
 /// Integrates the averaged slow model of `p` from rest to `t_end` with Radau IIA at `rtol`,
@@ -1081,7 +1084,7 @@ pub fn simulate_slow(
     dt: f64,
     rtol: f64,
 ) -> Result<SlowRun, AveragingError> {
-    simulate_slow_with(p, table, t_end, dt, rtol, None)
+    simulate_slow_with(p, table, t_end, dt, rtol, None, true)
 }
 
 /// Share of the nominal stick-slip amplitude `2 (F_s − F_c)` (and of `v_d`) within which the
@@ -1106,7 +1109,12 @@ pub(crate) fn slow_analyzer(p: &Params, t_end: f64, dt: f64) -> crate::measures:
 }
 
 /// [`simulate_slow`], keeping at most `trace` samples of the slow states (evenly decimated)
-/// where given.
+/// where given. Where `periodic`, once the stick-slip repeats (two successive downward crossings
+/// of the level `F_eff(v_d)` in the same state, the orbit contracting:
+/// [`LimitCycle::slow`](crate::cycle::LimitCycle::slow)) the rest of the samples are read off
+/// the last cycle instead of integrated, as a run without vibration does
+/// ([`RunOptions::periodic`](crate::sim::RunOptions::periodic)). The slow model is planar and
+/// autonomous, so its periodic orbit, once reached, repeats exactly.
 pub fn simulate_slow_with(
     p: &Params,
     table: &Table,
@@ -1114,6 +1122,7 @@ pub fn simulate_slow_with(
     dt: f64,
     rtol: f64,
     trace: Option<usize>,
+    periodic: bool,
 ) -> Result<SlowRun, AveragingError> {
     if table.nodes.len() < 2 {
         return Err(AveragingError::Invalid(format!(
@@ -1145,22 +1154,41 @@ pub fn simulate_slow_with(
     let stride = trace.map(|n| count.div_ceil(n.max(1) as u64).max(1));
     let mut tr = stride.map(|_| crate::sim::Trace::default());
     let mut i = 0u64;
-    let mut solver = Solver::new(Method::Radau5);
-    let rep = solver.solve(&sys, 0.0, t_end, &mut y, &opts, grid, |t, y| {
-        let f = p.k_d * y[0] + p.h_d * (p.v_d - y[1]);
-        an.push(t, f, y[1]);
+    // Sample `i` at `t` with drive force `f`, stretch `z` and mean velocity `v`.
+    let mut record = |i: u64, t: f64, f: f64, z: f64, v: f64| {
+        an.push(t, f, v);
         if t >= window {
-            seen = (seen.0.min(y[1]), seen.1.max(y[1]));
+            seen = (seen.0.min(v), seen.1.max(v));
             let h = &mut halves[usize::from(t >= mid)];
             *h = (h.0.min(f), h.1.max(f));
         }
         if let (Some(tr), Some(k)) = (tr.as_mut(), stride)
             && i.is_multiple_of(k)
         {
-            tr.push_slow(t, f, p.v_d * t - y[0], p.v_d * t, y[1]);
+            tr.push_slow(t, f, p.v_d * t - z, p.v_d * t, v);
         }
-        i += 1;
+    };
+    let mut cycle = table.force(p.v_d).filter(|_| periodic).map(|level| {
+        crate::cycle::LimitCycle::slow(p, level, dt, rtol, [sys.scale(0), sys.scale(1)])
     });
+    let mut solver = Solver::new(Method::Radau5);
+    let rep = solver.solve_until(&sys, 0.0, t_end, &mut y, &opts, grid, |t, y| {
+        let f = p.k_d * y[0] + p.h_d * (p.v_d - y[1]);
+        record(i, t, f, y[0], y[1]);
+        i += 1;
+        // Once periodic the integration ends here; the samples after it are the cycle's.
+        !cycle
+            .as_mut()
+            .is_some_and(|c| c.push(t, f, &[p.v_d * t - y[0], y[1], 0.0]))
+    });
+    let continued_from = cycle.as_ref().and_then(|c| c.continued_from());
+    if let Some(c) = cycle.as_ref()
+        && rep.status == Status::Success
+    {
+        c.replay(&grid, i, t_end, |i, t, f, x| {
+            record(i, t, f, p.v_d * t - x[0], x[1]);
+        });
+    }
     let left_law = (seen.0 <= seen.1)
         .then(|| table.first_invalid(seen.0, seen.1))
         .flatten();
@@ -1177,7 +1205,9 @@ pub fn simulate_slow_with(
     // decaying approach: its settled level has no oscillation, as docs/model.md measures it).
     if let (Some(level), Some(slope)) = (table.force(p.v_d), table.slope(p.v_d)) {
         let nominal = 2.0 * (p.f_s - p.f_c);
-        let on_slide = (y[1] - p.v_d).abs() <= SLIDE_TOL * p.v_d
+        // A repeating cycle is no slide, wherever the run stopped on it.
+        let on_slide = continued_from.is_none()
+            && (y[1] - p.v_d).abs() <= SLIDE_TOL * p.v_d
             && (p.k_d * y[0] - level).abs() <= SLIDE_TOL * nominal;
         let swing = |h: (f64, f64)| h.1 - h.0;
         let settling = measures.cycles == 0
@@ -1199,6 +1229,7 @@ pub fn simulate_slow_with(
         stats: rep.stats,
         trace: tr,
         left_law,
+        continued_from,
     })
 }
 

@@ -673,8 +673,8 @@ pub struct RunArgs {
     #[arg(long)]
     pub early_stop: bool,
 
-    /// Without vibration, integrate every cycle instead of continuing along the limit cycle
-    /// once two successive slips pass the same state.
+    /// Integrate every cycle instead of continuing along the limit cycle once two successive
+    /// slips pass the same state (runs without vibration and the averaged slow model).
     #[arg(long)]
     pub no_periodic: bool,
 

@@ -35,7 +35,7 @@
 //! (`tests/model.rs`).
 
 use crate::measures::STICK_VELOCITY;
-use crate::model::{Rig, S, V, X};
+use crate::model::{Params, Rig, S, V, X};
 use crate::ode::{OdeSystem, Options, OutputGrid};
 use std::collections::VecDeque;
 
@@ -67,6 +67,14 @@ pub struct LimitCycle {
     k_d: f64,
     h_d: f64,
     stick_v: f64,
+    /// Least share of the time between two sections the body must stick ([`STICK_SHARE`];
+    /// 0 for the averaged slow model, which asks for contraction instead).
+    stick_share: f64,
+    /// Whether two agreeing sections must also show the cycle contracting: their gap at most
+    /// half the last pair's, or within one error weight (the averaged slow model).
+    contract: bool,
+    /// The last pair's gap in error weights (largest over the components).
+    last_gap: f64,
     /// Error weights: `atol · scale_i` and `rtol`.
     abs: [f64; 3],
     rtol: f64,
@@ -95,12 +103,46 @@ impl LimitCycle {
             k_d: p.k_d,
             h_d: p.h_d,
             stick_v: STICK_VELOCITY * p.v_d,
+            stick_share: STICK_SHARE,
+            contract: false,
+            last_gap: f64::INFINITY,
             abs: [
                 ode.atol * rig.scale(X),
                 ode.atol * rig.scale(V),
                 ode.atol * rig.scale(S),
             ],
             rtol: ode.rtol,
+            buf: VecDeque::with_capacity(cap),
+            first: 0,
+            stuck: 0,
+            last: None,
+            found: None,
+        }
+    }
+
+    /// A watcher for the averaged slow model of `p` ([`crate::averaged`]: the stretch `z` and the
+    /// mean velocity `V`, pushed as `[v_d t − z, V, 0]`) sampled every `dt` from `t = 0` and
+    /// integrated at `rtol = atol` with the scales `scale` of `z` and `V`. Its section is the
+    /// downward crossing of `level`, the averaged law at `v_d`: the model is planar, so a
+    /// periodic orbit encloses its one equilibrium (the slide at `v_d`, where the drive force is
+    /// that level) and crosses the level on its way down once per cycle. The body need not
+    /// stick (it creeps under vibration); instead two agreeing sections must show the orbit
+    /// contracting (their gap at most half the last pair's, or within one error weight), so that
+    /// what is left of the transient is within the agreement.
+    pub fn slow(p: &Params, level: f64, dt: f64, rtol: f64, scale: [f64; 2]) -> LimitCycle {
+        let cap = (1.5 * p.cycle_estimate() / dt).clamp(16.0, 1e6) as usize;
+        LimitCycle {
+            dt,
+            level,
+            v_d: p.v_d,
+            k_d: p.k_d,
+            h_d: p.h_d,
+            stick_v: STICK_VELOCITY * p.v_d,
+            stick_share: 0.0,
+            contract: true,
+            last_gap: f64::INFINITY,
+            abs: [rtol * scale[0], rtol * scale[1], 1.0],
+            rtol,
             buf: VecDeque::with_capacity(cap),
             first: 0,
             stuck: 0,
@@ -146,12 +188,14 @@ impl LimitCycle {
         };
         if let Some(prev) = self.last {
             let period = sec.t - prev.t;
-            let stuck = self.stuck as f64 * self.dt >= STICK_SHARE * period;
-            let agree = (0..3).all(|c| {
+            let stuck = self.stuck as f64 * self.dt >= self.stick_share * period;
+            let gap = (0..3).fold(0.0f64, |g, c| {
                 let weight = self.abs[c] + self.rtol * sec.z[c].abs().max(prev.z[c].abs());
-                (sec.z[c] - prev.z[c]).abs() <= AGREEMENT * weight
+                g.max((sec.z[c] - prev.z[c]).abs() / weight)
             });
-            if stuck && agree && period > 0.0 {
+            let contracting = !self.contract || gap <= 1.0 || gap <= 0.5 * self.last_gap;
+            self.last_gap = gap;
+            if stuck && gap <= AGREEMENT && contracting && period > 0.0 {
                 self.found = Some((period, sec));
                 self.buf.make_contiguous();
                 return true;

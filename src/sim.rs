@@ -46,7 +46,9 @@ pub struct RunOptions {
     /// stick between them, read the rest of the samples off that limit cycle instead of
     /// integrating them (see [`cycle`](crate::cycle); `RunResult::continued_from` says from
     /// when). The measures are those of the integrated run to 1e-4 of dF (4e-5 on the paper's
-    /// ranges; the re-stick is a kink between samples). Default true.
+    /// ranges; the re-stick is a kink between samples). The averaged slow model
+    /// ([`crate::averaged::simulate_slow_with`]) is continued along its limit cycle alike.
+    /// Default true.
     pub periodic: bool,
     /// Envelope following for runs with vibration: the extrapolation tolerance of one jump over
     /// whole vibration periods (see [`ode::Envelope`](crate::ode::Envelope)), in units of each
@@ -516,9 +518,16 @@ fn averaged_run(
     opts: &RunOptions,
 ) -> Result<RunResult, f64> {
     let trace = opts.trace.then_some(opts.trace_points);
-    let slow =
-        crate::averaged::simulate_slow_with(p, table, t_end, slow_dt(p), slow_rtol(opts), trace)
-            .map_err(|_| 0.0)?;
+    let slow = crate::averaged::simulate_slow_with(
+        p,
+        table,
+        t_end,
+        slow_dt(p),
+        slow_rtol(opts),
+        trace,
+        opts.periodic,
+    )
+    .map_err(|_| 0.0)?;
     if let Some(v) = slow.left_law {
         return Err(v);
     }
@@ -530,7 +539,7 @@ fn averaged_run(
         window_start: window_start(p, t_end),
         // Set by serve, the table's share of it included.
         wall_time: 0.0,
-        continued_from: None,
+        continued_from: slow.continued_from,
         level_error: None,
         tier: Tier::Averaged,
         tier_reason: TierReason::Valid,

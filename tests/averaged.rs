@@ -2,7 +2,9 @@
 //! reduce to: the rigid Coulomb limit, the small-amplitude creep slope, and the settled sliding
 //! force of full runs where vibration eliminates stick-slip.
 
-use stickslip::averaged::{AveragingOptions, Shooter, Table};
+use stickslip::averaged::{
+    AveragingOptions, SHARED, Shooter, Table, simulate_slow_with, table_span,
+};
 use stickslip::model::Params;
 use stickslip::ode::Solver;
 use stickslip::sim::{RunOptions, run_case_with};
@@ -415,4 +417,59 @@ fn hybrid_windows_reproduce_the_full_model_below_the_resonance() {
         (partial.run.tier, partial.run.tier_reason),
         (Tier::Full, TierReason::PartialLaw)
     );
+}
+
+/// The averaged slow model continued along its limit cycle (`periodic`) gives the measures of
+/// the same model integrated to its end: the cycle, once two sections agree and contract,
+/// repeats. Cases: 3000 and 4000 Hz, `v_a/v_d` 0.2 to 0.7, `k_d` 3000 to 40 000 N/m, and one
+/// with drive damping; the integration at `rtol` 1e-7, as runs at the default tolerance have it.
+/// Agreement: dF and the mean force to 1e-4 of the reference's dF (the cycle's samples are
+/// read by cubic interpolation between samples), and the continued run integrates less.
+#[test]
+fn slow_model_continued_along_its_cycle_keeps_the_measures() {
+    let v_d = 0.5e-3;
+    let cases = [
+        (3000.0, 0.4, 11_700.0, 0.0),
+        (3000.0, 0.2, 3000.0, 0.0),
+        (4000.0, 0.7, 40_000.0, 0.0),
+        (4000.0, 0.4, 11_700.0, 20.0),
+    ];
+    for (f, ratio, k_d, h_d) in cases {
+        let p = Params {
+            k_d,
+            h_d,
+            ..params(f, ratio * v_d / (2.0 * std::f64::consts::PI * f), v_d)
+        };
+        let table = Table::build(&p, table_span(&p), SHARED).expect("a table");
+        let t_end = stickslip::sim::planned_time(&p, 3);
+        let dt = 1e-4;
+        let run = |periodic| {
+            simulate_slow_with(&p, &table, t_end, dt, 1e-7, None, periodic).expect("a slow run")
+        };
+        let (whole, cont) = (run(false), run(true));
+        let nominal = 2.0 * (p.f_s - p.f_c);
+        eprintln!(
+            "{f} Hz, {ratio}, k_d {k_d}, h_d {h_d}: dF {:.6} / {:.6} N, mean {:.6} / {:.6} N, \
+             cycles {} / {}, steps {} / {}, continued from {:?}",
+            whole.measures.d_f,
+            cont.measures.d_f,
+            whole.measures.mean_force,
+            cont.measures.mean_force,
+            whole.measures.cycles,
+            cont.measures.cycles,
+            whole.stats.steps,
+            cont.stats.steps,
+            cont.continued_from
+        );
+        assert!(whole.continued_from.is_none());
+        let from = cont.continued_from.expect("a stick-slip cycle to continue");
+        assert!(
+            from < 0.6 * t_end,
+            "continued only from {from} s of {t_end} s"
+        );
+        assert!(cont.stats.steps < whole.stats.steps);
+        assert_eq!(whole.measures.cycles, cont.measures.cycles);
+        assert!((whole.measures.d_f - cont.measures.d_f).abs() <= 1e-4 * nominal);
+        assert!((whole.measures.mean_force - cont.measures.mean_force).abs() <= 1e-4 * nominal);
+    }
 }
