@@ -421,7 +421,12 @@ impl Executor<'_> {
             let (tx, rx) = std::sync::mpsc::channel::<(Task, RunResult)>();
             sc.spawn(move || {
                 pool.install(|| {
-                    todo.par_iter().for_each_init(
+                    // One job per run: the runs' costs differ by a thousand times (an averaged
+                    // point against a full one below the resonance), and a worker that has
+                    // split off a range of them runs it through alone, while the others wait
+                    // (on a 1024-point slice of the overnight grid, one of two workers sat idle
+                    // for the last 9 of 25 s).
+                    todo.par_iter().with_max_len(1).for_each_init(
                         || (tx.clone(), Solver::new(method)),
                         |(tx, solver), &t| {
                             let r = run_task(plan, t, run_opts, solver);
