@@ -1502,8 +1502,9 @@ pub fn table_span(p: &Params) -> f64 {
 /// The options of [`shared_table`]: the defaults but the one-period integration at `rtol`
 /// 1e-5. At 3000 Hz, `v_a/v_d` = 0.4 (`k_d` = 11 700 N/m, `v_d` = 0.5 mm/s) the law agrees with
 /// a table at `rtol` 1e-9 and `force_tol` 1e-5 N to 7e-4 N everywhere on `[0, table_span]` (33
-/// nodes, as at 1e-6, for 0.7 of its work); at `u0` = 5 nm, 2000 Hz it has the nodes of 1e-6
-/// (30 and 44). Newton stops at steps of `1e2 rtol` (scaled): at `1e3 rtol` noise entered the
+/// nodes, as at 1e-6, for 0.7 of its work; 1.8e-4 N with the refinement's midpoints kept as
+/// nodes, 65 of them); at `u0` = 5 nm, 2000 Hz it has the nodes of 1e-6 (30 and 44, before
+/// the midpoints were kept). Newton stops at steps of `1e2 rtol` (scaled): at `1e3 rtol` noise entered the
 /// slopes at 1e-5, the table grew to 83 to 98 nodes there, and its interpolant stalled the slow
 /// model's integration.
 pub const SHARED: AveragingOptions = AveragingOptions {
