@@ -838,6 +838,9 @@ pub fn run(a: &RunArgs) -> Result<(), AppError> {
     // apart), its median over the repeats, as hyperfine and the peers' timing loops report.
     let mut times = vec![res.run.wall_time];
     for _ in 1..a.repeats {
+        if a.fresh_tables {
+            crate::averaged::forget_tables();
+        }
         res = sim::run_case_with(&case.params, &case.effects, &case.run, &mut solver)?;
         times.push(res.run.wall_time);
     }

@@ -716,6 +716,12 @@ pub struct RunArgs {
     #[arg(long, value_name = "N", default_value_t = 1)]
     pub repeats: u32,
 
+    /// With --repeats: every repeat builds the averaged law's table afresh, as one run in a
+    /// fresh process does (without it the repeats share the table, as the runs of a sweep's
+    /// `k_d` line do).
+    #[arg(long)]
+    pub fresh_tables: bool,
+
     /// HDF5 file for the traces and results.
     #[arg(short, long, value_name = "FILE", default_value = "results/run.h5")]
     pub out: PathBuf,

@@ -1,4 +1,5 @@
-//! Continuation of a run without vibration along its limit cycle.
+//! Continuation of a run without vibration, or of the averaged slow model
+//! ([`LimitCycle::slow`]), along its limit cycle.
 //!
 //! Without vibration the base model, (4.2)–(4.9) with `u' = 0`, is autonomous in the spring
 //! stretch `z = v_d t − x`, the velocity `v` and the contact deformation `s`: the state at one

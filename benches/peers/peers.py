@@ -4,7 +4,9 @@ stickslip, side by side with stickslip in one run, on the same machine.
 Peers: SciPy solve_ivp (Radau, BDF, LSODA; right-hand side and Jacobian compiled with numba),
 SUNDIALS CVODE (BDF, through scikit-sundae), numbalsoda (LSODA, DOP853) and the diffsol crate
 (BDF, Tsit5; benches/peers/diffsol); stickslip's Radau5, Rodas4, Dopri5, the switching
-`auto` and Dopri5 with envelope following (`stickslip-envelope`); a `+early` suffix (`stickslip-envelope+early`) lets
+`auto` and Dopri5 with envelope following (`stickslip-envelope`), and the vibration averaged out
+(`stickslip-averaged`, `--tier averaged`, its table built in every timed run; meant above the
+contact resonance, `--freq 3000`); a `+early` suffix (`stickslip-envelope+early`) lets
 stickslip end once the answer is known (`--early-stop`). Every peer integrates the same equations in the same scaled
 variables z = y / w (w = F_s/k_d, v_d + v_a, F_s/k_t, the scales stickslip's atol uses), is
 sampled on stickslip's output grid, and is measured with the same definitions (docs/model.md): dF over
@@ -253,7 +255,7 @@ def numbalsoda_peer(kind):
 
 def diffsol_peer(method):
     def run(ratio, t_end, tol, repeats):
-        out = subprocess.run([str(DIFFSOL), method, str(ratio), str(t_end), repr(tol), str(repeats)], capture_output=True, text=True, check=True)
+        out = subprocess.run([str(DIFFSOL), method, str(ratio), str(t_end), repr(tol), str(repeats), repr(FREQ)], capture_output=True, text=True, check=True)
         return json.loads(out.stdout)
 
     return run
@@ -273,12 +275,19 @@ def stickslip_run(ratio, t_end, method, tol, repeats=1, flags=()):
         method, extra = inner, extra + ["--envelope", repr(min(0.1, 100 * tol))]
     # Timed in one process, median of the repeats, and measures without traces: as the peers
     # are timed (their solve and its output samples, in their own timing loop).
-    args = [str(STICKSLIP), "run", "--t-end", str(t_end), "--va-ratio", str(ratio), "--solver", method, "--rtol", repr(tol), "--atol", repr(tol), "--json", "--no-trace", "--repeats", str(repeats), "-o", "/tmp/stickslip-peers.h5"] + extra
+    # `averaged`: the vibration averaged out (`--tier averaged`), each repeat building its table
+    # afresh as a single run does; every other method integrates the full model (`--tier full`).
+    if method == "averaged":
+        method, extra = "auto", extra + ["--tier", "averaged", "--fresh-tables"]
+    else:
+        extra = extra + ["--tier", "full"]
+    args = [str(STICKSLIP), "run", "--t-end", str(t_end), "--f", repr(FREQ), "--va-ratio", str(ratio), "--solver", method, "--rtol", repr(tol), "--atol", repr(tol), "--json", "--no-trace", "--repeats", str(repeats), "-o", "/tmp/stickslip-peers.h5"] + extra
     last = json.loads(subprocess.run(args, capture_output=True, text=True, check=True).stdout)
     return last.get("wall_time_median", last["wall_time"]), last
 
 
 def main():
+    global FREQ
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--t-end", type=float, default=6.0, help="simulated time [s] (default 6)")
     ap.add_argument("--repeats", type=int, default=3)
@@ -287,7 +296,9 @@ def main():
     ap.add_argument("--peers", default="scipy-Radau,scipy-BDF,scipy-LSODA,cvode-BDF,numbalsoda-LSODA,numbalsoda-DOP853,diffsol-bdf,diffsol-tsit45,stickslip-radau5,stickslip-rodas4,stickslip-dopri5,stickslip-auto,stickslip-envelope")
     ap.add_argument("--max-seconds", type=float, default=20.0, help="skip tighter tolerances of a peer once one run takes longer")
     ap.add_argument("--out", default=str(ROOT / "results" / "peers.json"))
+    ap.add_argument("--freq", type=float, default=1500.0, help="vibration frequency [Hz] (default 1500, Fig. 10)")
     a = ap.parse_args()
+    FREQ = a.freq
     tols = [float(x) for x in a.tolerances.split(",")]
     peers = a.peers.split(",")
     rows = []

@@ -2,8 +2,8 @@
 //! product) or Tsit5, sampled on stickslip's output grid and measured with stickslip's own
 //! analyser, so that only the integrator differs.
 //!
-//! Usage: stickslip-peer-diffsol METHOD VA_RATIO T_END RTOL REPEATS
-//! (METHOD: bdf or tsit45). Prints one JSON object: method, rtol, time (median of the repeats,
+//! Usage: stickslip-peer-diffsol METHOD VA_RATIO T_END RTOL REPEATS [FREQ]
+//! (METHOD: bdf or tsit45; FREQ in Hz, default that of `Params::default()`). Prints one JSON object: method, rtol, time (median of the repeats,
 //! the solve alone), dF, mean_force, steps-free status.
 
 use diffsol::matrix::MatrixCommon;
@@ -16,8 +16,8 @@ use std::time::Instant;
 
 fn main() {
     let a: Vec<String> = std::env::args().skip(1).collect();
-    if a.len() != 5 {
-        eprintln!("usage: stickslip-peer-diffsol bdf|tsit45 VA_RATIO T_END RTOL REPEATS");
+    if !(5..=6).contains(&a.len()) {
+        eprintln!("usage: stickslip-peer-diffsol bdf|tsit45 VA_RATIO T_END RTOL REPEATS [FREQ]");
         std::process::exit(2);
     }
     let method = a[0].clone();
@@ -26,6 +26,9 @@ fn main() {
     let rtol: f64 = a[3].parse().expect("RTOL");
     let repeats: usize = a[4].parse().expect("REPEATS");
     let mut p = Params::default();
+    if let Some(f) = a.get(5) {
+        p.f = f.parse().expect("FREQ");
+    }
     p.set_v_a(ratio * p.v_d);
     let rig = Rig::new(p).expect("valid parameters");
     // The same per-component absolute tolerance as stickslip: atol times the state's scale.
