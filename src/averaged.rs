@@ -1689,18 +1689,10 @@ fn reach(sh: &mut Shooter<'_>, from: &Orbit, v: f64) -> Result<Orbit, AveragingE
 fn between(a: &Orbit, b: &Orbit, v: f64) -> [f64; 3] {
     let h = b.v_mean - a.v_mean;
     let s = (v - a.v_mean) / h;
-    let (h00, h10, h01, h11) = (
-        (1.0 + 2.0 * s) * (1.0 - s) * (1.0 - s),
-        s * (1.0 - s) * (1.0 - s),
-        s * s * (3.0 - 2.0 * s),
-        s * s * (s - 1.0),
-    );
-    let cubic =
-        |x0: f64, d0: f64, x1: f64, d1: f64| h00 * x0 + h10 * h * d0 + h01 * x1 + h11 * h * d1;
     let (ta, tb) = (finite_tangent(a), finite_tangent(b));
     [
-        cubic(a.start[0], ta[0], b.start[0], tb[0]),
-        cubic(a.start[1], ta[1], b.start[1], tb[1]),
+        cubic(h, s, [a.start[0], ta[0], b.start[0], tb[0]]),
+        cubic(h, s, [a.start[1], ta[1], b.start[1], tb[1]]),
         hermite(a, b, v),
     ]
 }
@@ -1720,14 +1712,19 @@ fn hermite(a: &Orbit, b: &Orbit, v: f64) -> f64 {
     if h <= 0.0 {
         return a.force;
     }
-    let s = (v - a.v_mean) / h;
+    cubic(h, (v - a.v_mean) / h, [a.force, a.slope, b.force, b.slope])
+}
+
+/// The cubic Hermite interpolant at `s = (v − v_a)/h` of an interval `h` wide with values and
+/// slopes `[x_a, x_a', x_b, x_b']` at its ends.
+fn cubic(h: f64, s: f64, [x0, d0, x1, d1]: [f64; 4]) -> f64 {
     let (h00, h10, h01, h11) = (
         (1.0 + 2.0 * s) * (1.0 - s) * (1.0 - s),
         s * (1.0 - s) * (1.0 - s),
         s * s * (3.0 - 2.0 * s),
         s * s * (s - 1.0),
     );
-    h00 * a.force + h10 * h * a.slope + h01 * b.force + h11 * h * b.slope
+    h00 * x0 + h10 * h * d0 + h01 * x1 + h11 * h * d1
 }
 
 #[cfg(test)]
