@@ -23,9 +23,8 @@
 //! [`Table::build`] continues the orbit in `V` from 0 (where symmetry gives `F = 0`) to a
 //! chosen `V_max`, with nodes added by bisection until cubic Hermite interpolation on the exact
 //! slopes predicts every midpoint to the force tolerance (the midpoints found for that check are
-//! nodes too). Each node keeps its orbit's state and
-//! multipliers, so a caller can tell where the table may serve (a contracting period-1 orbit)
-//! and where it may not.
+//! nodes too). Each node keeps its orbit's state and multipliers, so a caller can tell where the
+//! table may serve (a contracting period-1 orbit) and where it may not.
 //!
 //! References and checks: the rigid Coulomb limit `(2 F_c/π) asin(V/v_a)` (Littmann, Storck
 //! and Wallaschek, Arch. Appl. Mech. 71 (2001) 549) for `u0 ≫ F_c/k_t`; the small-amplitude
@@ -1504,9 +1503,9 @@ pub fn table_span(p: &Params) -> f64 {
 /// a table at `rtol` 1e-9 and `force_tol` 1e-5 N to 7e-4 N everywhere on `[0, table_span]` (33
 /// nodes, as at 1e-6, for 0.7 of its work; 1.8e-4 N with the refinement's midpoints kept as
 /// nodes, 65 of them); at `u0` = 5 nm, 2000 Hz it has the nodes of 1e-6 (30 and 44, before
-/// the midpoints were kept). Newton stops at steps of `1e2 rtol` (scaled): at `1e3 rtol` noise entered the
-/// slopes at 1e-5, the table grew to 83 to 98 nodes there, and its interpolant stalled the slow
-/// model's integration.
+/// the midpoints were kept). Newton stops at steps of `1e2 rtol` (scaled): at `1e3 rtol` noise
+/// entered the slopes at 1e-5, the table grew to 83 to 98 nodes there, and its interpolant
+/// stalled the slow model's integration.
 pub const SHARED: AveragingOptions = AveragingOptions {
     rtol: 1e-5,
     max_newton: 30,

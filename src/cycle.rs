@@ -68,11 +68,9 @@ pub struct LimitCycle {
     k_d: f64,
     h_d: f64,
     stick_v: f64,
-    /// Least share of the time between two sections the body must stick ([`STICK_SHARE`];
-    /// 0 for the averaged slow model, which asks for contraction instead).
-    stick_share: f64,
-    /// Whether two agreeing sections must also show the cycle contracting: their gap at most
-    /// half the last pair's, or within one error weight (the averaged slow model).
+    /// Whether two agreeing sections must show the cycle contracting (their gap at most half
+    /// the last pair's, or within one error weight) instead of a stick of [`STICK_SHARE`]
+    /// between them: the averaged slow model, whose body creeps under vibration.
     contract: bool,
     /// The last pair's gap in error weights (largest over the components).
     last_gap: f64,
@@ -94,31 +92,12 @@ impl LimitCycle {
     /// A watcher for the rig (without vibration, base model) sampled every `dt` from `t = 0`
     /// and integrated with the tolerances of `ode`.
     pub fn new(rig: &Rig, dt: f64, ode: &Options) -> LimitCycle {
-        let p = &rig.p;
-        // Room for one cycle of samples and its margins (cycle estimate over dt, plus a half).
-        let cap = (1.5 * p.cycle_estimate() / dt).clamp(16.0, 1e6) as usize;
-        LimitCycle {
-            dt,
-            level: p.f_c,
-            v_d: p.v_d,
-            k_d: p.k_d,
-            h_d: p.h_d,
-            stick_v: STICK_VELOCITY * p.v_d,
-            stick_share: STICK_SHARE,
-            contract: false,
-            last_gap: f64::INFINITY,
-            abs: [
-                ode.atol * rig.scale(X),
-                ode.atol * rig.scale(V),
-                ode.atol * rig.scale(S),
-            ],
-            rtol: ode.rtol,
-            buf: VecDeque::with_capacity(cap),
-            first: 0,
-            stuck: 0,
-            last: None,
-            found: None,
-        }
+        let abs = [
+            ode.atol * rig.scale(X),
+            ode.atol * rig.scale(V),
+            ode.atol * rig.scale(S),
+        ];
+        LimitCycle::watching(&rig.p, rig.p.f_c, dt, abs, ode.rtol, false)
     }
 
     /// A watcher for the averaged slow model of `p` ([`crate::averaged`]: the stretch `z` and the
@@ -131,6 +110,21 @@ impl LimitCycle {
     /// contracting (their gap at most half the last pair's, or within one error weight), so that
     /// what is left of the transient is within the agreement.
     pub fn slow(p: &Params, level: f64, dt: f64, rtol: f64, scale: [f64; 2]) -> LimitCycle {
+        let abs = [rtol * scale[0], rtol * scale[1], 1.0];
+        LimitCycle::watching(p, level, dt, abs, rtol, true)
+    }
+
+    /// A watcher of the section at `level` with error weights `abs` and `rtol`; `contract`
+    /// asks for contraction instead of a stick between agreeing sections.
+    fn watching(
+        p: &Params,
+        level: f64,
+        dt: f64,
+        abs: [f64; 3],
+        rtol: f64,
+        contract: bool,
+    ) -> LimitCycle {
+        // Room for one cycle of samples and its margins (cycle estimate over dt, plus a half).
         let cap = (1.5 * p.cycle_estimate() / dt).clamp(16.0, 1e6) as usize;
         LimitCycle {
             dt,
@@ -139,10 +133,9 @@ impl LimitCycle {
             k_d: p.k_d,
             h_d: p.h_d,
             stick_v: STICK_VELOCITY * p.v_d,
-            stick_share: 0.0,
-            contract: true,
+            contract,
             last_gap: f64::INFINITY,
-            abs: [rtol * scale[0], rtol * scale[1], 1.0],
+            abs,
             rtol,
             buf: VecDeque::with_capacity(cap),
             first: 0,
@@ -189,7 +182,7 @@ impl LimitCycle {
         };
         if let Some(prev) = self.last {
             let period = sec.t - prev.t;
-            let stuck = self.stuck as f64 * self.dt >= self.stick_share * period;
+            let stuck = self.contract || self.stuck as f64 * self.dt >= STICK_SHARE * period;
             let gap = (0..3).fold(0.0f64, |g, c| {
                 let weight = self.abs[c] + self.rtol * sec.z[c].abs().max(prev.z[c].abs());
                 g.max((sec.z[c] - prev.z[c]).abs() / weight)
