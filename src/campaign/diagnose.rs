@@ -792,7 +792,7 @@ fn try_candidate(
     let mut firsts = vec![];
     let mut checks = 0;
     for scanned in &start {
-        let (f, n) = screen.starts(all, scanned, &effects);
+        let (f, n) = screen.starts(all, &from.model, scanned, &effects);
         firsts.extend(f);
         checks += n;
     }
@@ -966,6 +966,7 @@ impl<'a> Screen<'a> {
     fn starts(
         &self,
         all: &Target,
+        from: &Model,
         scanned: &Model,
         effects: &[EffectKind],
     ) -> (Vec<fit::Start>, usize) {
@@ -976,6 +977,21 @@ impl<'a> Screen<'a> {
                 if let Some((_, v)) = scanned.effects.list.iter().find(|(e, _)| *e == k) {
                     *m.effects.enable(k) = v.clone();
                 }
+                // Where the scan moved the base parameters with the candidate (the ones the
+                // extended model has absorbed it into: fit::starts), the refit's move the same
+                // way, by the same factor (by the same amount for h_d, which may be 0).
+                let scale = |refit: f64, scanned: f64, from: f64| {
+                    if scanned == from || from == 0.0 {
+                        refit
+                    } else {
+                        refit * scanned / from
+                    }
+                };
+                m.f_s = scale(m.f_s, scanned.f_s, from.f_s);
+                m.f_c = scale(m.f_c, scanned.f_c, from.f_c);
+                m.v_s = scale(m.v_s, scanned.v_s, from.v_s);
+                m.h_d += scanned.h_d - from.h_d;
+                m.f_s = m.f_s.max(m.f_c);
                 m
             }
             None => scanned.clone(),
@@ -985,9 +1001,13 @@ impl<'a> Screen<'a> {
         if first.gap() <= self.gap {
             (vec![first], 0)
         } else {
-            let mut base = m;
-            base.effects.list.retain(|(e, _)| *e != k);
-            let neutral = fit::prepare(sub, &fit::neutral_start(&base, k), effects);
+            // The model it extends, as fitted to these recordings (not the scan's base
+            // parameters, which may have moved with the candidate).
+            let base = match &self.subset {
+                Some((_, refit)) => &refit.model,
+                None => from,
+            };
+            let neutral = fit::prepare(sub, &fit::neutral_start(base, k), effects);
             (vec![first, neutral], 1)
         }
     }

@@ -1452,6 +1452,7 @@ pub fn starts(target: &Target, base: &FitResult, kind: EffectKind) -> Vec<Model>
         let v_mean =
             target.recs.iter().map(|r| r.params.v_d).sum::<f64>() / target.recs.len() as f64;
         let nominal = Params::default();
+        let age = typical_stick_time(target);
         for g in grid {
             let mut m = m0.clone();
             for &(n, v) in &g {
@@ -1463,6 +1464,18 @@ pub fn starts(target: &Target, base: &FitResult, kind: EffectKind) -> Vec<Model>
                 let h_v = m.effects.get(kind, "h_v").unwrap_or(0.0);
                 mn.f_c = (m.f_c - h_v * v_mean).max(0.5 * m.f_c);
                 candidates.push(mn);
+            }
+            // Ageing is absorbed by the base fit the same way: its F_s takes the aged level at
+            // the campaign's typical contact age, and any ageing added on top of it overshoots.
+            // Its grid is scanned with F_s lowered to keep that level as well.
+            if kind == EffectKind::Aging
+                && let Some(age) = age
+            {
+                let b = m.effects.get(kind, "b").unwrap_or(0.0);
+                let theta_0 = m.effects.get(kind, "theta_0").unwrap_or(0.01);
+                let mut ma = m.clone();
+                ma.f_s = (m.f_s / (1.0 + b * (age / theta_0).ln_1p())).max(m.f_c);
+                candidates.push(ma);
             }
             candidates.push(m);
         }
@@ -1484,6 +1497,23 @@ pub fn starts(target: &Target, base: &FitResult, kind: EffectKind) -> Vec<Model>
         out.push(candidates[grid_best].clone());
     }
     out
+}
+
+/// The median stick time of the units that stick-slip (cycle period less slip time) \[s\]: the
+/// contact age at a typical breakaway, to which a base fit's `F_s` absorbs dwell-time ageing.
+/// `None` where no unit has both.
+fn typical_stick_time(target: &Target) -> Option<f64> {
+    let mut t: Vec<f64> = target
+        .measured
+        .iter()
+        .map(|m| m.get(Feature::Period) - m.get(Feature::SlipTime))
+        .filter(|v| v.is_finite() && *v > 0.0)
+        .collect();
+    if t.is_empty() {
+        return None;
+    }
+    t.sort_by(f64::total_cmp);
+    Some(t[t.len() / 2])
 }
 
 /// The forcing frequencies of `sub`'s vibrated units, sorted, each once.
