@@ -113,6 +113,38 @@ identification_tests! {
     names_frictional_lag: EffectKind::FrictionalLag, 19;
 }
 
+/// Dwell-time ageing in the full design (30 recordings, more than the screen's 16): the base
+/// fit takes the aged `F_s` at the campaign's typical contact age, so ageing added on top of
+/// it overshoots and only a start with `F_s` lowered to keep that level finds it (fit::starts),
+/// carried over to the screen's refit on its subset. The campaign is `stickslip synth DIR
+/// --draw aging --seed 1` (b = 0.046); before the lowered start its verdict was `unexplained`
+/// with ageing at 0 %.
+#[test]
+#[ignore = "about 3 min on 2 cores; run with --include-ignored"]
+fn names_aging_absorbed_by_the_base_fit_in_the_full_design() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut rng = StdRng::seed_from_u64(1 ^ 0x5eed);
+    let fx = draw(EffectKind::Aging, &mut rng);
+    let spec = SynthSpec {
+        effects: fx.clone(),
+        design: Design::Full,
+        seed: 1,
+        ..SynthSpec::default()
+    };
+    synth(dir.path(), &spec).unwrap();
+    let c = Campaign::load(dir.path()).unwrap();
+    assert_eq!(c.recordings.len(), 30);
+    let d = diagnose(&c, &DiagnoseOptions::default()).unwrap();
+    let msg = format!("injected {}\n{}", fx.describe(), show(&d));
+    eprintln!("{msg}");
+    assert_eq!(d.verdict, Verdict::Effect, "{msg}");
+    assert_eq!(d.best_effect, Some(EffectKind::Aging), "{msg}");
+    assert!(d.reduction >= 0.7, "{msg}");
+    let b = d.ranking[0].fit.model.effects.get(EffectKind::Aging, "b").unwrap();
+    let truth = fx.get(EffectKind::Aging, "b").unwrap();
+    assert!((b / truth - 1.0).abs() < 0.1, "b {b} against {truth}");
+}
+
 #[test]
 fn effect_free_data_has_no_significant_gap() {
     let (_dir, c) = campaign(Effects::none(), 21);
