@@ -140,7 +140,12 @@ fn names_aging_absorbed_by_the_base_fit_in_the_full_design() {
     assert_eq!(d.verdict, Verdict::Effect, "{msg}");
     assert_eq!(d.best_effect, Some(EffectKind::Aging), "{msg}");
     assert!(d.reduction >= 0.7, "{msg}");
-    let b = d.ranking[0].fit.model.effects.get(EffectKind::Aging, "b").unwrap();
+    let b = d.ranking[0]
+        .fit
+        .model
+        .effects
+        .get(EffectKind::Aging, "b")
+        .unwrap();
     let truth = fx.get(EffectKind::Aging, "b").unwrap();
     assert!((b / truth - 1.0).abs() < 0.1, "b {b} against {truth}");
 }
