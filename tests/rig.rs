@@ -284,8 +284,10 @@ fn rig_actuator_and_screw_error_are_both_named() {
     assert_eq!(named, ["actuator_response", "drive_ripple"], "{r}");
 }
 
+/// A known miss at this code: `unexplained`, ageing's held-out evidence uneven over the 16
+/// recordings (docs/campaigns.md, the panel paragraph). The assertion is the verdict wanted.
 #[test]
-#[ignore = "part of the whole panel; left out of .ci/run for its time budget"]
+#[ignore = "fails at this code (a known miss, docs/campaigns.md); part of the whole panel"]
 fn rig_sensor_and_slip_law_ageing() {
     right_on("sensor+aging");
 }
