@@ -1452,7 +1452,9 @@ pub fn starts(target: &Target, base: &FitResult, kind: EffectKind) -> Vec<Model>
         let v_mean =
             target.recs.iter().map(|r| r.params.v_d).sum::<f64>() / target.recs.len() as f64;
         let nominal = Params::default();
-        let age = typical_stick_time(target);
+        let age = (kind == EffectKind::Aging)
+            .then(|| typical_stick_time(target))
+            .flatten();
         for g in grid {
             let mut m = m0.clone();
             for &(n, v) in &g {
@@ -1469,10 +1471,12 @@ pub fn starts(target: &Target, base: &FitResult, kind: EffectKind) -> Vec<Model>
             // the campaign's typical contact age, and any ageing added on top of it overshoots.
             // Its grid is scanned with F_s lowered to keep that level as well.
             if kind == EffectKind::Aging
-                && let Some(age) = age
+                && let (Some(age), Some(b), Some(theta_0)) = (
+                    age,
+                    m.effects.get(kind, "b"),
+                    m.effects.get(kind, "theta_0"),
+                )
             {
-                let b = m.effects.get(kind, "b").unwrap_or(0.0);
-                let theta_0 = m.effects.get(kind, "theta_0").unwrap_or(0.01);
                 let mut ma = m.clone();
                 ma.f_s = (m.f_s / (1.0 + b * (age / theta_0).ln_1p())).max(m.f_c);
                 candidates.push(ma);
@@ -1503,17 +1507,15 @@ pub fn starts(target: &Target, base: &FitResult, kind: EffectKind) -> Vec<Model>
 /// contact age at a typical breakaway, to which a base fit's `F_s` absorbs dwell-time ageing.
 /// `None` where no unit has both.
 fn typical_stick_time(target: &Target) -> Option<f64> {
-    let mut t: Vec<f64> = target
-        .measured
-        .iter()
-        .map(|m| m.get(Feature::Period) - m.get(Feature::SlipTime))
-        .filter(|v| v.is_finite() && *v > 0.0)
-        .collect();
-    if t.is_empty() {
-        return None;
-    }
-    t.sort_by(f64::total_cmp);
-    Some(t[t.len() / 2])
+    let t = super::check::median(
+        target
+            .measured
+            .iter()
+            .map(|m| m.get(Feature::Period) - m.get(Feature::SlipTime))
+            .filter(|v| v.is_finite() && *v > 0.0)
+            .collect(),
+    );
+    t.is_finite().then_some(t)
 }
 
 /// The forcing frequencies of `sub`'s vibrated units, sorted, each once.
