@@ -26,6 +26,8 @@ use crate::sweep::spec::logspace;
 use faer::Mat;
 use faer::linalg::solvers::{Solve, SolveLstsq};
 use rayon::prelude::*;
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex};
 
 /// The base parameters a calibration fits.
 pub const BASE_FITTED: [&str; 4] = ["F_s", "F_c", "v_s", "h_d"];
@@ -447,6 +449,80 @@ pub struct Target<'a> {
     /// The plausible ranges of the effects' fitted parameters, derived from the whole
     /// campaign's recordings (a subset keeps the campaign's: [`Plausible::of`]).
     pub bounds: Plausible,
+    /// Simulated features already computed, shared with every subset ([`Target::sub`]).
+    cache: Arc<SimCache>,
+}
+
+/// Features of simulations already run, by recording and by the model as it acts on that
+/// recording ([`SimCache::key`]): a fit's Jacobian column of a parameter that cannot act on a
+/// recording, a scan's reference recordings, a model evaluated twice, cost a lookup instead of a
+/// simulation. A hit returns exactly what the simulation would (it is deterministic), so results
+/// do not depend on what the cache holds or on the order threads fill it.
+#[derive(Default)]
+struct SimCache {
+    map: Mutex<HashMap<(usize, Vec<u64>), Vec<FeatureSet>>>,
+    /// The measured features of each recording ([`measured_features`]), by recording.
+    measured: Mutex<HashMap<usize, Vec<FeatureSet>>>,
+}
+
+impl SimCache {
+    /// Cache entries at most: beyond, new simulations are not kept (a diagnosis of 30
+    /// recordings fills a few thousand).
+    const CAPACITY: usize = 200_000;
+
+    /// The model as it acts on `rec`, and its key. Without vibration (`u0 = 0`) the actuator's
+    /// gain multiplies a zero amplitude and the load modulation `1 + c u0 sin(..)` is exactly 1,
+    /// so their parameters are set to their defaults: the simulation is bit for bit the same.
+    fn key(model: &Model, rec: &Recording) -> (Model, (usize, Vec<u64>)) {
+        let mut m = model.clone();
+        if rec.params.u0 == 0.0 {
+            for (k, v) in m.effects.list.iter_mut() {
+                if matches!(k, EffectKind::ActuatorResponse | EffectKind::NormalCoupling) {
+                    for (x, p) in v.iter_mut().zip(k.info().params) {
+                        *x = p.default;
+                    }
+                }
+            }
+        }
+        let mut bits = vec![
+            m.f_s.to_bits(),
+            m.f_c.to_bits(),
+            m.v_s.to_bits(),
+            m.h_d.to_bits(),
+        ];
+        for (k, v) in &m.effects.list {
+            bits.push(*k as u64);
+            bits.extend(v.iter().map(|x| x.to_bits()));
+        }
+        (m, (rec as *const Recording as usize, bits))
+    }
+
+    /// The measured features of `rec`, computed where not cached.
+    fn measured(&self, rec: &Recording) -> Vec<FeatureSet> {
+        let key = rec as *const Recording as usize;
+        let lock = || self.measured.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(f) = lock().get(&key) {
+            return f.clone();
+        }
+        let f = measured_features(rec);
+        lock().insert(key, f.clone());
+        f
+    }
+
+    /// The features of `rec` under `model`, simulated where not cached.
+    fn features(&self, model: &Model, rec: &Recording, solvers: &mut Solvers) -> Vec<FeatureSet> {
+        let (m, key) = Self::key(model, rec);
+        let lock = || self.map.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(f) = lock().get(&key) {
+            return f.clone();
+        }
+        let f = predict_one(&m, rec, solvers);
+        let mut map = lock();
+        if map.len() < Self::CAPACITY {
+            map.insert(key, f.clone());
+        }
+        f
+    }
 }
 
 fn same_drive(a: &Params, b: &Params) -> bool {
@@ -514,7 +590,7 @@ impl<'a> Target<'a> {
     /// Prepares recordings for fitting, with the plausible ranges of the effects' parameters
     /// derived from them ([`Plausible::of`]).
     pub fn new(recs: Vec<&'a Recording>) -> Target<'a> {
-        let mut t = Target::with_bounds(recs, Plausible::default());
+        let mut t = Target::with_bounds(recs, Plausible::default(), Arc::default());
         t.bounds = Plausible::of(&t);
         t
     }
@@ -522,11 +598,15 @@ impl<'a> Target<'a> {
     /// A subset of this target's recordings, with this target's plausible ranges: the bounds of
     /// a fit are the campaign's, whichever recordings it is scored on.
     pub fn sub(&self, recs: Vec<&'a Recording>) -> Target<'a> {
-        Target::with_bounds(recs, self.bounds.clone())
+        Target::with_bounds(recs, self.bounds.clone(), Arc::clone(&self.cache))
     }
 
-    fn with_bounds(recs: Vec<&'a Recording>, bounds: Plausible) -> Target<'a> {
-        let per: Vec<Vec<FeatureSet>> = recs.par_iter().map(|r| measured_features(r)).collect();
+    fn with_bounds(
+        recs: Vec<&'a Recording>,
+        bounds: Plausible,
+        cache: Arc<SimCache>,
+    ) -> Target<'a> {
+        let per: Vec<Vec<FeatureSet>> = recs.par_iter().map(|r| cache.measured(r)).collect();
         let mut units = vec![];
         let mut measured = vec![];
         for (i, (r, fs)) in recs.iter().zip(per).enumerate() {
@@ -573,6 +653,7 @@ impl<'a> Target<'a> {
             measured,
             reference,
             bounds,
+            cache,
         }
     }
 
@@ -586,7 +667,7 @@ impl<'a> Target<'a> {
         let per: Vec<Vec<FeatureSet>> = self
             .recs
             .par_iter()
-            .map_init(Solvers::default, |s, r| predict_one(model, r, s))
+            .map_init(Solvers::default, |s, r| self.cache.features(model, r, s))
             .collect();
         let mut out: Vec<FeatureSet> = per.into_iter().flatten().collect();
         debug_assert_eq!(out.len(), self.units.len());
