@@ -2016,6 +2016,65 @@ fn ripple_from_drive(recs: &[&Recording]) -> Option<(f64, f64)> {
 mod tests {
     use super::*;
 
+    /// What the simulation cache relies on: without vibration the actuator's and the load
+    /// modulation's parameters do not act, so a model with them at any value simulates a
+    /// resting recording bit for bit as with them at their defaults (the cache's key), and a
+    /// cached prediction equals a fresh one. With vibration they act, and the key keeps them.
+    #[test]
+    fn parameters_inert_without_vibration_give_the_same_simulation() {
+        let rest = Params::default().without_vibration();
+        let n = 3000;
+        let rec = |p: Params| Recording {
+            name: "r".into(),
+            params: p,
+            t: (0..n).map(|i| i as f64 * 2e-4).collect(),
+            f_d: vec![0.0; n],
+            x_s: None,
+            x_d: None,
+        };
+        let mut m = Model::default();
+        m.effects
+            .set(EffectKind::ActuatorResponse, "f_r", 900.0)
+            .unwrap();
+        m.effects
+            .set(EffectKind::ActuatorResponse, "zeta", 0.05)
+            .unwrap();
+        m.effects
+            .set(EffectKind::NormalCoupling, "k_n", 3e7)
+            .unwrap();
+        m.effects
+            .set(EffectKind::NormalCoupling, "phase", 60.0)
+            .unwrap();
+        let mut s = Solvers::default();
+        let resting = rec(rest);
+        let (canonical, _) = SimCache::key(&m, &resting);
+        assert_ne!(
+            canonical.effects, m.effects,
+            "the defaults differ from the values set"
+        );
+        let a = simulate(&m, &resting, &mut s).expect("runs");
+        let b = simulate(&canonical, &resting, &mut s).expect("runs");
+        assert_eq!(a.f_d, b.f_d);
+        assert_eq!(a.x_s, b.x_s);
+        let vibrated = rec(Params {
+            f: 2000.0,
+            u0: 5e-8,
+            ..Params::default()
+        });
+        assert!(vibrated.vibrates());
+        let (kept, _) = SimCache::key(&m, &vibrated);
+        assert_eq!(kept.effects, m.effects);
+        let a = simulate(&m, &vibrated, &mut s).expect("runs");
+        let b = simulate(&SimCache::key(&m, &resting).0, &vibrated, &mut s).expect("runs");
+        assert_ne!(a.f_d, b.f_d, "with vibration the parameters act");
+        let cache = SimCache::default();
+        let first = cache.features(&m, &vibrated, &mut s);
+        let again = cache.features(&m, &vibrated, &mut s);
+        let fresh = predict_one(&m, &vibrated, &mut s);
+        assert_eq!(format!("{first:?}"), format!("{fresh:?}"));
+        assert_eq!(format!("{again:?}"), format!("{fresh:?}"));
+    }
+
     /// The linearised minimum is the part of `z` outside the span of the Jacobian's columns:
     /// `z = (1, 2, 3)` against the first two unit vectors leaves `(0, 0, 3)`, gap `√3`; a
     /// repeated column (a coordinate the residuals do not tell apart from another) changes
