@@ -95,6 +95,12 @@ pub struct Check {
 }
 
 impl Check {
+    /// Whether the family looks at the recorded traces themselves (the ringing), rather than
+    /// at held-out features (`held_out_*`, see `diagnose`).
+    pub fn of_trace(&self) -> bool {
+        !self.family.starts_with("held_out")
+    }
+
     /// One line for the summary.
     pub fn line(&self) -> String {
         match self.seen {
@@ -242,7 +248,7 @@ fn band_energies(y: &[f64], dt: f64, freq: f64, out: &mut [f64]) {
 }
 
 /// The outcome of one family from the standardised departures `(d_obs, d_pred)`.
-fn judge(family: &'static str, what: &'static str, pairs: &[(f64, f64)]) -> Check {
+pub(super) fn judge(family: &'static str, what: &'static str, pairs: &[(f64, f64)]) -> Check {
     let spp: f64 = pairs.iter().map(|p| p.1 * p.1).sum();
     let strength = spp.sqrt();
     let mut c = Check {

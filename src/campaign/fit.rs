@@ -125,6 +125,9 @@ impl Coord {
 /// The fitted coordinates: `F_s`, `F_c`, `v_s` and `h_d`, and the effects' fitted parameters.
 /// The base parameters are refitted with every effect: an effect left out of the base model
 /// is partly absorbed by them (viscous friction by the drive damping `h_d`, ageing by `F_s`).
+/// Base parameters every fit fits, first among its coordinates: `F_s`, `F_c`, `v_s`, `h_d`.
+pub const BASE_COORDS: usize = 4;
+
 fn coords(bounds: &Plausible, effects: &[EffectKind]) -> Vec<Coord> {
     let base = |i: usize, name: &str, unit, log, lo: f64, hi: f64, step| Coord {
         name: name.to_string(),
@@ -141,6 +144,7 @@ fn coords(bounds: &Plausible, effects: &[EffectKind]) -> Vec<Coord> {
         base(2, "v_s", "m/s", true, 1e-6f64.ln(), 0.1f64.ln(), 0.05),
         base(3, "h_d", "N s/m", false, 0.0, 200.0, 1.0),
     ];
+    debug_assert_eq!(c.len(), BASE_COORDS);
     for &k in effects {
         for (i, p) in k.info().params.iter().enumerate() {
             if !p.fitted {
@@ -1318,6 +1322,20 @@ pub fn refit_rows(
     keep: &[bool],
     step: f64,
 ) -> Model {
+    refit_rows_from(bounds, fr, start, keep, 0, step)
+}
+
+/// [`refit_rows`] with the fitted coordinates before `first_free` held at the fit's values
+/// (their columns left out of the step): the base parameters come first, then each effect's,
+/// in the order of [`FitResult::effects`].
+pub fn refit_rows_from(
+    bounds: &Plausible,
+    fr: &FitResult,
+    start: &Model,
+    keep: &[bool],
+    first_free: usize,
+    step: f64,
+) -> Model {
     let cs = coords(bounds, &fr.effects);
     let p = cs.len();
     let rows: Vec<usize> = (0..keep.len()).filter(|&i| keep[i]).collect();
@@ -1338,7 +1356,11 @@ pub fn refit_rows(
             .collect();
         let a = Mat::from_fn(m + p, p, |i, j| {
             if i < m {
-                fr.jacobian[(rows[i], j)]
+                if j < first_free {
+                    0.0
+                } else {
+                    fr.jacobian[(rows[i], j)]
+                }
             } else if i - m == j {
                 (REFIT_DAMPING * diag[j]).sqrt()
             } else {
