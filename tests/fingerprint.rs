@@ -1,10 +1,12 @@
 //! The fingerprint checks of `diagnose` (`campaign::fingerprint`) on campaigns whose truth is
 //! known: a force sensor that rings shows its ringing after slips, a slow sensor that a
 //! campaign does not have predicts a ringing the recordings do not show, and an effect that does
-//! not act on the spectrum after slips is not judged by it.
+//! not act on the spectrum after slips is not judged by it; and the held-out feature families
+//! carry a true sensor and not a stand-in.
 
+use stickslip::campaign::diagnose::held_out_families;
 use stickslip::campaign::fingerprint::{Seen, check};
-use stickslip::campaign::fit::Model;
+use stickslip::campaign::fit::{self, FitOptions, FitResult, Model, Target};
 use stickslip::campaign::synth::{Design, SynthSpec, synth};
 use stickslip::campaign::{Campaign, Recording};
 use stickslip::model::{EffectKind, Effects};
@@ -65,4 +67,44 @@ fn a_sensor_the_campaign_lacks_is_absent_and_ageing_is_not_judged_by_ringing() {
     let aging = model(&[(EffectKind::Aging, &[("b", 0.05)])]);
     let checks = check(&recs(&c), &Model::default(), &aging);
     assert_ne!(checks[0].seen, Seen::Absent, "{}", checks[0].line());
+}
+
+/// The model `m` with the effects `effects` as a fit at `m` itself (no iteration; its
+/// Jacobian differenced there), on every recording of `all`.
+fn at(all: &Target, m: &Model, effects: &[EffectKind]) -> FitResult {
+    let opts = FitOptions {
+        max_iter: 0,
+        ..FitOptions::default()
+    };
+    fit::with_fresh_jacobian(all, fit::fit(all, m, effects, opts))
+}
+
+/// Held-out feature families (`diagnose`'s check of a named effect on each family left out of
+/// its fit). The true sensor (60 Hz, ζ = 0.05) against the true base model carries every family
+/// it can be tested on: none absent, one present at least. On an effect-free campaign a slow
+/// sensor (30 Hz, ζ = 0.15, a stand-in as a fit for another physics may find) predicts
+/// departures the held-out families do not carry: none present, one absent at least.
+#[test]
+fn held_out_families_carry_a_true_sensor_and_not_a_stand_in() {
+    let sensor: &[(&str, f64)] = &[("f_n", 60.0), ("zeta", 0.05)];
+    let truth = model(&[(EffectKind::SensorDynamics, sensor)]);
+    let (_d, c) = campaign(truth.effects.clone(), 5);
+    let all = Target::new(recs(&c));
+    let base = at(&all, &Model::default(), &[]);
+    let cand = at(&all, &truth, &[EffectKind::SensorDynamics]);
+    let checks = held_out_families(&all, &base, &cand);
+    let lines: Vec<String> = checks.iter().map(|c| c.line()).collect();
+    assert_eq!(checks.len(), 3, "{lines:#?}");
+    assert!(checks.iter().all(|c| c.seen != Seen::Absent), "{lines:#?}");
+    assert!(checks.iter().any(|c| c.seen == Seen::Present), "{lines:#?}");
+
+    let (_d, c) = campaign(Effects::none(), 6);
+    let all = Target::new(recs(&c));
+    let base = at(&all, &Model::default(), &[]);
+    let slow = model(&[(EffectKind::SensorDynamics, &[("f_n", 30.0), ("zeta", 0.15)])]);
+    let cand = at(&all, &slow, &[EffectKind::SensorDynamics]);
+    let checks = held_out_families(&all, &base, &cand);
+    let lines: Vec<String> = checks.iter().map(|c| c.line()).collect();
+    assert!(checks.iter().all(|c| c.seen != Seen::Present), "{lines:#?}");
+    assert!(checks.iter().any(|c| c.seen == Seen::Absent), "{lines:#?}");
 }

@@ -62,6 +62,12 @@
 //! can test it, only where one of them is present in the recordings ([`fingerprint`]): beside
 //! a first effect of another form than the data's, any candidate can take up part of that
 //! form's misfit.
+//!
+//! **Fingerprints.** Every candidate the rule would name or tie is checked on the recorded
+//! traces ([`fingerprint`]: the ringing after slips; absent rejects it) and on each feature
+//! family of [`FAMILIES`] held out of its fit ([`held_out_families`]; absent names it only as
+//! partial, with a warning, [`held_out_absent`]). A second effect needs a trace fingerprint
+//! present where one can test it.
 
 use super::features::{FEATURES, Feature, N_FEATURES, PHASES};
 use super::fit::{self, FitOptions, FitResult, Model, Target};
@@ -259,10 +265,11 @@ pub struct Ranked {
     pub concentrated: Option<(Feature, f64, usize)>,
     /// Wall time of its scan, fit and cross-validation \[s\].
     pub wall_time: f64,
-    /// Its fingerprints checked against the recordings ([`fingerprint::check`]): for a
-    /// candidate the decision reached (named, tied or rejected), empty for the others.
+    /// Its fingerprints checked against the recordings ([`fingerprint::check`]) and its
+    /// held-out feature families ([`held_out_families`]): for a candidate the decision reached
+    /// (named, tied or rejected), empty for the others.
     pub fingerprints: Vec<fingerprint::Check>,
-    /// Why it is not named although its evidence would name it: a fingerprint absent.
+    /// Why it is not named although its evidence would name it: a trace fingerprint absent.
     pub rejected: Option<String>,
 }
 
@@ -1232,7 +1239,11 @@ fn refit_without(all: &Target, fr: &FitResult, keep: &[bool], first_free: usize)
 /// family alone (`vetted`). A family the full fits tell apart by less than
 /// [`fingerprint::MIN_STRENGTH`] is not testable, and not refitted. Rows of failed runs
 /// (|z| of 1000) are left out.
-fn held_out_families(all: &Target, from: &FitResult, cand: &FitResult) -> Vec<fingerprint::Check> {
+pub fn held_out_families(
+    all: &Target,
+    from: &FitResult,
+    cand: &FitResult,
+) -> Vec<fingerprint::Check> {
     let fam: Vec<usize> = all.row_features().into_iter().map(family_of).collect();
     let n = fam.len();
     if from.z.len() != n || cand.z.len() != n {
