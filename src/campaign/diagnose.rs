@@ -66,7 +66,7 @@
 //! **Fingerprints.** Every candidate the rule would name or tie is checked on the recorded
 //! traces ([`fingerprint`]: the ringing after slips; absent rejects it) and on each feature
 //! family of [`FAMILIES`] held out of its fit ([`held_out_families`]; absent names it only as
-//! partial, with a warning, [`held_out_absent`]). A second effect needs a trace fingerprint
+//! partial, with a warning, `held_out_absent`). A second effect needs a trace fingerprint
 //! present where one can test it.
 
 use super::features::{FEATURES, Feature, N_FEATURES, PHASES};
@@ -1224,7 +1224,7 @@ fn refit_without(all: &Target, fr: &FitResult, keep: &[bool], first_free: usize)
 
 /// The held-out feature families of candidate `cand` against the model `from` it extends
 /// (both fitted on every recording of `all`): per family of [`FAMILIES`], the candidate's own
-/// parameters are refitted without that family's rows ([`refit_without`]; the parameters it
+/// parameters are refitted without that family's rows (`refit_without`; the parameters it
 /// shares with `from` held at its fit's values) and judged on those rows as the trace
 /// fingerprints are ([`fingerprint`]'s rule), with `d_obs = −z_from` and
 /// `d_pred = z_cand − z_from` per held-out row (`z` in standard errors): the share of the

@@ -29,7 +29,8 @@
 //! could show), `absent` where `β + 2 SE <` [`PRESENT_SHARE`] (less than that share of the
 //! predicted departure is there, at two standard errors), `present` where `β − 2 SE >`
 //! [`PRESENT_SHARE`], else `inconclusive`. A candidate with an absent fingerprint is not named
-//! (`diagnose`).
+//! (`diagnose`). The same rule (`judge`) judges `diagnose`'s held-out feature families
+//! (`held_out_families`), whose pairs are feature residuals instead of trace statistics.
 
 use super::features::{smooth, zigzag};
 use super::fit::{Model, simulate};

@@ -2055,18 +2055,14 @@ mod tests {
             x_d: None,
         };
         let mut m = Model::default();
-        m.effects
-            .set(EffectKind::ActuatorResponse, "f_r", 900.0)
-            .unwrap();
-        m.effects
-            .set(EffectKind::ActuatorResponse, "zeta", 0.05)
-            .unwrap();
-        m.effects
-            .set(EffectKind::NormalCoupling, "k_n", 3e7)
-            .unwrap();
-        m.effects
-            .set(EffectKind::NormalCoupling, "phase", 60.0)
-            .unwrap();
+        for (k, name, v) in [
+            (EffectKind::ActuatorResponse, "f_r", 900.0),
+            (EffectKind::ActuatorResponse, "zeta", 0.05),
+            (EffectKind::NormalCoupling, "k_n", 3e7),
+            (EffectKind::NormalCoupling, "phase", 60.0),
+        ] {
+            m.effects.set(k, name, v).unwrap();
+        }
         let mut s = Solvers::default();
         let resting = rec(rest);
         let (canonical, _) = SimCache::key(&m, &resting);
