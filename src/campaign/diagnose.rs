@@ -55,8 +55,9 @@
 //!   ([`fit::Plausible`], [`fit::at_bounds`]; with a warning).
 //!
 //! After a named effect, its fit is polished further from its optimum ([`fit::refine`], on its
-//! Jacobian there); where that fit converged inside its plausible range and a significant gap
-//! remains, every other candidate is fitted together with it (forward selection), and a second
+//! Jacobian there); where that fit converged inside its plausible range, carries every feature
+//! family held out of it ([`held_out_families`]) and a significant gap remains, every other
+//! candidate is fitted together with it (forward selection), and a second
 //! effect is named by the same rule against the first (at least [`MIN_SECOND`] of the gap the
 //! first leaves; a tie among seconds names none, with a warning), and, where its fingerprints
 //! can test it, only where one of them is present in the recordings ([`fingerprint`]): beside
@@ -1437,17 +1438,22 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
                 first.effect.name()
             ));
         }
-        // A second effect only beside a converged first one inside its plausible range: else
-        // the second would be credited with what the first's fit has not reached.
-        let first_settled = first_fit.converged && first_bounds.is_empty();
+        // A second effect only beside a converged first one inside its plausible range that
+        // carries every feature family held out of it: else the second would be credited with
+        // what the first's fit has not reached (a resonance fitted off its value, which trades
+        // one family for the others, leaves a misfit any candidate can take up part of).
+        let first_settled =
+            first_fit.converged && first_bounds.is_empty() && first_absent.is_none();
         if !first_settled && first_cv.gap >= SIGNIFICANT_GAP {
             warnings.push(format!(
                 "no second effect tried: the fit of {} {}",
                 first.effect.name(),
-                if first_bounds.is_empty() {
+                if !first_bounds.is_empty() {
+                    "ends on a bound"
+                } else if !first_fit.converged {
                     "did not converge"
                 } else {
-                    "ends on a bound"
+                    "does not carry a feature family held out of it"
                 }
             ));
         }
