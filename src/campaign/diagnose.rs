@@ -529,6 +529,39 @@ struct CrossValidated {
     per_feature_bias: Vec<(f64, f64, usize)>,
 }
 
+/// The residuals, on every row of `all`, of fit `fr` refitted to the rows `keep` marks, its
+/// fitted coordinates before `first_free` held (0: none; `template` gives the model's other
+/// values): one damped Gauss–Newton step from its optimum on those rows of its Jacobian
+/// ([`fit::refit_rows`]), at full, half or quarter length, the first that does not raise
+/// the kept rows' cost; where each raises it, no step: the fit's own residuals (also where its
+/// residuals or Jacobian do not match the rows). A fold's refit, and a held-out family's.
+fn refit_without(
+    all: &Target,
+    fr: &FitResult,
+    template: &Model,
+    keep: &[bool],
+    first_free: usize,
+) -> Vec<f64> {
+    let cost = |z: &[f64]| -> f64 {
+        z.iter()
+            .zip(keep)
+            .filter(|(_, k)| **k)
+            .map(|(v, _)| v * v)
+            .sum()
+    };
+    if fr.z.len() == keep.len() && fr.jacobian.nrows() == keep.len() {
+        let before = cost(&fr.z);
+        for step in [1.0, 0.5, 0.25] {
+            let m = fit::refit_rows(&all.bounds, fr, template, keep, first_free, step);
+            let z = all.residuals(&all.predict(&m));
+            if z.len() == keep.len() && cost(&z) <= before * (1.0 + 1e-9) {
+                return z;
+            }
+        }
+    }
+    fr.z.clone()
+}
+
 fn cross_validate(
     all: &Target,
     fr: &FitResult,
@@ -548,41 +581,12 @@ fn cross_validate(
     let mut feat_far = vec![vec![]; N_FEATURES];
     let mut pooled = vec![];
     let mut fold_gaps = vec![];
-    let same_layout = row_rec.len() == fr.z.len();
     for k in 0..k_folds {
         if !(0..n).any(|i| fold[i] == k && checked[i]) {
             continue;
         }
         let keep: Vec<bool> = row_rec.iter().map(|&r| fold[r] != k).collect();
-        let cal_cost = |z: &[f64]| -> f64 {
-            z.iter()
-                .zip(&keep)
-                .filter(|(_, k)| **k)
-                .map(|(v, _)| v * v)
-                .sum()
-        };
-        let base_cost = cal_cost(&fr.z);
-        // One damped Gauss–Newton step on the fold's rows, tried at full, half and quarter
-        // length; where each raises their cost, no step: the full fit itself.
-        let mut z = None;
-        for step in [1.0, 0.5, 0.25] {
-            let m = if same_layout {
-                fit::refit_rows(&all.bounds, fr, start, &keep, step)
-            } else {
-                fr.model.clone()
-            };
-            let zs = all.residuals(&all.predict(&m));
-            if zs.len() != row_rec.len() {
-                // A failed run: its recordings count as far off.
-                z = Some(vec![1e3; row_rec.len()]);
-                break;
-            }
-            if cal_cost(&zs) <= base_cost * (1.0 + 1e-9) {
-                z = Some(zs);
-                break;
-            }
-        }
-        let z = z.unwrap_or_else(|| fr.z.clone());
+        let z = refit_without(all, fr, start, &keep, 0);
         // One pass over the held-out rows: each feature's and each recording's squares.
         let mut fz = vec![];
         let mut rec_z: Vec<Vec<f64>> = vec![vec![]; n];
@@ -1196,33 +1200,6 @@ pub fn family_of(f: Feature) -> usize {
     }
 }
 
-/// The residuals, on every row of `all`, of candidate fit `fr` with its own parameters (its
-/// fitted coordinates from `first_free` on) refitted to the rows `keep` marks, the others held:
-/// one damped Gauss–Newton step from its optimum on those rows of its Jacobian
-/// ([`fit::refit_rows_from`], as a fold's refit), at full, half or quarter length, the first
-/// that does not raise the kept rows' cost; the fit's own residuals where none does (or its
-/// Jacobian does not match the rows).
-fn refit_without(all: &Target, fr: &FitResult, keep: &[bool], first_free: usize) -> Vec<f64> {
-    let cost = |z: &[f64]| -> f64 {
-        z.iter()
-            .zip(keep)
-            .filter(|(_, k)| **k)
-            .map(|(v, _)| v * v)
-            .sum()
-    };
-    if fr.z.len() == keep.len() && fr.jacobian.nrows() == keep.len() {
-        let before = cost(&fr.z);
-        for step in [1.0, 0.5, 0.25] {
-            let m = fit::refit_rows_from(&all.bounds, fr, &fr.model, keep, first_free, step);
-            let z = all.residuals(&all.predict(&m));
-            if z.len() == keep.len() && cost(&z) <= before * (1.0 + 1e-9) {
-                return z;
-            }
-        }
-    }
-    fr.z.clone()
-}
-
 /// The held-out feature families of candidate `cand` against the model `from` it extends
 /// (both fitted on every recording of `all`): per family of [`FAMILIES`], the candidate's own
 /// parameters are refitted without that family's rows (`refit_without`; the parameters it
@@ -1251,7 +1228,7 @@ pub fn held_out_families(
         return vec![];
     }
     // The candidate's own coordinates: those beyond the ones of the model it extends.
-    let first_free = fit::BASE_COORDS + from.effect_params;
+    let first_free = fit::BASE_FITTED.len() + from.effect_params;
     let pairs = |zc: &[f64], k: usize| -> Vec<(f64, f64)> {
         (0..n)
             .filter(|&i| fam[i] == k && from.z[i].abs() < 1e3 && zc[i].abs() < 1e3)
@@ -1269,7 +1246,7 @@ pub fn held_out_families(
             continue;
         }
         let keep: Vec<bool> = fam.iter().map(|&f| f != k).collect();
-        let zc = refit_without(all, cand, &keep, first_free);
+        let zc = refit_without(all, cand, &cand.model, &keep, first_free);
         out.push(fingerprint::judge(family, what, &pairs(&zc, k)));
     }
     out

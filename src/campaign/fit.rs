@@ -125,9 +125,6 @@ impl Coord {
 /// The fitted coordinates: `F_s`, `F_c`, `v_s` and `h_d`, and the effects' fitted parameters.
 /// The base parameters are refitted with every effect: an effect left out of the base model
 /// is partly absorbed by them (viscous friction by the drive damping `h_d`, ageing by `F_s`).
-/// Base parameters every fit fits, first among its coordinates: `F_s`, `F_c`, `v_s`, `h_d`.
-pub const BASE_COORDS: usize = 4;
-
 fn coords(bounds: &Plausible, effects: &[EffectKind]) -> Vec<Coord> {
     let base = |i: usize, name: &str, unit, log, lo: f64, hi: f64, step| Coord {
         name: name.to_string(),
@@ -144,7 +141,7 @@ fn coords(bounds: &Plausible, effects: &[EffectKind]) -> Vec<Coord> {
         base(2, "v_s", "m/s", true, 1e-6f64.ln(), 0.1f64.ln(), 0.05),
         base(3, "h_d", "N s/m", false, 0.0, 200.0, 1.0),
     ];
-    debug_assert_eq!(c.len(), BASE_COORDS);
+    debug_assert_eq!(c.len(), BASE_FITTED.len());
     for &k in effects {
         for (i, p) in k.info().params.iter().enumerate() {
             if !p.fitted {
@@ -1314,21 +1311,11 @@ fn estimates(cs: &[Coord], theta: &[f64], cost: f64, jac: &Mat<f64>) -> Vec<Esti
 /// `step` times `δ` (the caller halves it where the subset's cost rises). At the full optimum
 /// the gradient of the whole cost vanishes, so the subset's optimum lies where the left-out
 /// rows pulled it from, which one Gauss–Newton step finds to first order; the damping keeps
-/// directions that only the left-out rows determine where they are.
+/// directions that only the left-out rows determine where they are. The fitted coordinates
+/// before `first_free` are held at the fit's values (their columns left out of the step; 0:
+/// none): the base parameters ([`BASE_FITTED`]) come first, then each effect's, in the order of
+/// [`FitResult::effects`].
 pub fn refit_rows(
-    bounds: &Plausible,
-    fr: &FitResult,
-    start: &Model,
-    keep: &[bool],
-    step: f64,
-) -> Model {
-    refit_rows_from(bounds, fr, start, keep, 0, step)
-}
-
-/// [`refit_rows`] with the fitted coordinates before `first_free` held at the fit's values
-/// (their columns left out of the step): the base parameters come first, then each effect's,
-/// in the order of [`FitResult::effects`].
-pub fn refit_rows_from(
     bounds: &Plausible,
     fr: &FitResult,
     start: &Model,
