@@ -126,14 +126,61 @@ impl Check {
 /// One statistic of a trace.
 #[derive(Clone, Copy, Debug)]
 struct Stat {
-    /// (stage, band).
-    key: (usize, usize),
+    /// (family, stage, index within the family's statistics of the stage).
+    key: (usize, usize, usize),
     value: f64,
     se: f64,
 }
 
-/// The ringing statistics of a force trace sampled like `rec` (see the module docs).
-fn ringing(rec: &Recording, f_d: &[f64]) -> Vec<Stat> {
+/// The trace families, in the order [`Reference::check`] reports them: name and what it looks
+/// at.
+pub const TRACE_FAMILIES: [(&str, &str); 4] = [
+    (
+        "ringing",
+        "the force's spectrum after slips against before them",
+    ),
+    (
+        "breakaway_phase",
+        "the phase of the vibration at which the slips start",
+    ),
+    (
+        "stick_time",
+        "the breakaway force and the drop against the stick time before them, slip by slip",
+    ),
+    (
+        "position",
+        "the breakaway force along the drive's travel, slip by slip",
+    ),
+];
+
+/// Fewest slips in a stage for the families read slip by slip (`breakaway_phase`,
+/// `stick_time`, `position`).
+pub const MIN_SLIPS: usize = 6;
+
+/// Wavenumbers over the analysed travel that the `position` family reads (at most a quarter of
+/// the stage's slips).
+pub const POSITION_WAVES: usize = 4;
+
+/// One slip of a stage, indices into the stage's samples.
+#[derive(Clone, Copy, Debug)]
+struct Slip {
+    /// Re-stick before (the trough ending the previous slip), as recorded.
+    start: usize,
+    /// Breakaway, as recorded.
+    peak: usize,
+    /// Re-stick after.
+    trough: usize,
+    /// The next breakaway (or the stage's end).
+    next: usize,
+    /// Smoothed force at the breakaway and at the re-stick after \[N\].
+    f_peak: f64,
+    f_trough: f64,
+}
+
+/// The slips of each stage of a force trace sampled like `rec`: `(stage index, stage, slips)`,
+/// read in the stage's second half (as the features are) from the trace smoothed over a
+/// vibration period (1 ms without vibration), its extremes that differ by 30 % of its range.
+fn slips_of(rec: &Recording, f_d: &[f64]) -> Vec<(usize, super::features::Stage, Vec<Slip>)> {
     let dt = rec.dt();
     let mut out = vec![];
     for (si, st) in super::features::stages(&rec.t, &rec.params)
@@ -156,17 +203,54 @@ fn ringing(rec: &Recording, f_d: &[f64]) -> Vec<Stat> {
         let lag = ((0.5 * w / dt).round() as usize).min(n);
         let raw = |i: usize| i.saturating_sub(lag);
         // Slips with the trough before (the stick it ends) and the stick after.
-        let slips: Vec<(usize, usize, usize, usize)> = (1..ext.len().saturating_sub(1))
+        let slips: Vec<Slip> = (1..ext.len().saturating_sub(1))
             .filter(|&k| ext[k].1)
-            .map(|k| {
-                let next = ext.get(k + 2).map_or(n, |e| raw(e.0));
-                (raw(ext[k - 1].0), raw(ext[k].0), raw(ext[k + 1].0), next)
+            .map(|k| Slip {
+                start: raw(ext[k - 1].0),
+                peak: raw(ext[k].0),
+                trough: raw(ext[k + 1].0),
+                next: ext.get(k + 2).map_or(n, |e| raw(e.0)),
+                f_peak: sm[ext[k].0],
+                f_trough: sm[ext[k + 1].0],
             })
             .collect();
+        out.push((si, st, slips));
+    }
+    out
+}
+
+/// Every trace statistic of a force trace sampled like `rec` (see the module docs).
+fn statistics(rec: &Recording, f_d: &[f64]) -> Vec<Stat> {
+    let slips = slips_of(rec, f_d);
+    let mut out = ringing(rec, f_d, &slips);
+    out.extend(breakaway_phase(rec, f_d, &slips));
+    out.extend(stick_time(rec, &slips));
+    out.extend(position(rec, &slips));
+    out
+}
+
+/// Mean and standard error of the mean.
+fn mean_se(x: &[f64]) -> (f64, f64) {
+    let n = x.len() as f64;
+    let m = x.iter().sum::<f64>() / n;
+    let var = x.iter().map(|v| (v - m).powi(2)).sum::<f64>() / (n - 1.0);
+    (m, (var / n).sqrt())
+}
+
+/// The ringing statistics (family 0; see the module docs).
+fn ringing(
+    rec: &Recording,
+    f_d: &[f64],
+    stages: &[(usize, super::features::Stage, Vec<Slip>)],
+) -> Vec<Stat> {
+    let dt = rec.dt();
+    let mut out = vec![];
+    for (si, st, slips) in stages {
         if slips.len() < 3 {
             continue;
         }
-        let mut sticks: Vec<usize> = slips.iter().map(|s| s.1 - s.0).collect();
+        let f = &f_d[st.lo..st.hi];
+        let mut sticks: Vec<usize> = slips.iter().map(|s| s.peak - s.start).collect();
         sticks.sort_unstable();
         let want = (0.4 * sticks[sticks.len() / 2] as f64) as usize;
         if want < MIN_WINDOW {
@@ -178,15 +262,15 @@ fn ringing(rec: &Recording, f_d: &[f64]) -> Vec<Stat> {
         let mut diffs: Vec<Vec<f64>> = vec![vec![]; levels];
         let mut post_e = vec![0.0; levels];
         let mut pre_e = vec![0.0; levels];
-        for &(t0, pk, tr, next) in &slips {
-            let Some(pre_start) = pk.checked_sub(margin + nw) else {
+        for s in slips {
+            let Some(pre_start) = s.peak.checked_sub(margin + nw) else {
                 continue;
             };
-            if pre_start < t0 || tr + nw > next {
+            if pre_start < s.start || s.trough + nw > s.next {
                 continue;
             }
             band_energies(&f[pre_start..pre_start + nw], dt, st.freq, &mut pre_e);
-            band_energies(&f[tr..tr + nw], dt, st.freq, &mut post_e);
+            band_energies(&f[s.trough..s.trough + nw], dt, st.freq, &mut post_e);
             for j in 0..levels {
                 diffs[j].push(post_e[j] - pre_e[j]);
             }
@@ -195,13 +279,151 @@ fn ringing(rec: &Recording, f_d: &[f64]) -> Vec<Stat> {
             if d.len() < 3 {
                 continue;
             }
-            let m = d.iter().sum::<f64>() / d.len() as f64;
-            let var = d.iter().map(|v| (v - m).powi(2)).sum::<f64>() / (d.len() - 1) as f64;
+            let (value, se) = mean_se(d);
             out.push(Stat {
-                key: (si, j),
-                value: m,
-                se: (var / d.len() as f64).sqrt(),
+                key: (0, *si, j),
+                value,
+                se,
             });
+        }
+    }
+    out
+}
+
+/// The `breakaway_phase` statistics (family 1; see the module docs).
+fn breakaway_phase(
+    rec: &Recording,
+    f_d: &[f64],
+    stages: &[(usize, super::features::Stage, Vec<Slip>)],
+) -> Vec<Stat> {
+    let dt = rec.dt();
+    let mut out = vec![];
+    for (si, st, slips) in stages {
+        if st.freq <= 0.0 || slips.len() < MIN_SLIPS {
+            continue;
+        }
+        let f = &f_d[st.lo..st.hi];
+        let period = 1.0 / (st.freq * dt);
+        let (mut c, mut s) = (vec![], vec![]);
+        for sl in slips {
+            // The largest recorded force within a period and a half before the smoothed
+            // breakaway and half a period after it, inside the stick and the slip.
+            let lo = sl
+                .peak
+                .saturating_sub((1.5 * period).ceil() as usize)
+                .max(sl.start);
+            let hi = (sl.peak + (0.5 * period).ceil() as usize + 1).min(sl.trough + 1);
+            let Some(i) = (lo..hi).max_by(|&a, &b| f[a].total_cmp(&f[b])) else {
+                continue;
+            };
+            let th = std::f64::consts::TAU * st.freq * rec.t[st.lo + i];
+            c.push(th.cos());
+            s.push(th.sin());
+        }
+        if c.len() < MIN_SLIPS {
+            continue;
+        }
+        for (j, x) in [c, s].iter().enumerate() {
+            let (value, se) = mean_se(x);
+            out.push(Stat {
+                key: (1, *si, j),
+                value,
+                se,
+            });
+        }
+    }
+    out
+}
+
+/// The least-squares slope of `y` on `x` and its standard error (None where `x` does not vary
+/// or there are too few points).
+fn slope(x: &[f64], y: &[f64]) -> Option<(f64, f64)> {
+    let n = x.len();
+    if n < 3 {
+        return None;
+    }
+    let (mx, my) = (
+        x.iter().sum::<f64>() / n as f64,
+        y.iter().sum::<f64>() / n as f64,
+    );
+    let sxx: f64 = x.iter().map(|v| (v - mx).powi(2)).sum();
+    let sxy: f64 = x.iter().zip(y).map(|(a, b)| (a - mx) * (b - my)).sum();
+    if !(sxx > 1e-12 * n as f64) {
+        return None;
+    }
+    let b = sxy / sxx;
+    let res: f64 = x
+        .iter()
+        .zip(y)
+        .map(|(a, c)| (c - my - b * (a - mx)).powi(2))
+        .sum();
+    Some((b, (res / (n - 2) as f64 / sxx).sqrt()))
+}
+
+/// The `stick_time` statistics (family 2; see the module docs).
+fn stick_time(rec: &Recording, stages: &[(usize, super::features::Stage, Vec<Slip>)]) -> Vec<Stat> {
+    let dt = rec.dt();
+    let mut out = vec![];
+    for (si, _, slips) in stages {
+        if slips.len() < MIN_SLIPS {
+            continue;
+        }
+        let x: Vec<f64> = slips
+            .iter()
+            .map(|s| (((s.peak - s.start).max(1)) as f64 * dt).ln())
+            .collect();
+        let peak: Vec<f64> = slips.iter().map(|s| s.f_peak).collect();
+        let drop: Vec<f64> = slips.iter().map(|s| s.f_peak - s.f_trough).collect();
+        for (j, y) in [peak, drop].iter().enumerate() {
+            if let Some((value, se)) = slope(&x, y) {
+                out.push(Stat {
+                    key: (2, *si, j),
+                    value,
+                    se,
+                });
+            }
+        }
+    }
+    out
+}
+
+/// The `position` statistics (family 3; see the module docs).
+fn position(rec: &Recording, stages: &[(usize, super::features::Stage, Vec<Slip>)]) -> Vec<Stat> {
+    let mut out = vec![];
+    for (si, st, slips) in stages {
+        let n = slips.len();
+        let waves = POSITION_WAVES.min(n / 4);
+        if n < MIN_SLIPS || waves == 0 {
+            continue;
+        }
+        // The analysed travel: the stage's second half, as the slips are read, at the nominal
+        // drive velocity (the same for every trace of the recording).
+        let t_lo = rec.t[st.lo + (st.hi - st.lo) / 2];
+        let travel = rec.t[st.hi - 1] - t_lo;
+        if !(travel > 0.0) {
+            continue;
+        }
+        let d: Vec<f64> = {
+            let m = slips.iter().map(|s| s.f_peak).sum::<f64>() / n as f64;
+            slips.iter().map(|s| s.f_peak - m).collect()
+        };
+        let sd = (d.iter().map(|v| v * v).sum::<f64>() / (n - 1) as f64).sqrt();
+        let se = sd * (2.0 / n as f64).sqrt();
+        for k in 1..=waves {
+            let (mut c, mut s) = (0.0, 0.0);
+            for (sl, di) in slips.iter().zip(&d) {
+                let ph =
+                    std::f64::consts::TAU * k as f64 * (rec.t[st.lo + sl.peak] - t_lo) / travel;
+                c += di * ph.cos();
+                s += di * ph.sin();
+            }
+            for (j, v) in [c, s].iter().enumerate() {
+                out.push(Stat {
+                    key: (3, *si, 2 * (k - 1) + j),
+                    value: 2.0 * v / n as f64,
+                    se,
+                });
+            }
         }
     }
     out
@@ -276,14 +498,77 @@ pub(super) fn judge(family: &'static str, what: &'static str, pairs: &[(f64, f64
     let se = s / strength;
     c.share = beta;
     c.share_se = se;
-    c.seen = if beta + 2.0 * se < PRESENT_SHARE {
+    c.seen = seen(beta, se);
+    c
+}
+
+/// One statistic's standardised departures, with the parts of them that the simulated traces'
+/// own scatter makes (in units of the statistic's `σ²`).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Pair {
+    /// `d_obs = (S_meas − S_from)/σ`.
+    pub obs: f64,
+    /// `d_pred = (S_cand − S_from)/σ`.
+    pub pred: f64,
+    /// The variance of `d_pred` that the scatter of the two simulated statistics makes alone:
+    /// `(se_from² + se_cand²)/σ²`.
+    pub pred_var: f64,
+    /// The covariance of `d_obs` and `d_pred` that `S_from`'s scatter makes, shared by both:
+    /// `se_from²/σ²`.
+    pub cov: f64,
+}
+
+/// [`judge`] for statistics read slip by slip, whose simulated values scatter as the
+/// measured ones do (a chaotic stick-slip reshuffles its cycles at any change of a parameter):
+/// the prediction's strength is the part of `Σ d_pred²` beyond that scatter,
+/// `P² = Σ (d_pred² − pred_var)`, and the share `β = Σ (d_obs d_pred − cov) / P²` (unbiased:
+/// without the corrections, scatter alone makes a prediction of strength `√n` and a share near
+/// one half), with standard error `s √(Σ d_pred²) / P²`. The family is testable where
+/// `P ≥` [`MIN_STRENGTH`] and `P²` exceeds twice the spread of `Σ d_pred²` under scatter alone,
+/// `2 √(2 Σ pred_var²)`; the outcome then reads as [`judge`]'s.
+pub(super) fn judge_scattered(family: &'static str, what: &'static str, pairs: &[Pair]) -> Check {
+    let spp: f64 = pairs.iter().map(|p| p.pred * p.pred).sum();
+    let noise: f64 = pairs.iter().map(|p| p.pred_var).sum();
+    let noise_spread = 2.0 * (2.0 * pairs.iter().map(|p| p.pred_var.powi(2)).sum::<f64>()).sqrt();
+    let signal = spp - noise;
+    let strength = signal.max(0.0).sqrt();
+    let mut c = Check {
+        family,
+        what,
+        statistics: pairs.len(),
+        strength,
+        share: f64::NAN,
+        share_se: f64::NAN,
+        seen: Seen::NotTestable,
+    };
+    if !(strength >= MIN_STRENGTH && signal > noise_spread) {
+        return c;
+    }
+    let beta = pairs.iter().map(|p| p.obs * p.pred - p.cov).sum::<f64>() / signal;
+    let dof = pairs.len().saturating_sub(1).max(1) as f64;
+    let s = (pairs
+        .iter()
+        .map(|p| (p.obs - beta * p.pred).powi(2))
+        .sum::<f64>()
+        / dof)
+        .sqrt()
+        .max(1.0);
+    let se = s * spp.sqrt() / signal;
+    c.share = beta;
+    c.share_se = se;
+    c.seen = seen(beta, se);
+    c
+}
+
+/// The outcome from a share and its standard error.
+fn seen(beta: f64, se: f64) -> Seen {
+    if beta + 2.0 * se < PRESENT_SHARE {
         Seen::Absent
     } else if beta - 2.0 * se > PRESENT_SHARE {
         Seen::Present
     } else {
         Seen::Inconclusive
-    };
-    c
+    }
 }
 
 /// What every candidate extending one model is checked against: per recording, the measured
@@ -301,40 +586,58 @@ impl Reference {
             .par_iter()
             .map_init(Solvers::default, |s, rec| {
                 let fb = simulate(from, rec, s)?;
-                Some((ringing(rec, &rec.f_d), ringing(rec, &fb.f_d)))
+                Some((statistics(rec, &rec.f_d), statistics(rec, &fb.f_d)))
             })
             .collect();
         Reference { per }
     }
 
     /// Checks the fingerprints of `cand` (a fit of a candidate effect extending the reference's
-    /// model) on the same recordings `recs`.
+    /// model) on the same recordings `recs`: one check per family of [`TRACE_FAMILIES`].
     pub fn check(&self, recs: &[&Recording], cand: &Model) -> Vec<Check> {
-        let per: Vec<Vec<(f64, f64)>> = recs
+        let per: Vec<Vec<(usize, Pair)>> = recs
             .par_iter()
             .zip(&self.per)
             .map_init(Solvers::default, |s, (rec, reference)| {
                 let (Some((m, b)), Some(fc)) = (reference, simulate(cand, rec, s)) else {
                     return vec![];
                 };
-                let c = ringing(rec, &fc.f_d);
+                let c = statistics(rec, &fc.f_d);
                 let find = |v: &[Stat], k| v.iter().find(|s| s.key == k).copied();
                 m.iter()
                     .filter_map(|sm| {
                         let (sb, sc) = (find(b, sm.key)?, find(&c, sm.key)?);
                         let sigma = (sm.se.powi(2) + sb.se.powi(2) + sc.se.powi(2)).sqrt();
-                        (sigma > 0.0 && sigma.is_finite())
-                            .then(|| ((sm.value - sb.value) / sigma, (sc.value - sb.value) / sigma))
+                        (sigma > 0.0 && sigma.is_finite()).then(|| {
+                            let s2 = sigma * sigma;
+                            (
+                                sm.key.0,
+                                Pair {
+                                    obs: (sm.value - sb.value) / sigma,
+                                    pred: (sc.value - sb.value) / sigma,
+                                    pred_var: (sb.se.powi(2) + sc.se.powi(2)) / s2,
+                                    cov: sb.se.powi(2) / s2,
+                                },
+                            )
+                        })
                     })
                     .collect()
             })
             .collect();
-        let pairs: Vec<(f64, f64)> = per.into_iter().flatten().collect();
-        vec![judge(
-            "ringing",
-            "the force's spectrum after slips against before them",
-            &pairs,
-        )]
+        let pairs: Vec<(usize, Pair)> = per.into_iter().flatten().collect();
+        TRACE_FAMILIES
+            .iter()
+            .enumerate()
+            .map(|(k, (family, what))| {
+                let p: Vec<Pair> = pairs.iter().filter(|p| p.0 == k).map(|p| p.1).collect();
+                if k == 0 {
+                    let p: Vec<(f64, f64)> = p.iter().map(|q| (q.obs, q.pred)).collect();
+                    judge(family, what, &p)
+                } else {
+                    judge_scattered(family, what, &p)
+                }
+            })
+            .collect()
     }
 }
 
@@ -400,5 +703,124 @@ mod tests {
         assert_eq!(judge("x", "x", &missing).seen, Seen::Absent);
         let weak: Vec<(f64, f64)> = pred.iter().map(|p| (0.0, 0.1 * p)).collect();
         assert_eq!(judge("x", "x", &weak).seen, Seen::NotTestable);
+    }
+
+    /// Slip by slip: scatter alone (the two simulations differ only by their cycles' scatter,
+    /// the base's shared with the measured departure) is not a prediction; a systematic one is
+    /// judged present where the data carry it and absent where they do not, without the
+    /// attenuation and the pull toward one half that the scatter gives [`judge`]'s share.
+    #[test]
+    fn judge_scattered_sees_through_the_simulations_scatter() {
+        use rand::SeedableRng;
+        use rand_distr::{Distribution, Normal};
+        let nd = Normal::new(0.0, 1.0).unwrap();
+        let sigma = 3f64.sqrt();
+        let run = |size: f64, carry: f64, seed: u64| {
+            let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
+            let pairs: Vec<Pair> = (0..40)
+                .map(|i| {
+                    let d = size * ((i as f64) * 0.9).sin();
+                    let (em, eb, ec) = (
+                        nd.sample(&mut rng),
+                        nd.sample(&mut rng),
+                        nd.sample(&mut rng),
+                    );
+                    Pair {
+                        obs: (carry * d + em - eb) / sigma,
+                        pred: (d + ec - eb) / sigma,
+                        pred_var: 2.0 / 3.0,
+                        cov: 1.0 / 3.0,
+                    }
+                })
+                .collect();
+            let naive: Vec<(f64, f64)> = pairs.iter().map(|p| (p.obs, p.pred)).collect();
+            (judge_scattered("x", "x", &pairs), judge("x", "x", &naive))
+        };
+        let mut naive_testable = 0;
+        for seed in 0..20 {
+            let (c, naive) = run(0.0, 1.0, seed);
+            assert_eq!(c.seen, Seen::NotTestable, "seed {seed}: {c:?}");
+            naive_testable += usize::from(naive.seen != Seen::NotTestable);
+        }
+        // Without the corrections, scatter alone over 40 statistics looks like a prediction.
+        assert!(naive_testable >= 15, "{naive_testable}");
+        let mut betas = vec![];
+        for seed in 0..20 {
+            let (c, _) = run(3.0, 1.0, seed);
+            assert_eq!(c.seen, Seen::Present, "seed {seed}: {c:?}");
+            betas.push(c.share);
+            // Absent needs the share's two standard errors under the threshold.
+            let (c, _) = run(8.0, 0.0, seed);
+            assert_eq!(c.seen, Seen::Absent, "seed {seed}: {c:?}");
+        }
+        let mean = betas.iter().sum::<f64>() / betas.len() as f64;
+        assert!((mean - 1.0).abs() < 0.1, "mean share {mean}");
+    }
+
+    /// A saw-tooth whose breakaway force follows the travel and the stick time gives the
+    /// `position` and `stick_time` statistics that hold them, and a breakaway locked to the
+    /// vibration's phase gives that phase.
+    #[test]
+    fn slip_by_slip_statistics_read_a_synthetic_saw_tooth() {
+        use crate::model::Params;
+        let fs = 10_000.0;
+        let n = 100_000;
+        let freq = 500.0;
+        let t: Vec<f64> = (0..n).map(|i| i as f64 / fs).collect();
+        let params = Params {
+            f: freq,
+            u0: 1e-8,
+            ..Params::default()
+        };
+        // Slips every 0.2 s or 0.3 s alternately (stick time varies), at a breakaway phase
+        // of 90° of the vibration, with a peak of 10 + 2 ln(stick) + 0.5 cos(2π x/travel).
+        let travel_t = 0.5 * (t[n - 1]);
+        let mut f_d = vec![0.0; n];
+        let mut t_slip = 0.0;
+        let mut k = 0;
+        let mut slips = vec![];
+        while t_slip < t[n - 1] {
+            let stick = if k % 2 == 0 { 0.2 } else { 0.3 };
+            // The breakaway at the next 90° of the vibration after the stick.
+            let raw = t_slip + stick;
+            let cyc = (raw * freq - 0.25).ceil();
+            let tb = (cyc + 0.25) / freq;
+            slips.push((t_slip, tb, stick));
+            t_slip = tb + 0.01;
+            k += 1;
+        }
+        for &(t0, tb, stick) in &slips {
+            let pos = (tb - 0.5 * t[n - 1]) / travel_t;
+            let peak = 10.0 + 2.0 * (tb - t0).ln() + 0.5 * (std::f64::consts::TAU * pos).cos();
+            let _ = stick;
+            let (i0, ib) = ((t0 * fs) as usize, ((tb * fs) as usize).min(n - 1));
+            let i1 = (((tb + 0.01) * fs) as usize).min(n);
+            for i in i0..=ib {
+                f_d[i] = 4.0 + (peak - 4.0) * (t[i] - t0) / (tb - t0);
+            }
+            for (j, i) in (ib + 1..i1).enumerate() {
+                f_d[i] = peak - (peak - 4.0) * (j + 1) as f64 / (i1 - ib - 1) as f64;
+            }
+        }
+        let rec = Recording {
+            name: "saw".into(),
+            params,
+            t,
+            f_d: f_d.clone(),
+            x_s: None,
+            x_d: None,
+        };
+        let stats = statistics(&rec, &f_d);
+        let get = |k: (usize, usize, usize)| stats.iter().find(|s| s.key == k).copied();
+        let ph = (get((1, 0, 0)).unwrap(), get((1, 0, 1)).unwrap());
+        let angle = ph.1.value.atan2(ph.0.value).to_degrees();
+        assert!((angle - 90.0).abs() < 25.0, "{angle} {ph:?}");
+        assert!(ph.0.value.hypot(ph.1.value) > 0.8, "{ph:?}");
+        let st = get((2, 0, 0)).unwrap();
+        assert!((st.value - 2.0).abs() < 3.0 * st.se + 0.2, "{st:?}");
+        let c1 = get((3, 0, 0)).unwrap();
+        let s1 = get((3, 0, 1)).unwrap();
+        assert!((c1.value - 0.5).abs() < 0.15, "{c1:?}");
+        assert!(s1.value.abs() < 0.15, "{s1:?}");
     }
 }
