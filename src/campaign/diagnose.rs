@@ -65,9 +65,11 @@
 //! form's misfit.
 //!
 //! **Fingerprints.** Every candidate the rule would name or tie is checked on the recorded
-//! traces ([`fingerprint`]: the ringing after slips; absent rejects it) and on each feature
-//! family of [`FAMILIES`] held out of its fit ([`held_out_families`]; absent names it only as
-//! partial, with a warning, `held_out_absent`). A second effect needs a trace fingerprint
+//! traces ([`fingerprint`]: the ringing after slips, absent rejects it; the breakaway's
+//! vibration phase, stick time and position, read slip by slip) and on each feature family of
+//! [`FAMILIES`] held out of its fit ([`held_out_families`]); a slip-by-slip or held-out family
+//! absent names it only as partial, with a warning (`held_out_absent`), and no second effect
+//! is tried beside it. A second effect needs a trace fingerprint
 //! present where one can test it.
 
 use super::features::{FEATURES, Feature, N_FEATURES, PHASES};
@@ -551,11 +553,14 @@ fn refit_without(
     };
     if fr.z.len() == keep.len() && fr.jacobian.nrows() == keep.len() {
         let before = cost(&fr.z);
+        // A step is judged on the refit's own rows: the held-out recordings are simulated
+        // only for the step taken (the others' runs are cached).
+        let need = all.needed_with_references(keep);
         for step in [1.0, 0.5, 0.25] {
             let m = fit::refit_rows(&all.bounds, fr, template, keep, first_free, step);
-            let z = all.residuals(&all.predict(&m));
-            if z.len() == keep.len() && cost(&z) <= before * (1.0 + 1e-9) {
-                return z;
+            let zc = all.residuals(&all.predict_for(&m, Some(&need)));
+            if zc.len() == keep.len() && cost(&zc) <= before * (1.0 + 1e-9) {
+                return all.residuals(&all.predict(&m));
             }
         }
     }
@@ -1091,7 +1096,7 @@ fn decide(ranked: &[Ranked], share: impl Fn(f64) -> f64, min_share: f64) -> Opti
 }
 
 /// [`decide`], with every candidate it would name or tie checked for its fingerprints against
-/// `from`, the model the candidates extend ([`fingerprint::check`]): one whose fingerprint is
+/// `from`, the model the candidates extend ([`fingerprint::check`]): one whose ringing is
 /// absent is rejected (with the reason) and the decision taken again without it. With
 /// `need_present` (a second effect beside a named one) a candidate whose fingerprints can test
 /// it is rejected too unless one of them is present: beside a first effect whose form differs
@@ -1126,7 +1131,7 @@ fn vetted(
             if let Some(c) = ranked[j]
                 .fingerprints
                 .iter()
-                .find(|c| c.of_trace() && c.seen == fingerprint::Seen::Absent)
+                .find(|c| c.rejects() && c.seen == fingerprint::Seen::Absent)
             {
                 ranked[j].rejected = Some(format!("its fingerprint is absent: {}", c.line()));
                 any = true;
@@ -1252,21 +1257,25 @@ pub fn held_out_families(
     out
 }
 
-/// The warning for a named effect with a held-out feature family absent ([`held_out_families`]):
-/// the effect is then named only as partial. Not a veto, as an absent trace fingerprint is:
-/// the held-out refit is one damped step and holds the base parameters, so a family can also be
+/// The warning for a named effect with a weaker fingerprint absent (a held-out feature family,
+/// [`held_out_families`], or a trace family read slip by slip): the effect is then named only
+/// as partial. Not a veto, as an absent ringing is ([`fingerprint::Check::rejects`]): the
+/// held-out refit is one damped step and holds the base parameters, so a family can also be
 /// absent where the effect is right but its fit trades that family for the others (a resonance
-/// fitted off its true value); either way the fit does not explain the whole campaign.
+/// fitted off its true value); a slip-by-slip statistic is a slope or a coefficient per stage
+/// over a few stages, and an effect of the library's kind in another form (the second rig's
+/// delayed load path) can move it the other way; either way the fit does not explain the whole
+/// campaign.
 fn held_out_absent(r: &Ranked) -> Option<String> {
     let absent: Vec<String> = r
         .fingerprints
         .iter()
-        .filter(|c| !c.of_trace() && c.seen == fingerprint::Seen::Absent)
+        .filter(|c| !c.rejects() && c.seen == fingerprint::Seen::Absent)
         .map(|c| c.line())
         .collect();
     (!absent.is_empty()).then(|| {
         format!(
-            "{}: named only as partial, as what it predicts for a feature family held out from its fit is not in the data ({}): it stands in for another physics there, or its fit has not found the rig's values",
+            "{}: named only as partial, as a fingerprint it predicts (a feature family held out from its fit, or a statistic of the trace read slip by slip) is not in the data ({}): it stands in for another physics there, its form differs from the rig's, or its fit has not found the rig's values",
             r.effect.name(),
             absent.join("; ")
         )
@@ -1430,7 +1439,7 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
                 } else if !first_fit.converged {
                     "did not converge"
                 } else {
-                    "does not carry a feature family held out of it"
+                    "does not carry a fingerprint it predicts (a feature family held out of it, or one read slip by slip)"
                 }
             ));
         }

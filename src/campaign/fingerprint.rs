@@ -19,6 +19,17 @@
 //! oscillation. The window is the largest power of two of samples within 0.4 of the median
 //! stick (at most 1024); a stage needs three slips with both windows inside their sticks.
 //!
+//! **Families read slip by slip** (the slips of each stage's second half, [`MIN_SLIPS`] at
+//! least): `breakaway_phase`, the mean `cos θ` and `sin θ` of the vibration's phase
+//! `θ = 2π f t` at the largest recorded force within a period and a half before each
+//! breakaway (vibrated stages); `stick_time`, the least-squares slopes of the smoothed breakaway
+//! force and of the drop on `ln t_stick`; `position`, the Fourier coefficients of the breakaway
+//! force (less its mean) in the nominal drive position over the analysed travel, at
+//! [`POSITION_WAVES`] wavenumbers at most and a quarter of the slips. Their simulated values
+//! scatter as the measured ones do, so they are judged by `judge_scattered`, which takes that
+//! scatter out of the prediction's strength and share. An absent ringing rejects a candidate;
+//! an absent family read slip by slip names it only as partial ([`Check::rejects`]).
+//!
 //! **The check.** Per statistic `d_obs = S_meas − S_from` and `d_pred = S_cand − S_from`, both in
 //! units of `σ`, the three traces' standard errors in quadrature. The share of the predicted
 //! fingerprint the data carry is the regression coefficient `β = Σ d_obs d_pred / Σ d_pred²`; its
@@ -29,7 +40,7 @@
 //! could show), `absent` where `β + 2 SE <` [`PRESENT_SHARE`] (less than that share of the
 //! predicted departure is there, at two standard errors), `present` where `β − 2 SE >`
 //! [`PRESENT_SHARE`], else `inconclusive`. A candidate with an absent fingerprint is not named
-//! (`diagnose`). The same rule (`judge`) judges `diagnose`'s held-out feature families
+//! (`diagnose`; a slip-by-slip family absent names it only as partial). The same rule (`judge`) judges `diagnose`'s held-out feature families
 //! (`held_out_families`), whose pairs are feature residuals instead of trace statistics.
 
 use super::features::{smooth, zigzag};
@@ -100,6 +111,15 @@ impl Check {
     /// at held-out features (`held_out_*`, see `diagnose`).
     pub fn of_trace(&self) -> bool {
         !self.family.starts_with("held_out")
+    }
+
+    /// Whether an absent outcome rejects the candidate: the ringing, whose band energies are
+    /// averaged over every slip of a stage. The families read slip by slip (a slope or a
+    /// coefficient per stage, from a few stages, of a chaotic sequence of slips) and the
+    /// held-out feature families (a one-step refit) are weaker: absent, they name the
+    /// candidate only as partial, with a warning (`diagnose`).
+    pub fn rejects(&self) -> bool {
+        self.family == "ringing"
     }
 
     /// One line for the summary.

@@ -665,15 +665,48 @@ impl<'a> Target<'a> {
 
     /// Simulated features of every unit under `model` (NaN features when a run fails).
     pub fn predict(&self, model: &Model) -> Vec<FeatureSet> {
+        self.predict_for(model, None)
+    }
+
+    /// [`Target::predict`] on the recordings `need` marks alone (every one where `None`); the
+    /// others' units are [`FeatureSet::nan`]. The rows of [`Target::residuals`] of a needed
+    /// recording are those of `predict` wherever the recordings its units are compared with
+    /// for `r` ([`Target::reference`]) are needed too ([`Target::needed_with_references`]).
+    pub fn predict_for(&self, model: &Model, need: Option<&[bool]>) -> Vec<FeatureSet> {
         let per: Vec<Vec<FeatureSet>> = self
             .recs
             .par_iter()
-            .map_init(Solvers::default, |s, r| self.cache.features(model, r, s))
+            .enumerate()
+            .map_init(Solvers::default, |s, (i, r)| {
+                if need.is_none_or(|n| n[i]) {
+                    self.cache.features(model, r, s)
+                } else {
+                    vec![FeatureSet::nan(); self.units.iter().filter(|u| u.0 == i).count()]
+                }
+            })
             .collect();
         let mut out: Vec<FeatureSet> = per.into_iter().flatten().collect();
         debug_assert_eq!(out.len(), self.units.len());
         fill_r(&mut out, &self.reference);
         out
+    }
+
+    /// The recordings whose rows `keep` marks (rows as [`Target::row_recordings`]), with the
+    /// recordings their units are compared with for `r`: what [`Target::predict_for`] must
+    /// simulate for those rows.
+    pub fn needed_with_references(&self, keep: &[bool]) -> Vec<bool> {
+        let mut need = vec![false; self.recs.len()];
+        for (&r, &k) in self.row_recordings().iter().zip(keep) {
+            need[r] |= k;
+        }
+        for (u, reference) in self.reference.iter().enumerate() {
+            if let Some(j) = reference
+                && need[self.units[u].0]
+            {
+                need[self.units[*j].0] = true;
+            }
+        }
+        need
     }
 
     /// The recording each row of [`Target::residuals`] belongs to: one row per feature the
