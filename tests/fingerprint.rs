@@ -1,8 +1,9 @@
 //! The fingerprint checks of `diagnose` (`campaign::fingerprint`) on campaigns whose truth is
 //! known: a force sensor that rings shows its ringing after slips, a slow sensor that a
 //! campaign does not have predicts a ringing the recordings do not show, and an effect that does
-//! not act on the spectrum after slips is not judged by it; and the held-out feature families
-//! carry a true sensor and not a stand-in.
+//! not act on the spectrum after slips is not judged by it; the held-out feature families
+//! carry a true sensor and not a stand-in; and a screw error shows along the travel where the
+//! campaign has one and not where it does not.
 
 use stickslip::campaign::diagnose::held_out_families;
 use stickslip::campaign::fingerprint::{Seen, check};
@@ -107,4 +108,48 @@ fn held_out_families_carry_a_true_sensor_and_not_a_stand_in() {
     let lines: Vec<String> = checks.iter().map(|c| c.line()).collect();
     assert!(checks.iter().all(|c| c.seen != Seen::Present), "{lines:#?}");
     assert!(checks.iter().any(|c| c.seen == Seen::Absent), "{lines:#?}");
+}
+
+/// The families read slip by slip, on the default design (long enough for six slips per
+/// stage): a screw error of 1 mm pitch and 20 µm amplitude moves the breakaway force along the
+/// travel and with the stick time, and both fingerprints are there against the base model; on
+/// an effect-free campaign the same screw error's position dependence is not. (There its
+/// `breakaway_phase` comes out present: the slips' cycles stay correlated, so a change of
+/// parameters reshuffles that statistic by more than its standard error says; which is why a
+/// slip-by-slip family present does not count for a second effect, `Check::decisive`.)
+#[test]
+fn a_screw_error_shows_along_the_travel_and_not_without_one() {
+    let ripple: &[(&str, f64)] = &[("a", 2e-5), ("wavelength", 1e-3)];
+    let truth = model(&[(EffectKind::DriveRipple, ripple)]);
+    let full = |effects: Effects, seed: u64| {
+        let dir = tempfile::tempdir().unwrap();
+        let spec = SynthSpec {
+            effects,
+            seed,
+            ..SynthSpec::default()
+        };
+        synth(dir.path(), &spec).unwrap();
+        let c = Campaign::load(dir.path()).unwrap();
+        (dir, c)
+    };
+    let family = |checks: &[stickslip::campaign::fingerprint::Check], name: &str| {
+        checks.iter().find(|c| c.family == name).unwrap().clone()
+    };
+    let (_d, c) = full(truth.effects.clone(), 8);
+    let checks = check(&recs(&c), &Model::default(), &truth);
+    for name in ["position", "stick_time"] {
+        let f = family(&checks, name);
+        assert_eq!(f.seen, Seen::Present, "{}", f.line());
+        assert!((f.share - 1.0).abs() < 0.7, "{}", f.line());
+    }
+    assert!(
+        checks
+            .iter()
+            .all(|c| !c.decisive() || c.seen != Seen::Absent)
+    );
+    let (_d, c) = full(Effects::none(), 9);
+    let checks = check(&recs(&c), &Model::default(), &truth);
+    let f = family(&checks, "position");
+    assert_ne!(f.seen, Seen::Present, "{}", f.line());
+    assert!(f.share < 0.8, "{}", f.line());
 }

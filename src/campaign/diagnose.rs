@@ -69,8 +69,7 @@
 //! vibration phase, stick time and position, read slip by slip) and on each feature family of
 //! [`FAMILIES`] held out of its fit ([`held_out_families`]); a slip-by-slip or held-out family
 //! absent names it only as partial, with a warning (`held_out_absent`), and no second effect
-//! is tried beside it. A second effect needs a trace fingerprint
-//! present where one can test it.
+//! is tried beside it. A second effect needs the ringing present where it can test it.
 
 use super::features::{FEATURES, Feature, N_FEATURES, PHASES};
 use super::fit::{self, FitOptions, FitResult, Model, Target};
@@ -1098,10 +1097,10 @@ fn decide(ranked: &[Ranked], share: impl Fn(f64) -> f64, min_share: f64) -> Opti
 /// [`decide`], with every candidate it would name or tie checked for its fingerprints against
 /// `from`, the model the candidates extend ([`fingerprint::check`]): one whose ringing is
 /// absent is rejected (with the reason) and the decision taken again without it. With
-/// `need_present` (a second effect beside a named one) a candidate whose fingerprints can test
-/// it is rejected too unless one of them is present: beside a first effect whose form differs
+/// `need_present` (a second effect beside a named one) a candidate whose ringing can test it is
+/// rejected too unless it is present ([`fingerprint::Check::decisive`]): beside a first effect whose form differs
 /// from the data's, any other candidate can take up the rest of that form's misfit, so only one
-/// that shows its own physics in the trace is named (one that predicts nothing a family could
+/// that shows its own physics in the trace is named (one that predicts nothing the ringing could
 /// show, a screw error's, stands on its features as a first effect does). The ranking is then
 /// reordered so that the candidates not rejected come first, in their order of evidence.
 fn vetted(
@@ -1131,7 +1130,7 @@ fn vetted(
             if let Some(c) = ranked[j]
                 .fingerprints
                 .iter()
-                .find(|c| c.rejects() && c.seen == fingerprint::Seen::Absent)
+                .find(|c| c.decisive() && c.seen == fingerprint::Seen::Absent)
             {
                 ranked[j].rejected = Some(format!("its fingerprint is absent: {}", c.line()));
                 any = true;
@@ -1139,16 +1138,16 @@ fn vetted(
                 && ranked[j]
                     .fingerprints
                     .iter()
-                    .any(|c| c.of_trace() && c.seen != fingerprint::Seen::NotTestable)
+                    .any(|c| c.decisive() && c.seen != fingerprint::Seen::NotTestable)
                 && !ranked[j]
                     .fingerprints
                     .iter()
-                    .any(|c| c.of_trace() && c.seen == fingerprint::Seen::Present)
+                    .any(|c| c.decisive() && c.seen == fingerprint::Seen::Present)
             {
                 let seen: Vec<String> = ranked[j]
                     .fingerprints
                     .iter()
-                    .filter(|c| c.of_trace())
+                    .filter(|c| c.decisive())
                     .map(|c| c.line())
                     .collect();
                 ranked[j].rejected = Some(format!(
@@ -1259,7 +1258,7 @@ pub fn held_out_families(
 
 /// The warning for a named effect with a weaker fingerprint absent (a held-out feature family,
 /// [`held_out_families`], or a trace family read slip by slip): the effect is then named only
-/// as partial. Not a veto, as an absent ringing is ([`fingerprint::Check::rejects`]): the
+/// as partial. Not a veto, as an absent ringing is ([`fingerprint::Check::decisive`]): the
 /// held-out refit is one damped step and holds the base parameters, so a family can also be
 /// absent where the effect is right but its fit trades that family for the others (a resonance
 /// fitted off its true value); a slip-by-slip statistic is a slope or a coefficient per stage
@@ -1270,7 +1269,7 @@ fn held_out_absent(r: &Ranked) -> Option<String> {
     let absent: Vec<String> = r
         .fingerprints
         .iter()
-        .filter(|c| !c.rejects() && c.seen == fingerprint::Seen::Absent)
+        .filter(|c| !c.decisive() && c.seen == fingerprint::Seen::Absent)
         .map(|c| c.line())
         .collect();
     (!absent.is_empty()).then(|| {

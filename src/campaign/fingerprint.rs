@@ -28,7 +28,8 @@
 //! [`POSITION_WAVES`] wavenumbers at most and a quarter of the slips. Their simulated values
 //! scatter as the measured ones do, so they are judged by `judge_scattered`, which takes that
 //! scatter out of the prediction's strength and share. An absent ringing rejects a candidate;
-//! an absent family read slip by slip names it only as partial ([`Check::rejects`]).
+//! an absent family read slip by slip names it only as partial, and one present does not count
+//! for a second effect ([`Check::decisive`]).
 //!
 //! **The check.** Per statistic `d_obs = S_meas − S_from` and `d_pred = S_cand − S_from`, both in
 //! units of `σ`, the three traces' standard errors in quadrature. The share of the predicted
@@ -107,18 +108,16 @@ pub struct Check {
 }
 
 impl Check {
-    /// Whether the family looks at the recorded traces themselves (the ringing), rather than
-    /// at held-out features (`held_out_*`, see `diagnose`).
-    pub fn of_trace(&self) -> bool {
-        !self.family.starts_with("held_out")
-    }
-
-    /// Whether an absent outcome rejects the candidate: the ringing, whose band energies are
-    /// averaged over every slip of a stage. The families read slip by slip (a slope or a
-    /// coefficient per stage, from a few stages, of a chaotic sequence of slips) and the
-    /// held-out feature families (a one-step refit) are weaker: absent, they name the
-    /// candidate only as partial, with a warning (`diagnose`).
-    pub fn rejects(&self) -> bool {
+    /// Whether the family decides: absent, it rejects the candidate, and present, it is what a
+    /// second effect needs (`diagnose`). Only the ringing, whose band energies are averaged over
+    /// every slip of a stage. The families read slip by slip (a slope or a coefficient per
+    /// stage, from a few stages of a chaotic sequence of slips whose cycles stay correlated, so
+    /// that their standard errors understate how much a change of parameters reshuffles them)
+    /// and the held-out feature families (a one-step refit) are weaker: absent, they name the
+    /// candidate only as partial, with a warning; present, they are reported only. Measured on
+    /// an effect-free campaign, a screw error the recordings lack showed a `breakaway_phase`
+    /// present (`tests/fingerprint.rs`).
+    pub fn decisive(&self) -> bool {
         self.family == "ringing"
     }
 
