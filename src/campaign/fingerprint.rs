@@ -151,6 +151,13 @@ struct Stat {
     se: f64,
 }
 
+impl Stat {
+    /// The statistic `key` with `(value, standard error)`.
+    fn new(key: (usize, usize, usize), (value, se): (f64, f64)) -> Stat {
+        Stat { key, value, se }
+    }
+}
+
 /// The trace families, in the order [`Reference::check`] reports them: name and what it looks
 /// at.
 pub const TRACE_FAMILIES: [(&str, &str); 4] = [
@@ -298,12 +305,7 @@ fn ringing(
             if d.len() < 3 {
                 continue;
             }
-            let (value, se) = mean_se(d);
-            out.push(Stat {
-                key: (0, *si, j),
-                value,
-                se,
-            });
+            out.push(Stat::new((0, *si, j), mean_se(d)));
         }
     }
     out
@@ -343,12 +345,7 @@ fn breakaway_phase(
             continue;
         }
         for (j, x) in [c, s].iter().enumerate() {
-            let (value, se) = mean_se(x);
-            out.push(Stat {
-                key: (1, *si, j),
-                value,
-                se,
-            });
+            out.push(Stat::new((1, *si, j), mean_se(x)));
         }
     }
     out
@@ -394,12 +391,8 @@ fn stick_time(rec: &Recording, stages: &[(usize, super::features::Stage, Vec<Sli
         let peak: Vec<f64> = slips.iter().map(|s| s.f_peak).collect();
         let drop: Vec<f64> = slips.iter().map(|s| s.f_peak - s.f_trough).collect();
         for (j, y) in [peak, drop].iter().enumerate() {
-            if let Some((value, se)) = slope(&x, y) {
-                out.push(Stat {
-                    key: (2, *si, j),
-                    value,
-                    se,
-                });
+            if let Some(v) = slope(&x, y) {
+                out.push(Stat::new((2, *si, j), v));
             }
         }
     }
@@ -437,11 +430,10 @@ fn position(rec: &Recording, stages: &[(usize, super::features::Stage, Vec<Slip>
                 s += di * ph.sin();
             }
             for (j, v) in [c, s].iter().enumerate() {
-                out.push(Stat {
-                    key: (3, *si, 2 * (k - 1) + j),
-                    value: 2.0 * v / n as f64,
-                    se,
-                });
+                out.push(Stat::new(
+                    (3, *si, 2 * (k - 1) + j),
+                    (2.0 * v / n as f64, se),
+                ));
             }
         }
     }
