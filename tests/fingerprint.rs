@@ -112,11 +112,11 @@ fn held_out_families_carry_a_true_sensor_and_not_a_stand_in() {
 
 /// The families read slip by slip, on the default design (long enough for six slips per
 /// stage): a screw error of 1 mm pitch and 20 µm amplitude moves the breakaway force along the
-/// travel and with the stick time, and both fingerprints are there against the base model; on
-/// an effect-free campaign the same screw error's position dependence is not. (There its
-/// `breakaway_phase` comes out present: the slips' cycles stay correlated, so a change of
-/// parameters reshuffles that statistic by more than its standard error says; which is why a
-/// slip-by-slip family present does not count for a second effect, `Check::decisive`.)
+/// travel and with the stick time, and both fingerprints are there against the base model
+/// (measured: `position` 1.09 ± 0.14, `stick_time` 1.02 ± 0.09); on an effect-free campaign
+/// none of the same screw error's families is present (`position` 0.10 ± 0.08). Before the
+/// standard errors took the slips' serial correlation into account, the effect-free campaign
+/// showed a false `breakaway_phase` present (1.14 ± 0.36).
 #[test]
 fn a_screw_error_shows_along_the_travel_and_not_without_one() {
     let ripple: &[(&str, f64)] = &[("a", 2e-5), ("wavelength", 1e-3)];
@@ -150,6 +150,8 @@ fn a_screw_error_shows_along_the_travel_and_not_without_one() {
     let (_d, c) = full(Effects::none(), 9);
     let checks = check(&recs(&c), &Model::default(), &truth);
     let f = family(&checks, "position");
-    assert_ne!(f.seen, Seen::Present, "{}", f.line());
     assert!(f.share < 0.8, "{}", f.line());
+    for c in &checks {
+        assert_ne!(c.seen, Seen::Present, "{}", c.line());
+    }
 }
