@@ -214,6 +214,13 @@ fn run_with(rig: Rig, names: &[&str]) -> (usize, usize, Vec<String>) {
                     format!(" [{}]", k.at_bound.join("; "))
                 }
             );
+            // The fingerprints checked (of named, tied or rejected candidates), and a rejection.
+            for c in &k.fingerprints {
+                eprintln!("        {}", c.line());
+            }
+            if let Some(why) = &k.rejected {
+                eprintln!("        rejected: {why}");
+            }
         }
         if right(&d, expect) {
             ok += 1;
