@@ -267,7 +267,8 @@ fn mean_se(x: &[f64]) -> (f64, f64) {
     (m, (var / n).sqrt())
 }
 
-/// Largest lag-one autocorrelation [`serial_factor`] allows for: a factor of 19 at most.
+/// Largest lag-one autocorrelation the fingerprints' standard errors allow for (`serial_factor`):
+/// a variance factor `(1 + ρ)/(1 − ρ)` of 19 at most.
 pub const MAX_SERIAL_CORRELATION: f64 = 0.9;
 
 /// The factor by which serial correlation multiplies the variance of a mean of `u` (terms
