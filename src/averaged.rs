@@ -1065,7 +1065,9 @@ pub struct SlowRun {
     /// measures are then not the averaged model's to give: the full model must serve. The
     /// transient before the window is not checked: the stick-slip forgets it, and a start from
     /// rest passes the law at zero force, where the orbit of a small vibration need not
-    /// contract.
+    /// contract. Infinite where the slow model diverged: its window ran past [`DIVERGED`]
+    /// times the table's span, or through non-finite values (the full model must serve; hybrid
+    /// windows would hand back to the same slow model).
     pub left_law: Option<f64>,
     /// Time \[s\] from which the samples were read off the slow model's limit cycle instead of
     /// integrated ([`simulate_slow_with`]'s `periodic`); `None` where every one was integrated.
@@ -1085,6 +1087,14 @@ pub fn simulate_slow(
 ) -> Result<SlowRun, AveragingError> {
     simulate_slow_with(p, table, t_end, dt, rtol, None, true)
 }
+
+/// How far past the table's upper end ([`table_span`]) the slow model's mean velocity may run
+/// in the steady window before the run counts as diverged and leaves the law
+/// ([`SlowRun::left_law`]): the table spans every speed a slip reaches, so a window beyond
+/// four times its span is a runaway of the integration, not friction. On the overnight grid's
+/// even sixteenth (2000 Hz, `u0` = 12.6 nm, `v_d` = 0.15 mm/s) the slow model ran off to
+/// `V` ≈ 1e17 m/s and, without this bound, reported `r` ≈ 5e21 as a success.
+pub const DIVERGED: f64 = 4.0;
 
 /// Share of the nominal stick-slip amplitude `2 (F_s − F_c)` (and of `v_d`) within which the
 /// slow model's end state must lie of the steady slide at `v_d` for its mean force to be
@@ -1154,8 +1164,10 @@ pub fn simulate_slow_with(
     let mut tr = stride.map(|_| crate::sim::Trace::default());
     let mut i = 0u64;
     // Sample `i` at `t` with drive force `f`, stretch `z` and mean velocity `v`.
+    let mut finite = true;
     let mut record = |i: u64, t: f64, f: f64, z: f64, v: f64| {
         an.push(t, f, v);
+        finite &= f.is_finite() && v.is_finite();
         if t >= window {
             seen = (seen.0.min(v), seen.1.max(v));
             let h = &mut halves[usize::from(t >= mid)];
@@ -1188,9 +1200,16 @@ pub fn simulate_slow_with(
             record(i, t, f, p.v_d * t - x[0], x[1]);
         });
     }
-    let left_law = (seen.0 <= seen.1)
-        .then(|| table.first_invalid(seen.0, seen.1))
-        .flatten();
+    // A window that runs far past the table (which spans every speed a slip reaches,
+    // [`table_span`]) or through non-finite values has diverged: no law holds it there.
+    let reach = DIVERGED * table.at.last().copied().unwrap_or(0.0);
+    let left_law = if !finite || !(seen.0.abs().max(seen.1.abs()) <= reach) {
+        Some(f64::INFINITY)
+    } else {
+        (seen.0 <= seen.1)
+            .then(|| table.first_invalid(seen.0, seen.1))
+            .flatten()
+    };
     let mut measures = an.finish();
     // The window's mean over its whole cycles: a full run ends where the window's mean agrees
     // with it (its early stop), while the slow run's window ends where its planned time does,

@@ -463,7 +463,8 @@ pub fn simulate_with(
 /// [`averaged::choose`](crate::averaged::choose) picks for `opts.tier`: the full integration
 /// ([`integrate`]), the averaged slow model ([`crate::averaged::simulate_slow_with`]) or hybrid
 /// windows ([`crate::hybrid`]), with the tier and its reason recorded. Where an averaged run's
-/// window leaves the law, `auto` goes on with hybrid windows and `averaged` with the full model;
+/// window leaves the law, `auto` goes on with hybrid windows and `averaged` with the full model
+/// (both with the full model where the slow model diverged);
 /// where a hybrid run finds the law's continuation stopped short, the full model serves.
 fn serve(rig: &Rig, none: bool, t_end: f64, opts: &RunOptions, solver: &mut Solver) -> RunResult {
     let clock = Instant::now();
@@ -480,7 +481,11 @@ fn serve(rig: &Rig, none: bool, t_end: f64, opts: &RunOptions, solver: &mut Solv
         (Tier::Hybrid, Some(t)) => hybrid(solver, &t, tier_reason),
         (_, Some(t)) => match averaged_run(&rig.p, &t, t_end, opts) {
             Ok(r) => (r, tier, tier_reason),
-            Err(_) if opts.tier == Tier::Auto => hybrid(solver, &t, TierReason::Zones),
+            // Where the slow model diverged (an infinite velocity), hybrid windows would hand
+            // back to it: the full model serves.
+            Err(v) if opts.tier == Tier::Auto && v.is_finite() => {
+                hybrid(solver, &t, TierReason::Zones)
+            }
             Err(_) => full(solver, TierReason::LeftLaw),
         },
     };

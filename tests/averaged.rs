@@ -473,3 +473,48 @@ fn slow_model_continued_along_its_cycle_keeps_the_measures() {
         assert!((whole.measures.mean_force - cont.measures.mean_force).abs() <= 1e-4 * nominal);
     }
 }
+
+/// A slow model that runs away is no result: at 2000 Hz, `u0` = 12.56 nm, `v_d` = 0.149 mm/s,
+/// `k_d` = 2223 N/m (a point of the overnight grid's even sixteenth, `v_a/v_d` = 1.06) the
+/// averaged slow model's mean velocity grows past 1e11 m/s within 13 s, and once reported
+/// `r` ≈ 5e21 and a mean force of −1.2e22 N as a success. Its window is now marked as having
+/// left the law (an infinite velocity), and both `averaged` and `auto` hand the point to the
+/// full model (hybrid windows would hand back to the same slow model), which gives the numbers
+/// of a run asked for with the full model: stick-slip eliminated, `r` below 0.01.
+#[test]
+fn a_diverging_slow_model_hands_the_point_to_the_full_model() {
+    use stickslip::averaged::{Tier, TierReason, shared_table};
+    let p = Params {
+        k_d: 2223.0095692182826,
+        ..params(
+            1999.9999999999998,
+            1.2559432157547897e-8,
+            0.00014909760458231002,
+        )
+    };
+    let table = shared_table(&p).expect("a table");
+    let t_end = stickslip::sim::planned_time(&p, 3);
+    let slow = simulate_slow_with(&p, &table, t_end, 1.0 / p.f, 1e-7, None, true)
+        .expect("a table of two nodes or more");
+    assert_eq!(slow.left_law, Some(f64::INFINITY), "{:?}", slow.measures);
+    let run = |tier| {
+        let opts = RunOptions {
+            tier,
+            ..RunOptions::default()
+        };
+        let mut solver = Solver::new(opts.method);
+        run_case_with(&p, &stickslip::model::Effects::none(), &opts, &mut solver).expect("a run")
+    };
+    let full = run(Tier::Full);
+    assert!(full.r < 0.01, "full model: r {}", full.r);
+    for tier in [Tier::Averaged, Tier::Auto] {
+        let r = run(tier);
+        assert_eq!(r.run.tier, Tier::Full, "{tier:?}");
+        assert_eq!(r.run.tier_reason, TierReason::LeftLaw, "{tier:?}");
+        assert_eq!(r.r, full.r, "{tier:?}");
+        assert_eq!(
+            r.run.measures.mean_force, full.run.measures.mean_force,
+            "{tier:?}"
+        );
+    }
+}
