@@ -1129,6 +1129,58 @@ fn estimate_of_a_refinement_samples_whole_planes() {
     assert!(format!("{one}").contains("no spread known"), "{one}");
 }
 
+/// Two drives on a slide near its stability limit: at 2000 Hz, `u0` = 79 nm, `v_d` = 1.1 mm/s the
+/// averaged law peaks within 0.1 % of `v_d` (`stickslip plot --law`: slope 14 N s/m there), so
+/// the slow model slides steadily, `r` = 0. Every period integrated (Dopri5, Radau5 at 1e-8 alike)
+/// slides too, at 8.5337 N, while envelope following at 1e-4 tips it into stick-slip of
+/// `r` = 0.073.
+const MARGINAL: &str = r#"
+name = "marginal"
+[fixed]
+v_d = 0.0010985605433061181
+f = 2000.0
+u0 = 7.924465962305561e-08
+[[axis]]
+name = "k_d"
+values = [4941.771544836056, 7368.062997280768]
+[solver]
+method = "dopri5"
+[run]
+envelope = 1e-4
+[check]
+share = 1.0
+min_points = 0
+"#;
+
+/// The full run that checks an averaged point integrates every period, not with the envelope
+/// the sweep's own full runs use: on a slide near its stability limit ([`MARGINAL`]) the check
+/// confirms the averaged `r` = 0 and the mean force, and nothing is replaced; with the envelope
+/// the check read `r` = 0.073, a side change, and replaced the right answer by a wrong one.
+#[test]
+fn a_check_integrates_every_period_and_confirms_a_marginal_slide() {
+    let dir = tempfile::tempdir().unwrap();
+    let spec = SweepSpec::parse("marginal.toml", MARGINAL).unwrap();
+    let a = dir.path().join("a.h5");
+    let o = sweep::run(&spec, &opts(&a, 2)).unwrap();
+    let c = o.check;
+    eprintln!("{}", c.line());
+    assert_eq!((c.averaged, c.checked), (2, 2), "{c:?}");
+    assert_eq!(c.replaced, 0, "{c:?}");
+    let f = H5File::open(&a).unwrap();
+    let read = |n: &str| f.dataset(n).unwrap().read_raw::<f64>().unwrap();
+    let (rf, ff, fa) = (
+        read("tier_check/r_full"),
+        read("tier_check/mean_force_full"),
+        read("tier_check/mean_force_averaged"),
+    );
+    for k in 0..2 {
+        assert!(rf[k] < 0.01, "check {k}: r_full {}", rf[k]);
+        assert!((ff[k] / fa[k] - 1.0).abs() < 1e-3, "{ff:?} {fa:?}");
+    }
+    assert_eq!(read("tier"), vec![1.0, 1.0]);
+    assert!(read("r").iter().all(|&r| r < 0.01));
+}
+
 /// A sweep the averaged tier serves: three drives at 3000 Hz, above the contact resonance, one
 /// table of the averaged law for all of them per amplitude.
 const TIERED: &str = r#"

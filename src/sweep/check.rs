@@ -1,7 +1,9 @@
 //! Full-model checks of a sweep's averaged points: after the grid (and its refinement), a random
 //! share of the points the averaged slow model served, and every one of them whose `r` lies
 //! within a band about the boundary level, are run again with the full model (journal kind
-//! `chk`, so a resumed or merged sweep does not run them twice). Each comparison is written to
+//! `chk`, so a resumed or merged sweep does not run them twice). A check integrates every
+//! forcing period, whatever the sweep's `[run] envelope`: it is the judge, and envelope following
+//! can tip a slide near its stability limit into stick-slip (`docs/methods.md`). Each comparison is written to
 //! the HDF5 file (group `tier_check`) and summed up in the sweep's summary:
 //!
 //! - within `r`: `|r_averaged − r_full| ≤` [`R_TOL`] (docs/model.md's accuracy of `r`);
