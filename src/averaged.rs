@@ -1379,11 +1379,14 @@ pub enum TierReason {
     /// 0.4: a hybrid run on a three-node table gave dF 3.30 N for the full model's 2.20 N). The
     /// full model served.
     PartialLaw,
+    /// Under auto, the drive velocity lies in a zone of the law where the fast orbit does not
+    /// contract, or within [`ZONE_MARGIN`] of one: the full model served.
+    NearZone,
 }
 
 impl TierReason {
     /// Every reason, by code.
-    pub const ALL: [TierReason; 16] = [
+    pub const ALL: [TierReason; 17] = [
         TierReason::Asked,
         TierReason::NoVibration,
         TierReason::TwoStage,
@@ -1400,6 +1403,7 @@ impl TierReason {
         TierReason::AskedHybrid,
         TierReason::Zones,
         TierReason::PartialLaw,
+        TierReason::NearZone,
     ];
 
     /// The name in files.
@@ -1421,6 +1425,7 @@ impl TierReason {
             TierReason::AskedHybrid => "asked_hybrid",
             TierReason::Zones => "zones",
             TierReason::PartialLaw => "partial_law",
+            TierReason::NearZone => "near_zone",
         }
     }
 
@@ -1490,6 +1495,11 @@ impl TierReason {
             TierReason::LeftLaw => {
                 "the averaged run's steady window reached mean velocities where the fast orbit \
                  does not contract (or was not found): the full model served"
+            }
+            TierReason::NearZone => {
+                "the drive velocity lies in or within 25 % of a zone of the averaged law where \
+                 the fast orbit does not contract: a body that accelerates through the zone can \
+                 stay on another attractor beyond it, so the full model served"
             }
         }
     }
@@ -1632,6 +1642,18 @@ fn prechecks(p: &Params, none: bool, tier: Tier) -> Option<TierReason> {
     None
 }
 
+/// Share of `v_d` about it within which no zone of the law may lie (no mean velocity whose
+/// fast orbit does not contract, [`Table::valid_at`]) for [`Tier::Auto`] to average or to use
+/// hybrid windows ([`TierReason::NearZone`]). A body that accelerates from rest through a zone
+/// can stay on the attractor it found there (a period-doubled or chaotic fast motion) past the
+/// zone's edge, where the period-1 orbit the law holds contracts again: on the overnight grid's
+/// even sixteenth at 2639 Hz, `u0` = 12.6 nm, `v_d` = 0.149 mm/s (a zone up to 13 % below
+/// `v_d`, the orbit at `v_d` contracting with multiplier 0.87) the full model, every period
+/// integrated, slides at 4.79 N and the averaged law gives 8.60 N; at 2000 Hz, `u0` = 12.6 nm,
+/// `v_d` = 0.149 mm/s, `k_d` = 10 986 N/m (`v_d` inside a zone) hybrid windows gave `r` = 0.50
+/// for 0. 25 % is about twice the farthest such reach seen there.
+pub const ZONE_MARGIN: f64 = 0.25;
+
 /// The contact resonance `√(k_t/m)/2π` \[Hz\] (1649 Hz on the defaults). Below it the fast
 /// orbit of body and contact period-doubles and turns chaotic in zones of the mean velocity
 /// that a table's nodes can straddle unseen, and attractors other than the period-1 orbit
@@ -1649,7 +1671,8 @@ pub fn contact_resonance(p: &Params) -> f64 {
 /// the run vibrates from the start without model extensions, `f ≥` [`SEPARATION`] times the
 /// drive oscillator's frequency and above the contact resonance ([`contact_resonance`]), and
 /// the law was found from rest on; [`Tier::Averaged`] drops
-/// the separation rule. The run itself then checks that its steady window stays where the law
+/// the separation rule. Under auto the law must also hold within [`ZONE_MARGIN`] of `v_d`
+/// ([`TierReason::NearZone`]). The run itself then checks that its steady window stays where the law
 /// may serve ([`SlowRun::left_law`]), and hands over to the full model where it does not
 /// ([`TierReason::LeftLaw`]).
 pub fn choose(
@@ -1663,6 +1686,10 @@ pub fn choose(
     }
     match shared_table(p) {
         Ok(t) if t.nodes.len() >= 2 => {
+            let m = ZONE_MARGIN * p.v_d;
+            if tier == Tier::Auto && t.first_invalid(p.v_d - m, p.v_d + m).is_some() {
+                return full(TierReason::NearZone);
+            }
             let (tier, why) = match tier {
                 Tier::Auto => (Tier::Averaged, TierReason::Valid),
                 Tier::Hybrid => (Tier::Hybrid, TierReason::AskedHybrid),

@@ -16,7 +16,7 @@
 //! | `wall_time` | s | wall time of the point's own run |
 //! | `t_end` | s | simulated time of the point's own run (shorter than planned where it stopped early) |
 //! | `tier` | 1 | model that served the point's own run: 0 full, 1 averaged, 2 hybrid (`crate::averaged::Tier`), −1 not run yet |
-//! | `tier_reason` | 1 | why: 0 asked, 1 no_vibration, 2 two_stage, 3 effects, 4 separation, 5 no_law, 6 valid, 7 asked_averaged, 8 check (the full run replaced a disagreeing averaged one: `crate::sweep::check`), 9 left_law (the averaged run's window left the valid law; the full model served), 10 below_resonance, 11 unshared (under auto, no other point shares the point's table), 12 small_amplitude (v_a below 0.1 v_d), 13 asked_hybrid, 14 zones (under auto, the averaged run passed the law's zones and hybrid windows served), 15 partial_law (a hybrid run found the law's continuation stopped short; the full model served) (`crate::averaged::TierReason`), −1 not run yet |
+//! | `tier_reason` | 1 | why: 0 asked, 1 no_vibration, 2 two_stage, 3 effects, 4 separation, 5 no_law, 6 valid, 7 asked_averaged, 8 check (the full run replaced a disagreeing averaged one: `crate::sweep::check`), 9 left_law (the averaged run's window left the valid law; the full model served), 10 below_resonance, 11 unshared (under auto, no other point shares the point's table), 12 small_amplitude (v_a below 0.1 v_d), 13 asked_hybrid, 14 zones (under auto, the averaged run passed the law's zones and hybrid windows served), 15 partial_law (a hybrid run found the law's continuation stopped short; the full model served), 16 near_zone (under auto, `v_d` lies in or within 25 % of a zone of the law; the full model served) (`crate::averaged::TierReason`), −1 not run yet |
 //!
 //! Group `tier_check` (where any point was averaged) holds the full-model checks of averaged points and their summary ([`super::check`]).
 //! | `u0_grid`, `v_a_grid` | m, m/s | the vibration amplitude and velocity amplitude of each point |
@@ -131,7 +131,7 @@ fn grids(spec: &SweepSpec, plan: &Plan, res: &Results) -> Vec<Grid> {
         (
             "tier_reason",
             "1",
-            "why: 0 asked, 1 no_vibration, 2 two_stage, 3 effects, 4 separation, 5 no_law, 6 valid, 7 asked_averaged, 8 check (a full run replaced a disagreeing averaged one), 9 left_law (the averaged run left the valid law: full), 10 below_resonance, 11 unshared (no other point shares its table: full), 12 small_amplitude (v_a < 0.1 v_d: full), 13 asked_hybrid, 14 zones (under auto, the averaged run passed the law's zones: hybrid), 15 partial_law (the law's continuation stopped short: full)",
+            "why: 0 asked, 1 no_vibration, 2 two_stage, 3 effects, 4 separation, 5 no_law, 6 valid, 7 asked_averaged, 8 check (a full run replaced a disagreeing averaged one), 9 left_law (the averaged run left the valid law: full), 10 below_resonance, 11 unshared (no other point shares its table: full), 12 small_amplitude (v_a < 0.1 v_d: full), 13 asked_hybrid, 14 zones (under auto, the averaged run passed the law's zones: hybrid), 15 partial_law (the law's continuation stopped short: full), 16 near_zone (under auto, v_d in or within 25 % of a zone of the law: full)",
             vec![],
         ),
         (
