@@ -282,6 +282,10 @@ pub enum AveragingError {
         /// Scaled residual at the end.
         residual: f64,
     },
+    /// The slow model of a hybrid run ran away: its mean velocity passed [`DIVERGED`] times
+    /// the larger of the table's span and [`slip_speed`], or turned non-finite.
+    #[error("the slow model diverged (mean velocity {0:.3e} m/s)")]
+    Diverged(f64),
 }
 
 /// Finds periodic orbits of the fast subsystem of one set of parameters (its `f`, `u0`, `v_d`
@@ -1088,13 +1092,29 @@ pub fn simulate_slow(
     simulate_slow_with(p, table, t_end, dt, rtol, None, true)
 }
 
-/// How far past the table's upper end ([`table_span`]) the slow model's mean velocity may run
-/// in the steady window before the run counts as diverged and leaves the law
-/// ([`SlowRun::left_law`]): the table spans every speed a slip reaches, so a window beyond
-/// four times its span is a runaway of the integration, not friction. On the overnight grid's
-/// even sixteenth (2000 Hz, `u0` = 12.6 nm, `v_d` = 0.15 mm/s) the slow model ran off to
-/// `V` ≈ 1e17 m/s and, without this bound, reported `r` ≈ 5e21 as a success.
+/// How far past the larger of the table's upper end ([`table_span`]) and the fastest slip
+/// ([`slip_speed`]) the slow model's mean velocity may run in the steady window before the run
+/// counts as diverged and leaves the law ([`SlowRun::left_law`]): a window beyond four times
+/// both is a runaway of the integration, not friction. On the overnight grid's even sixteenth
+/// (2000 Hz, `u0` = 12.6 nm, `v_d` = 0.15 mm/s) the slow model ran off to `V` ≈ 1e17 m/s and,
+/// without this bound, reported `r` ≈ 5e21 as a success. (Four times the table alone was too
+/// tight: a soft drive's slips outrun it, at 2000 Hz, `u0` = 5 nm, `v_d` = 0.27 mm/s,
+/// `k_d` = 5000 N/m by ten times, and 33 points of a 1024-point slice of the overnight grid went to
+/// the full model for nothing.)
 pub const DIVERGED: f64 = 4.0;
+
+/// The mean velocity \[m/s\] past which a slow model has diverged: [`DIVERGED`] times the
+/// larger of the table's upper end and [`slip_speed`].
+pub fn divergence_bound(p: &Params, table: &Table) -> f64 {
+    DIVERGED * table.at.last().copied().unwrap_or(0.0).max(slip_speed(p))
+}
+
+/// A bound on the body's speed in a slip \[m/s\]: `v_d + 2 F_s / √(k_d m)`. The spring's energy
+/// at breakaway, `F²/(2 k_d)` with `F` below `2 F_s`, is all a slip can turn into the body's
+/// kinetic energy `m V²/2` relative to the drive.
+pub fn slip_speed(p: &Params) -> f64 {
+    p.v_d + 2.0 * p.f_s / (p.k_d * p.m).sqrt()
+}
 
 /// Share of the nominal stick-slip amplitude `2 (F_s − F_c)` (and of `v_d`) within which the
 /// slow model's end state must lie of the steady slide at `v_d` for its mean force to be
@@ -1202,7 +1222,7 @@ pub fn simulate_slow_with(
     }
     // A window that runs far past the table (which spans every speed a slip reaches,
     // [`table_span`]) or through non-finite values has diverged: no law holds it there.
-    let reach = DIVERGED * table.at.last().copied().unwrap_or(0.0);
+    let reach = divergence_bound(p, table);
     let left_law = if !finite || !(seen.0.abs().max(seen.1.abs()) <= reach) {
         Some(f64::INFINITY)
     } else {

@@ -129,6 +129,7 @@ pub fn simulate_hybrid(
     let mut mode = Mode::Slow([0.0, 0.0]);
     sample(0, 0.0, 0.0, 0.0);
     let v_a = p.v_a();
+    let reach = crate::averaged::divergence_bound(p, table);
     while n < periods && status == Status::Success {
         let t0 = n as f64 * period;
         let from = n;
@@ -141,6 +142,7 @@ pub fn simulate_hybrid(
                 };
                 let mut i = n;
                 let mut into_zone = false;
+                let mut ran_away = None;
                 // The grid's own last time: a span end computed apart can fall short of it by a
                 // rounding and leave the last sample out.
                 let t_stop = grid.time(grid.count - 1);
@@ -150,10 +152,19 @@ pub fn simulate_hybrid(
                             sample(i, force(y[0], y[1]), y[1], y[0]);
                         }
                         i += 1;
+                        // A runaway of the slow integration is no friction: the run stops
+                        // and the full model serves (as for an averaged run that diverged).
+                        if !(y[1].abs() <= reach) {
+                            ran_away = Some(y[1]);
+                            return false;
+                        }
                         into_zone = !table.valid_at(y[1]);
                         // The sample at t0 is the state handed over, already taken.
                         !into_zone || i == n + 1
                     });
+                if let Some(v) = ran_away {
+                    return Err(AveragingError::Diverged(v));
+                }
                 stats += rep.stats;
                 status = rep.status;
                 n = i - 1;

@@ -465,13 +465,15 @@ pub fn simulate_with(
 /// windows ([`crate::hybrid`]), with the tier and its reason recorded. Where an averaged run's
 /// window leaves the law, `auto` goes on with hybrid windows and `averaged` with the full model
 /// (both with the full model where the slow model diverged);
-/// where a hybrid run finds the law's continuation stopped short, the full model serves.
+/// where a hybrid run finds the law's continuation stopped short (`partial_law`) or its slow
+/// model diverges (`left_law`), the full model serves.
 fn serve(rig: &Rig, none: bool, t_end: f64, opts: &RunOptions, solver: &mut Solver) -> RunResult {
     let clock = Instant::now();
     let (tier, tier_reason, table) = crate::averaged::choose(&rig.p, none, opts.tier);
     let full = |solver: &mut Solver, why| (integrate(rig, t_end, opts, solver), Tier::Full, why);
     let hybrid = |solver: &mut Solver, t, why| match hybrid_run(rig, t, t_end, opts, solver) {
         Ok(r) => (r, Tier::Hybrid, why),
+        Err(crate::averaged::AveragingError::Diverged(_)) => full(solver, TierReason::LeftLaw),
         Err(_) => full(solver, TierReason::PartialLaw),
     };
     // The full model serves where no law was handed over; the time of a try that failed
