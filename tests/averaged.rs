@@ -474,6 +474,22 @@ fn slow_model_continued_along_its_cycle_keeps_the_measures() {
     }
 }
 
+/// A run of `p` (and its reference) under `tier` with envelope following at `envelope` (`None`:
+/// every period integrated), the other options at their defaults.
+fn tiered(
+    p: &Params,
+    tier: stickslip::averaged::Tier,
+    envelope: Option<f64>,
+) -> stickslip::sim::CaseResult {
+    let opts = RunOptions {
+        tier,
+        envelope,
+        ..RunOptions::default()
+    };
+    let mut solver = Solver::new(opts.method);
+    run_case_with(p, &stickslip::model::Effects::none(), &opts, &mut solver).expect("a run")
+}
+
 /// A slow model that runs away is no result: at 2000 Hz, `u0` = 12.56 nm, `v_d` = 0.149 mm/s,
 /// `k_d` = 2223 N/m (a point of the overnight grid's even sixteenth, `v_a/v_d` = 1.06) the
 /// averaged slow model's mean velocity grows past 1e11 m/s within 13 s, and once reported
@@ -498,14 +514,7 @@ fn a_diverging_slow_model_hands_the_point_to_the_full_model() {
     let slow = simulate_slow_with(&p, &table, t_end, 1.0 / p.f, 1e-7, None, true)
         .expect("a table of two nodes or more");
     assert_eq!(slow.left_law, Some(f64::INFINITY), "{:?}", slow.measures);
-    let run = |tier| {
-        let opts = RunOptions {
-            tier,
-            ..RunOptions::default()
-        };
-        let mut solver = Solver::new(opts.method);
-        run_case_with(&p, &stickslip::model::Effects::none(), &opts, &mut solver).expect("a run")
-    };
+    let run = |tier| tiered(&p, tier, RunOptions::default().envelope);
     let full = run(Tier::Full);
     assert!(full.r < 0.01, "full model: r {}", full.r);
     // Auto does not try the law here: `v_d` lies in one of its zones (near_zone).
@@ -543,15 +552,7 @@ fn auto_leaves_a_drive_velocity_near_a_zone_to_the_full_model() {
             0.00014909760458231002,
         )
     };
-    let run = |tier, envelope| {
-        let opts = RunOptions {
-            tier,
-            envelope,
-            ..RunOptions::default()
-        };
-        let mut solver = Solver::new(opts.method);
-        run_case_with(&p, &stickslip::model::Effects::none(), &opts, &mut solver).expect("a run")
-    };
+    let run = |tier, envelope| tiered(&p, tier, envelope);
     let every = run(Tier::Full, None);
     let force = every.run.measures.mean_force;
     assert!(
@@ -600,14 +601,7 @@ fn a_soft_drives_fast_slips_are_no_divergence() {
         "{} against {span}",
         slip_speed(&p)
     );
-    let run = |tier| {
-        let opts = RunOptions {
-            tier,
-            ..RunOptions::default()
-        };
-        let mut solver = Solver::new(opts.method);
-        run_case_with(&p, &stickslip::model::Effects::none(), &opts, &mut solver).expect("a run")
-    };
+    let run = |tier| tiered(&p, tier, RunOptions::default().envelope);
     let (auto, full) = (run(Tier::Auto), run(Tier::Full));
     assert_eq!(
         (auto.run.tier, auto.run.tier_reason),
