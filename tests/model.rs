@@ -713,3 +713,34 @@ fn two_stage_runs_switch_the_vibration_on_at_t_on() {
     .to_string();
     assert!(e.contains("`t_on` = 50") && e.contains("t_end = 10"), "{e}");
 }
+
+/// A slide near its stability limit stays a slide with envelope following: at 2000 Hz,
+/// `u0` = 79 nm, `v_d` = 1.1 mm/s, `k_d` = 4942 N/m the jumps pumped the slow oscillation about
+/// the slide into slips that never stick (`r` = 0.073 at 1e-4), where every period integrated
+/// (Dopri5 at 1e-6 and 1e-9, Radau5 at 1e-8) slides at 8.5337 N. A run whose envelope ends in
+/// such slips is integrated again with every period, and counts the work of both.
+#[test]
+fn envelope_slips_without_a_stick_are_integrated_again() {
+    let p = Params {
+        f: 2000.0,
+        u0: 7.924465962305561e-8,
+        v_d: 0.0010985605433061181,
+        k_d: 4941.771544836056,
+        ..Params::default()
+    };
+    let run = |envelope| {
+        let opts = RunOptions {
+            method: Method::Dopri5,
+            envelope,
+            ..full_model()
+        };
+        run_case(&p, &opts, &mut Solver::new(opts.method)).expect("a run")
+    };
+    let (env, every) = (run(Some(1e-4)), run(None));
+    assert!(every.r < 0.01, "every period: r {}", every.r);
+    assert!(env.r < 0.01, "envelope: r {}", env.r);
+    let force = |c: &stickslip::sim::CaseResult| c.run.measures.mean_force;
+    assert!((force(&env) / force(&every) - 1.0).abs() < 1e-4);
+    // Both integrations counted.
+    assert!(env.run.stats.rhs_evals > every.run.stats.rhs_evals);
+}
