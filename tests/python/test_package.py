@@ -110,6 +110,21 @@ def test_tiers_say_which_model_served_and_agree() -> None:
         stickslip.run(f=3000, va_ratio=0.4, tier="windows")
 
 
+def test_auto_leaves_a_drive_velocity_near_a_zone_to_the_full_model() -> None:
+    """At 2639 Hz, u0 = 12.56 nm, v_d = 0.149 mm/s the averaged law has a zone (no contracting
+    fast orbit) up to 13 % below v_d, and the full model slides at 4.79 N on another attractor
+    where the law gives 8.60 N: auto serves the point in full and says why (near_zone), and
+    averaged asked for reports the law's force."""
+    case = dict(k_d=4941.771544836056, v_d=0.00014909760458231002, f=2639.015821545788,
+                u0=1.2559432157547897e-08, trace=False)
+    auto = stickslip.run(**case)
+    assert (auto.tier, auto.tier_reason) == ("full", "near_zone")
+    assert abs(auto.mean_force - 4.79) < 0.05
+    avg = stickslip.run(**case, tier="averaged")
+    assert avg.tier == "averaged"
+    assert avg.mean_force > 8.0
+
+
 def test_trace_is_a_dataset_with_units() -> None:
     r = stickslip.run(k_d=11_700, v_d=0.5e-3, f=1500, va_ratio=2.0, effects={"viscous": {"h_v": 20}})
     tr = r.trace
