@@ -1069,8 +1069,8 @@ pub struct SlowRun {
     /// measures are then not the averaged model's to give: the full model must serve. The
     /// transient before the window is not checked: the stick-slip forgets it, and a start from
     /// rest passes the law at zero force, where the orbit of a small vibration need not
-    /// contract. Infinite where the slow model diverged: its window ran past [`DIVERGED`]
-    /// times the table's span, or through non-finite values (the full model must serve; hybrid
+    /// contract. Infinite where the slow model diverged: its window ran past
+    /// [`divergence_bound`], or through non-finite values (the full model must serve; hybrid
     /// windows would hand back to the same slow model).
     pub left_law: Option<f64>,
     /// Time \[s\] from which the samples were read off the slow model's limit cycle instead of
@@ -1220,8 +1220,8 @@ pub fn simulate_slow_with(
             record(i, t, f, p.v_d * t - x[0], x[1]);
         });
     }
-    // A window that runs far past the table (which spans every speed a slip reaches,
-    // [`table_span`]) or through non-finite values has diverged: no law holds it there.
+    // A window that runs far past both the table and the fastest slip, or through non-finite
+    // values, has diverged: no law holds it there.
     let reach = divergence_bound(p, table);
     let left_law = if !finite || !(seen.0.abs().max(seen.1.abs()) <= reach) {
         Some(f64::INFINITY)

@@ -777,7 +777,7 @@ pub const SETTLED_MEAN: f64 = 0.001;
 /// oscillation up to the size the tolerance allows, and a slide near its stability limit then
 /// falls into it (`docs/methods.md`, "Near a slide's stability limit"). At 2000 Hz,
 /// `u0` = 79 nm, `v_d` = 1.1 mm/s the envelope at 1e-4 gave `r` = 0.073 where every period
-/// integrated gives 0. The statistics and the wall time count both integrations.
+/// integrated gives 0. The statistics count both integrations ([`serve`] times the whole).
 fn integrate_full(rig: &Rig, t_end: f64, opts: &RunOptions, solver: &mut Solver) -> RunResult {
     let first = integrate(rig, t_end, opts, solver);
     let m = &first.measures;
@@ -793,7 +793,6 @@ fn integrate_full(rig: &Rig, t_end: f64, opts: &RunOptions, solver: &mut Solver)
     };
     let mut again = integrate(rig, t_end, &every, solver);
     again.stats += first.stats;
-    again.wall_time += first.wall_time;
     again
 }
 
