@@ -151,54 +151,66 @@ impl Stepper for Dopri5 {
     fn attempt<S: OdeSystem>(&mut self, sys: &S, st: &mut Stats) -> StepOutcome {
         let n = self.n;
         let (t, h) = (self.t, self.h);
-        let y = &self.y;
+        // Every buffer as a slice of length n: the loops below then carry no bounds checks,
+        // which for the rig's three states cost as much as their arithmetic.
+        let Dopri5 {
+            y,
+            k1,
+            k2,
+            k3,
+            k4,
+            k5,
+            k6,
+            k7,
+            ynew,
+            ytmp,
+            ..
+        } = self;
+        let (y, k1, k2, k3, k4, k5, k6, k7, ynew, ytmp) = (
+            &y[..n],
+            &mut k1[..n],
+            &mut k2[..n],
+            &mut k3[..n],
+            &mut k4[..n],
+            &mut k5[..n],
+            &mut k6[..n],
+            &mut k7[..n],
+            &mut ynew[..n],
+            &mut ytmp[..n],
+        );
         for i in 0..n {
-            self.ytmp[i] = y[i] + h * A21 * self.k1[i];
+            ytmp[i] = y[i] + h * A21 * k1[i];
         }
-        sys.rhs(t + C2 * h, &self.ytmp, &mut self.k2);
+        sys.rhs(t + C2 * h, ytmp, k2);
         for i in 0..n {
-            self.ytmp[i] = y[i] + h * (A31 * self.k1[i] + A32 * self.k2[i]);
+            ytmp[i] = y[i] + h * (A31 * k1[i] + A32 * k2[i]);
         }
-        sys.rhs(t + C3 * h, &self.ytmp, &mut self.k3);
+        sys.rhs(t + C3 * h, ytmp, k3);
         for i in 0..n {
-            self.ytmp[i] = y[i] + h * (A41 * self.k1[i] + A42 * self.k2[i] + A43 * self.k3[i]);
+            ytmp[i] = y[i] + h * (A41 * k1[i] + A42 * k2[i] + A43 * k3[i]);
         }
-        sys.rhs(t + C4 * h, &self.ytmp, &mut self.k4);
+        sys.rhs(t + C4 * h, ytmp, k4);
         for i in 0..n {
-            self.ytmp[i] = y[i]
-                + h * (A51 * self.k1[i] + A52 * self.k2[i] + A53 * self.k3[i] + A54 * self.k4[i]);
+            ytmp[i] = y[i] + h * (A51 * k1[i] + A52 * k2[i] + A53 * k3[i] + A54 * k4[i]);
         }
-        sys.rhs(t + C5 * h, &self.ytmp, &mut self.k5);
+        sys.rhs(t + C5 * h, ytmp, k5);
         for i in 0..n {
-            self.ytmp[i] = y[i]
-                + h * (A61 * self.k1[i]
-                    + A62 * self.k2[i]
-                    + A63 * self.k3[i]
-                    + A64 * self.k4[i]
-                    + A65 * self.k5[i]);
+            ytmp[i] =
+                y[i] + h * (A61 * k1[i] + A62 * k2[i] + A63 * k3[i] + A64 * k4[i] + A65 * k5[i]);
         }
-        sys.rhs(t + h, &self.ytmp, &mut self.k6);
+        sys.rhs(t + h, ytmp, k6);
         for i in 0..n {
-            self.ynew[i] = y[i]
-                + h * (A71 * self.k1[i]
-                    + A73 * self.k3[i]
-                    + A74 * self.k4[i]
-                    + A75 * self.k5[i]
-                    + A76 * self.k6[i]);
+            ynew[i] =
+                y[i] + h * (A71 * k1[i] + A73 * k3[i] + A74 * k4[i] + A75 * k5[i] + A76 * k6[i]);
         }
-        sys.rhs(t + h, &self.ynew, &mut self.k7);
+        sys.rhs(t + h, ynew, k7);
         st.rhs_evals += 6;
         // Local error estimate, reusing k2 as scratch.
         for i in 0..n {
-            self.k2[i] = h
-                * (E1 * self.k1[i]
-                    + E3 * self.k3[i]
-                    + E4 * self.k4[i]
-                    + E5 * self.k5[i]
-                    + E6 * self.k6[i]
-                    + E7 * self.k7[i]);
+            k2[i] =
+                h * (E1 * k1[i] + E3 * k3[i] + E4 * k4[i] + E5 * k5[i] + E6 * k6[i] + E7 * k7[i]);
         }
-        let err = error_norm(&self.k2, &self.y, &self.ynew, &self.atol, self.rtol);
+        let err = error_norm(k2, y, ynew, &self.atol, self.rtol);
         if !err.is_finite() {
             st.rejected += 1;
             self.h *= 0.1;
@@ -213,8 +225,8 @@ impl Stepper for Dopri5 {
                 // Stiffness test, before k7 and ytmp are reused.
                 let (mut num, mut den) = (0.0, 0.0);
                 for i in 0..n {
-                    num += (self.k7[i] - self.k6[i]).powi(2);
-                    den += (self.ynew[i] - self.ytmp[i]).powi(2);
+                    num += (k7[i] - k6[i]).powi(2);
+                    den += (ynew[i] - ytmp[i]).powi(2);
                 }
                 self.h_lambda = if den > 0.0 {
                     h * (num / den).sqrt()
@@ -225,20 +237,23 @@ impl Stepper for Dopri5 {
             self.facold = err.max(1e-4);
             self.facold_beta = self.facold.powf(BETA);
             // Dense output coefficients.
+            let [rc0, rc1, rc2, rc3, rc4] = &mut self.rc;
+            let (rc0, rc1, rc2, rc3, rc4) = (
+                &mut rc0[..n],
+                &mut rc1[..n],
+                &mut rc2[..n],
+                &mut rc3[..n],
+                &mut rc4[..n],
+            );
             for i in 0..n {
-                let ydiff = self.ynew[i] - self.y[i];
-                let bspl = h * self.k1[i] - ydiff;
-                self.rc[0][i] = self.y[i];
-                self.rc[1][i] = ydiff;
-                self.rc[2][i] = bspl;
-                self.rc[3][i] = ydiff - h * self.k7[i] - bspl;
-                self.rc[4][i] = h
-                    * (D1 * self.k1[i]
-                        + D3 * self.k3[i]
-                        + D4 * self.k4[i]
-                        + D5 * self.k5[i]
-                        + D6 * self.k6[i]
-                        + D7 * self.k7[i]);
+                let ydiff = ynew[i] - y[i];
+                let bspl = h * k1[i] - ydiff;
+                rc0[i] = y[i];
+                rc1[i] = ydiff;
+                rc2[i] = bspl;
+                rc3[i] = ydiff - h * k7[i] - bspl;
+                rc4[i] = h
+                    * (D1 * k1[i] + D3 * k3[i] + D4 * k4[i] + D5 * k5[i] + D6 * k6[i] + D7 * k7[i]);
             }
             std::mem::swap(&mut self.k1, &mut self.k7);
             std::mem::swap(&mut self.y, &mut self.ynew);
@@ -263,9 +278,18 @@ impl Stepper for Dopri5 {
     fn dense(&self, t: f64, out: &mut [f64]) {
         let s = (t - (self.t - self.h_prev)) / self.h_prev;
         let s1 = 1.0 - s;
-        let rc = &self.rc;
-        for i in 0..self.n {
-            out[i] = rc[0][i] + s * (rc[1][i] + s1 * (rc[2][i] + s * (rc[3][i] + s1 * rc[4][i])));
+        let n = self.n;
+        let [rc0, rc1, rc2, rc3, rc4] = &self.rc;
+        let (rc0, rc1, rc2, rc3, rc4, out) = (
+            &rc0[..n],
+            &rc1[..n],
+            &rc2[..n],
+            &rc3[..n],
+            &rc4[..n],
+            &mut out[..n],
+        );
+        for i in 0..n {
+            out[i] = rc0[i] + s * (rc1[i] + s1 * (rc2[i] + s * (rc3[i] + s1 * rc4[i])));
         }
     }
 }
