@@ -188,6 +188,45 @@ fn effect_free_data_has_no_significant_gap() {
     }
 }
 
+/// The work a diagnosis reports (`Target::work`, the JSON's `work`) counts each recording
+/// simulated under a model once: asking for the same predictions again, on the whole campaign
+/// or a subset of it, runs nothing more and counts as cache hits; another model runs again.
+#[test]
+fn work_counts_each_simulation_once() {
+    use stickslip::campaign::fit::{Model, Target};
+    let (_dir, c) = campaign(Effects::none(), 7);
+    let all = Target::new(c.recordings.iter().collect());
+    let n = c.recordings.len();
+    assert_eq!(all.work().simulations, 0);
+    let first = all.predict(&Model::default());
+    let w = all.work();
+    assert_eq!((w.simulations, w.cache_hits), (n, 0), "{w:?}");
+    assert!(w.simulation_cpu > 0.0, "{w:?}");
+    // The same model again, then on a subset that shares the cache: no run, the same features.
+    let again = all.predict(&Model::default());
+    let sub = all.sub(c.recordings.iter().take(4).collect());
+    let _ = sub.predict(&Model::default());
+    let w = all.work();
+    assert_eq!((w.simulations, w.cache_hits), (n, n + 4), "{w:?}");
+    assert_eq!(all.residuals(&first), all.residuals(&again));
+    // Another model runs on every recording the subset holds, and the subset's count is the
+    // campaign's.
+    let other = Model {
+        f_s: 1.05 * Model::default().f_s,
+        ..Model::default()
+    };
+    let _ = sub.predict(&other);
+    assert_eq!(sub.work().simulations, n + 4);
+    assert_eq!(all.work().simulations, n + 4);
+    // And the diagnosis reports it: its calibration alone simulates every recording.
+    let d = diagnose(&c, &DiagnoseOptions::default()).unwrap();
+    assert!(
+        d.work.simulations >= n && d.work.simulation_cpu > 0.0,
+        "{:?}",
+        d.work
+    );
+}
+
 /// A fit asked to reach a gap its linearised residuals cannot reach stops at its start after
 /// one Jacobian, without trying a step (`FitOptions::reach`, the screens' bar); a fit that
 /// extends a fitted model by an effect takes that model's Jacobian columns as given and

@@ -412,6 +412,8 @@ pub struct Diagnosis {
     pub not_checked: Vec<String>,
     /// Wall time \[s\].
     pub wall_time: f64,
+    /// The simulations behind the diagnosis, with their cost.
+    pub work: fit::Work,
 }
 
 /// A recording's kind for the cross-validation (see the module docs): 0 without vibration,
@@ -1550,6 +1552,7 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
             .collect(),
         not_checked,
         wall_time: start.elapsed().as_secs_f64(),
+        work: all.work(),
     })
 }
 

@@ -27,7 +27,9 @@ use faer::Mat;
 use faer::linalg::solvers::{Solve, SolveLstsq};
 use rayon::prelude::*;
 use std::collections::HashMap;
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
+use std::time::Instant;
 
 /// The base parameters a calibration fits.
 pub const BASE_FITTED: [&str; 4] = ["F_s", "F_c", "v_s", "h_d"];
@@ -464,6 +466,29 @@ struct SimCache {
     map: Mutex<HashMap<(usize, Vec<u64>), Vec<FeatureSet>>>,
     /// The measured features of each recording ([`measured_features`]), by recording.
     measured: Mutex<HashMap<usize, Vec<FeatureSet>>>,
+    /// Simulations run (each a recording under a model: a cache miss).
+    simulations: AtomicUsize,
+    /// Predictions served from the map without a simulation.
+    hits: AtomicUsize,
+    /// CPU time spent in the simulations and their features \[ns\], summed over threads.
+    nanos: AtomicU64,
+}
+
+/// The work behind a diagnosis or a calibration: how many simulations its fits, scans, folds
+/// and fingerprints ran, and what they cost. A recording simulated under one model counts once,
+/// however often its features are asked for (the cache; two threads that ask for the same
+/// prediction at the same moment may both run it, so two runs' counts can differ by a few).
+/// Every other step (features of the recordings, linear algebra, the decision) costs a few
+/// percent beside the simulations.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Work {
+    /// Simulations run: recordings simulated under a model, each over its whole sample grid.
+    pub simulations: usize,
+    /// Predictions a fit asked for that an earlier simulation already held (no run).
+    pub cache_hits: usize,
+    /// CPU time of the simulations \[s\], summed over threads: on `n` cores the wall time they
+    /// take is about this over `n`.
+    pub simulation_cpu: f64,
 }
 
 impl SimCache {
@@ -515,9 +540,16 @@ impl SimCache {
         let (m, key) = Self::key(model, rec);
         let lock = || self.map.lock().unwrap_or_else(|e| e.into_inner());
         if let Some(f) = lock().get(&key) {
+            self.hits.fetch_add(1, Ordering::Relaxed);
             return f.clone();
         }
+        let clock = Instant::now();
         let f = predict_one(&m, rec, solvers);
+        self.nanos.fetch_add(
+            u64::try_from(clock.elapsed().as_nanos()).unwrap_or(u64::MAX),
+            Ordering::Relaxed,
+        );
+        self.simulations.fetch_add(1, Ordering::Relaxed);
         let mut map = lock();
         if map.len() < Self::CAPACITY {
             map.insert(key, f.clone());
@@ -655,6 +687,16 @@ impl<'a> Target<'a> {
             reference,
             bounds,
             cache,
+        }
+    }
+
+    /// The simulations run so far by this target and every subset of it ([`Target::sub`]
+    /// shares its cache), with their cost.
+    pub fn work(&self) -> Work {
+        Work {
+            simulations: self.cache.simulations.load(Ordering::Relaxed),
+            cache_hits: self.cache.hits.load(Ordering::Relaxed),
+            simulation_cpu: self.cache.nanos.load(Ordering::Relaxed) as f64 * 1e-9,
         }
     }
 

@@ -150,6 +150,11 @@ pub fn json(c: &Campaign, d: &Diagnosis) -> serde_json::Value {
             })).collect::<Vec<_>>(),
         },
         "wall_time": d.wall_time,
+        "work": {
+            "simulations": d.work.simulations,
+            "cache_hits": d.work.cache_hits,
+            "simulation_cpu": num(d.work.simulation_cpu),
+        },
     })
 }
 
@@ -471,7 +476,11 @@ pub fn summary(c: &Campaign, d: &Diagnosis) -> String {
     for w in &d.warnings {
         let _ = writeln!(s, "WARNING: {w}");
     }
-    let _ = writeln!(s, "wall time {:.1} s", d.wall_time);
+    let _ = writeln!(
+        s,
+        "wall time {:.1} s ({} simulations, {:.0} s of CPU in them; {} predictions from the cache)",
+        d.wall_time, d.work.simulations, d.work.simulation_cpu, d.work.cache_hits
+    );
     s
 }
 

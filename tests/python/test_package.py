@@ -368,6 +368,11 @@ def test_diagnose_from_frames_gives_the_cli_verdict(small_campaign: Path, tmp_pa
     assert d.to_dict()["gap_before"] == by_cli["gap_before"]
     assert d.to_dict()["ranking"] == by_cli["ranking"]
     assert (tmp_path / "py" / "diagnosis.json").is_file()
+    # Its work: every recording simulated at least once for the calibration, and more for its
+    # iterations (threads that ask for one prediction at once may each run it, so the counts of
+    # two runs can differ by a few).
+    assert d.work["simulations"] > len(camp) and by_cli["work"]["simulations"] > len(camp)
+    assert d.work["simulation_cpu"] > 0 and d.work["cache_hits"] >= 0
     figs = d.figures()
     import matplotlib.figure
 
