@@ -206,7 +206,7 @@ impl SynthArgs {
             let kind = effect_flag("draw", name)?;
             use rand::SeedableRng;
             let mut rng = rand::rngs::StdRng::seed_from_u64(self.seed ^ 0x5eed);
-            spec.effects = draw(kind, &mut rng);
+            spec.effects = draw(kind, &mut rng, &spec);
         }
         once_each(&self.effects)?;
         for e in &self.effects {

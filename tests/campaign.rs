@@ -66,7 +66,14 @@ fn show(d: &Diagnosis) -> String {
 
 fn identifies(kind: EffectKind, seed: u64) {
     let mut rng = StdRng::seed_from_u64(seed);
-    let fx = draw(kind, &mut rng);
+    let fx = draw(
+        kind,
+        &mut rng,
+        &SynthSpec {
+            design: Design::Small,
+            ..SynthSpec::default()
+        },
+    );
     let (_dir, c) = campaign(fx.clone(), seed);
     let d = diagnose(&c, &DiagnoseOptions::default()).unwrap();
     let msg = format!("injected {}\n{}", fx.describe(), show(&d));
@@ -124,7 +131,7 @@ identification_tests! {
 fn names_aging_absorbed_by_the_base_fit_in_the_full_design() {
     let dir = tempfile::tempdir().unwrap();
     let mut rng = StdRng::seed_from_u64(1 ^ 0x5eed);
-    let fx = draw(EffectKind::Aging, &mut rng);
+    let fx = draw(EffectKind::Aging, &mut rng, &SynthSpec::default());
     let spec = SynthSpec {
         effects: fx.clone(),
         design: Design::Full,
@@ -332,7 +339,7 @@ fn refining_a_stalled_fit_spends_nothing() {
 #[test]
 fn friction_along_the_track_is_unexplained_but_located() {
     let mut rng = StdRng::seed_from_u64(31);
-    let fx = draw(EffectKind::Track, &mut rng);
+    let fx = draw(EffectKind::Track, &mut rng, &SynthSpec::default());
     let (_dir, c) = campaign(fx.clone(), 31);
     let d = diagnose(&c, &DiagnoseOptions::default()).unwrap();
     let msg = format!("injected {}\n{}", fx.describe(), show(&d));
