@@ -36,7 +36,7 @@ for e in "${effects[@]}"; do
 import json, sys
 d = json.load(open(sys.argv[1]))
 w = d["work"]
-named = " + ".join(d["effects"]) if d["effects"] else ""
+named = " + ".join(d["effects"] or d.get("tie") or [])
 partial = " (partial)" if d.get("partial") else ""
 print(f"{sys.argv[2]:<24} {d['wall_time']:8.1f} {w['simulations']:8d} {w['simulation_cpu']:9.1f} "
       f"{w['cache_hits']:8d}  {d['verdict']}{partial} {named}")
