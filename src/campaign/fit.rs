@@ -470,12 +470,13 @@ struct SimCache {
     simulations: AtomicUsize,
     /// Predictions served from the map without a simulation.
     hits: AtomicUsize,
-    /// CPU time spent in the simulations and their features \[ns\], summed over threads.
+    /// Time spent in the simulations and their features \[ns\], summed over the threads that
+    /// ran them.
     nanos: AtomicU64,
 }
 
-/// The work behind a diagnosis or a calibration: how many simulations its fits, scans, folds
-/// and fingerprints ran, and what they cost. A recording simulated under one model counts once,
+/// The work behind a diagnosis: how many simulations its fits, scans, folds and fingerprints
+/// ran, and what they cost. A recording simulated under one model counts once,
 /// however often its features are asked for (the cache; two threads that ask for the same
 /// prediction at the same moment may both run it, so two runs' counts can differ by a few).
 /// Every other step (features of the recordings, linear algebra, the decision) costs a few
@@ -486,8 +487,9 @@ pub struct Work {
     pub simulations: usize,
     /// Predictions a fit asked for that an earlier simulation already held (no run).
     pub cache_hits: usize,
-    /// CPU time of the simulations \[s\], summed over threads: on `n` cores the wall time they
-    /// take is about this over `n`.
+    /// Time of the simulations \[s\], each timed on the thread that ran it and summed: their
+    /// CPU time on an otherwise idle machine (more where other work takes the cores), and on
+    /// `n` cores about `n` times the wall time they take.
     pub simulation_cpu: f64,
 }
 
