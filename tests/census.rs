@@ -761,6 +761,12 @@ fn census_of_bad_input() {
             2,
             vec!["--effect", "wear"],
         ),
+        // A load modulation that would lift the body off at the design's largest amplitude.
+        (
+            s(&["synth", "new", "--effect", "normal_coupling:k_n=6e7"]),
+            2,
+            vec!["--effect", "normal_coupling", "d4_v5", "lifts off"],
+        ),
         // calibrate and diagnose: campaigns
         (
             s(&["calibrate", "c_notnum"]),

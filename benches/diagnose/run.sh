@@ -4,6 +4,7 @@
 # one after the other on this machine. Prints, per campaign, the wall time, the simulations and
 # their CPU time (the JSON's `work`) and the verdict. Writes under results/diagnose-bench/.
 # Usage: bash benches/diagnose/run.sh [EFFECT ...]   (default: all nine, then the pair)
+# One run at a time: each run replaces the campaigns and reports under results/diagnose-bench/.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 cargo build --release --quiet

@@ -2,6 +2,7 @@
 //! sampling rate, over a design of conditions like the paper's tests.
 
 use super::{CampaignError, Recording, Solvers, simulate_grid, write_recording};
+use crate::model::effects::actuator_gain;
 use crate::model::{EffectKind, Effects, Params};
 use crate::sim;
 use rand::{RngExt, SeedableRng, rngs::StdRng};
@@ -163,18 +164,17 @@ impl SynthSpec {
             );
         }
         if let Some(k_n) = self.effects.get(EffectKind::NormalCoupling, "k_n")
-            && let Some((name, p)) = self.largest_amplitude()
+            && let Some((name, p, u)) = self.largest_amplitude()
         {
-            let cap = self.k_n_cap().unwrap_or(f64::INFINITY);
+            let cap = MAX_LOAD_SWING * p.f_n / u;
             if k_n > cap {
                 return Err(SynthError {
                     field: "effect",
                     value: k_n,
                     allowed: format!(
-                        "normal_coupling's k_n at most {cap:.3e} N/m with this design and load: at recording {name} (u0 = {:.3e} m, F_N = {} N) it swings the normal load by {:.0} % of F_N, more than {:.0} % (the body lifts off at 100 %, which the model does not describe)",
-                        p.u0,
+                        "normal_coupling's k_n at most {cap:.3e} N/m with this design and load: at recording {name} (substrate amplitude {u:.3e} m, F_N = {} N) it swings the normal load by {:.0} % of F_N, more than {:.0} % (the body lifts off at 100 %, which the model does not describe)",
                         p.f_n,
-                        100.0 * k_n * p.u0 / p.f_n,
+                        100.0 * k_n * u / p.f_n,
                         100.0 * MAX_LOAD_SWING
                     ),
                 });
@@ -183,19 +183,29 @@ impl SynthSpec {
         Ok(())
     }
 
-    /// The vibrated recording of largest substrate amplitude `u0`, with its conditions.
-    fn largest_amplitude(&self) -> Option<(String, Params)> {
+    /// The vibrated recording whose substrate amplitude is largest against its load, with its
+    /// conditions and that amplitude \[m\]: `u0` times the injected actuator's gain at the
+    /// recording's frequency, as the rig moves the substrate (1 without the actuator).
+    fn largest_amplitude(&self) -> Option<(String, Params, f64)> {
+        let gain = |f: f64| match (
+            self.effects.get(EffectKind::ActuatorResponse, "f_r"),
+            self.effects.get(EffectKind::ActuatorResponse, "zeta"),
+        ) {
+            (Some(f_r), Some(zeta)) => actuator_gain(f, f_r, zeta),
+            _ => 1.0,
+        };
         self.conditions()
             .into_iter()
             .filter(|(_, p)| p.u0 > 0.0)
-            .max_by(|a, b| (a.1.u0 / a.1.f_n).total_cmp(&(b.1.u0 / b.1.f_n)))
+            .map(|(name, p)| (name, p, p.u0 * gain(p.f)))
+            .max_by(|a, b| (a.2 / a.1.f_n).total_cmp(&(b.2 / b.1.f_n)))
     }
 
     /// The largest load modulation `k_n` \[N/m\] the design allows ([`MAX_LOAD_SWING`] at its
     /// largest amplitude); `None` without vibrated recordings.
     pub fn k_n_cap(&self) -> Option<f64> {
         self.largest_amplitude()
-            .map(|(_, p)| MAX_LOAD_SWING * p.f_n / p.u0)
+            .map(|(_, p, u)| MAX_LOAD_SWING * p.f_n / u)
     }
 
     /// The conditions of every recording, with names.
@@ -237,10 +247,11 @@ pub fn draw(kind: EffectKind, rng: &mut StdRng, spec: &SynthSpec) -> Effects {
         if k != kind || hi <= lo {
             continue;
         }
-        let (lo, hi) = match spec.k_n_cap() {
-            Some(cap) if k == EffectKind::NormalCoupling && name == "k_n" && cap < hi => {
-                (lo.min(cap / 3.0), cap)
-            }
+        let cap = (k == EffectKind::NormalCoupling && name == "k_n")
+            .then(|| spec.k_n_cap())
+            .flatten();
+        let (lo, hi) = match cap {
+            Some(cap) if cap < hi => (lo.min(cap / 3.0), cap),
             _ => (lo, hi),
         };
         let log = kind
@@ -330,7 +341,7 @@ mod tests {
         };
         let cap = full.k_n_cap().unwrap();
         // The largest amplitude: 2 mm/s at 500 Hz and v_a/v_d = 2, u0 = 1.27 µm.
-        let (name, worst) = full.largest_amplitude().unwrap();
+        let (name, worst, _) = full.largest_amplitude().unwrap();
         assert_eq!(name, "d4_v5");
         assert!((cap - MAX_LOAD_SWING * worst.f_n / worst.u0).abs() < 1e-6 * cap);
         for seed in 0..40 {
@@ -363,6 +374,21 @@ mod tests {
             .set(EffectKind::NormalCoupling, "k_n", cap)
             .unwrap();
         strong.validate().unwrap();
+        // An actuator resonating at 1000 Hz moves the substrate five times as far there: the
+        // same k_n then lifts the 1000 Hz recordings off and is refused, naming one of them.
+        let mut actuated = strong.clone();
+        actuated.effects.enable(EffectKind::ActuatorResponse);
+        actuated
+            .effects
+            .set(EffectKind::ActuatorResponse, "f_r", 1000.0)
+            .unwrap();
+        actuated
+            .effects
+            .set(EffectKind::ActuatorResponse, "zeta", 0.1)
+            .unwrap();
+        let e = actuated.validate().unwrap_err();
+        assert!(e.allowed.contains("d4_v4"), "{}", e.allowed);
+        assert!(actuated.k_n_cap().unwrap() < 0.6 * cap);
         // The worst recording at the cap integrates, as synth does it (a second of it).
         let dt = 1e-4;
         let tr = simulate_grid(
