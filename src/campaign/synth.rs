@@ -278,7 +278,6 @@ pub fn synth(dir: &Path, spec: &SynthSpec) -> Result<Vec<Recording>, CampaignErr
         path: dir.display().to_string(),
         msg: e.to_string(),
     })?;
-    std::fs::create_dir_all(dir).map_err(|e| super::io(dir, e))?;
     let conds = spec.conditions();
     let dt = 1.0 / spec.rate;
     let recs: Vec<Result<Recording, CampaignError>> = conds
@@ -317,11 +316,17 @@ pub fn synth(dir: &Path, spec: &SynthSpec) -> Result<Vec<Recording>, CampaignErr
                 x_s: Some(tr.x_s.iter().map(|v| v + noise(spec.noise_x)).collect()),
                 x_d: Some(tr.x_d.iter().map(|v| v + noise(spec.noise_x)).collect()),
             };
-            write_recording(dir, &rec)?;
             Ok(rec)
         })
         .collect();
-    recs.into_iter().collect()
+    // Written only once every recording is simulated: a run that fails leaves no campaign
+    // that looks complete with a recording missing.
+    let recs: Vec<Recording> = recs.into_iter().collect::<Result<_, _>>()?;
+    std::fs::create_dir_all(dir).map_err(|e| super::io(dir, e))?;
+    for rec in &recs {
+        write_recording(dir, rec)?;
+    }
+    Ok(recs)
 }
 
 #[cfg(test)]
