@@ -1,6 +1,7 @@
 //! The commands, as library calls: each takes a resolved configuration and does the work.
 
 use crate::campaign::{self, Campaign, CampaignError};
+use crate::diagnosis;
 use crate::cli::{
     BenchArgs, BoundaryArgs, CalibrateArgs, CliError, Command, DiagnoseArgs, MergeArgs, PlotArgs,
     RunArgs, SlurmArgs, StatusArgs, SweepArgs, SynthArgs,
@@ -176,28 +177,28 @@ pub struct Calibrated {
 pub fn calibrate(a: &CalibrateArgs) -> Result<Calibrated, AppError> {
     let effect = a.resolve()?;
     let (c, skipped) = checked(Campaign::load(&a.campaign)?, a.skip_implausible)?;
-    let target = campaign::fit::Target::new(c.recordings.iter().collect());
-    let opts = campaign::fit::FitOptions {
+    let target = diagnosis::fit::Target::new(c.recordings.iter().collect());
+    let opts = diagnosis::fit::FitOptions {
         max_iter: a.max_iter,
         ..Default::default()
     };
-    let base = campaign::fit::fit(&target, &campaign::fit::Model::default(), &[], opts);
+    let base = diagnosis::fit::fit(&target, &diagnosis::fit::Model::default(), &[], opts);
     let f = match effect {
         None => base,
         Some(k) => {
             // Fitted from each of the scan's starts; the lowest gap is kept (the first of equals).
-            campaign::fit::starts(&target, &base, k)
+            diagnosis::fit::starts(&target, &base, k)
                 .iter()
-                .map(|start| campaign::fit::fit(&target, start, &[k], opts))
+                .map(|start| diagnosis::fit::fit(&target, start, &[k], opts))
                 .reduce(|a, b| if b.gap < a.gap { b } else { a })
                 .expect("a start")
         }
     };
-    let mut json = campaign::report::calibration_json(&c, &f);
+    let mut json = diagnosis::report::calibration_json(&c, &f);
     json["skipped_implausible"] = skipped_json(&skipped);
     Ok(Calibrated {
         json,
-        summary: campaign::report::calibration_summary(&c, &f),
+        summary: diagnosis::report::calibration_summary(&c, &f),
         skipped,
     })
 }
@@ -305,14 +306,14 @@ pub fn diagnose(a: &DiagnoseArgs) -> Result<Diagnosed, AppError> {
         .out
         .clone()
         .unwrap_or_else(|| std::path::PathBuf::from("results").join(format!("diagnose-{name}")));
-    let d = campaign::diagnose::diagnose(&c, &opts)?;
+    let d = diagnosis::diagnose::diagnose(&c, &opts)?;
     std::fs::create_dir_all(&out).map_err(|e| CampaignError::Io {
         path: out.display().to_string(),
         msg: e.to_string(),
     })?;
     let json_path = a.json.clone().unwrap_or_else(|| out.join("diagnosis.json"));
     output::ensure_parent(&json_path)?;
-    let mut j = campaign::report::json(&c, &d);
+    let mut j = diagnosis::report::json(&c, &d);
     j["skipped_implausible"] = skipped_json(&skipped);
     let text = serde_json::to_string_pretty(&j).unwrap_or_default();
     std::fs::write(&json_path, text).map_err(|e| CampaignError::Io {
@@ -320,15 +321,15 @@ pub fn diagnose(a: &DiagnoseArgs) -> Result<Diagnosed, AppError> {
         msg: e.to_string(),
     })?;
     let h5 = out.join("diagnosis.h5");
-    let traces = campaign::report::traces_figure(&c, &d);
-    campaign::report::write_h5(&h5, &c, &d, traces.as_ref())?;
+    let traces = diagnosis::report::traces_figure(&c, &d);
+    diagnosis::report::write_h5(&h5, &c, &d, traces.as_ref())?;
     let mut written = vec![json_path, h5];
     if !a.no_plots {
-        written.extend(campaign::report::plots(&out, &d, traces.as_ref())?);
+        written.extend(diagnosis::report::plots(&out, &d, traces.as_ref())?);
     }
     Ok(Diagnosed {
         json: j,
-        summary: campaign::report::summary(&c, &d),
+        summary: diagnosis::report::summary(&c, &d),
         skipped,
         out,
         written,
@@ -832,16 +833,30 @@ pub fn run(a: &RunArgs) -> Result<(), AppError> {
         std::time::Duration::from_secs(2),
         true,
     );
-    let mut res = sim::run_case_with(&case.params, &case.effects, &case.run, &mut solver)?;
+    // The repeats share the first run's table of the averaged law unless asked to build their own.
+    let mut store = crate::averaged::TableStore::new();
+    let mut res = sim::run_case_in(
+        &case.params,
+        &case.effects,
+        &case.run,
+        &mut solver,
+        &store,
+    )?;
     drop(waiting);
     // Timing: the run's own wall time (as `wall_time`; the reference without vibration is timed
     // apart), its median over the repeats, as hyperfine and the peers' timing loops report.
     let mut times = vec![res.run.wall_time];
     for _ in 1..a.repeats {
         if a.fresh_tables {
-            crate::averaged::forget_tables();
+            store = crate::averaged::TableStore::new();
         }
-        res = sim::run_case_with(&case.params, &case.effects, &case.run, &mut solver)?;
+        res = sim::run_case_in(
+            &case.params,
+            &case.effects,
+            &case.run,
+            &mut solver,
+            &store,
+        )?;
         times.push(res.run.wall_time);
     }
     times.sort_by(f64::total_cmp);
@@ -1125,7 +1140,7 @@ pub fn case_summary(c: &CaseResult, o: &RunOptions) -> String {
             s,
             "          {}; its statistics below leave out the law's table \
              (shared by every run of the same f, u0, v_d and contact)",
-            if c.run.tier == crate::averaged::Tier::Hybrid {
+            if c.run.tier == crate::sim::Tier::Hybrid {
                 "the averaged slow model with full windows in the law's zones"
             } else {
                 "the averaged slow model"

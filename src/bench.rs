@@ -110,12 +110,12 @@ pub struct BenchOptions {
     pub envelopes: Vec<Option<f64>>,
     /// Timed repetitions per point (median reported).
     pub repeats: usize,
-    /// Tiers to run (`crate::averaged::Tier`): `Full` runs every method and envelope above;
+    /// Tiers to run (`crate::sim::Tier`): `Full` runs every method and envelope above;
     /// `Averaged` adds one setting, `averaged`, the averaged slow model at each tolerance, and
     /// `Hybrid` one more, `hybrid`, hybrid windows (the full model's windows with `auto` and
     /// envelope following at [`crate::sim::DEFAULT_ENVELOPE`]); each builds its table afresh for
     /// every repeat, so the time includes it. Default `[Full]`.
-    pub tiers: Vec<crate::averaged::Tier>,
+    pub tiers: Vec<crate::sim::Tier>,
 }
 
 impl Default for BenchOptions {
@@ -127,7 +127,7 @@ impl Default for BenchOptions {
             reference_tolerance: 1e-11,
             envelopes: vec![None],
             repeats: 3,
-            tiers: vec![crate::averaged::Tier::Full],
+            tiers: vec![crate::sim::Tier::Full],
         }
     }
 }
@@ -164,10 +164,10 @@ pub struct BenchRow {
     /// Work.
     pub stats: Stats,
     /// The tier asked for: full, or averaged (the method is then the slow model's Radau5).
-    pub tier: crate::averaged::Tier,
-    /// Why the tier that served the run did ([`crate::averaged::TierReason`]): an averaged
+    pub tier: crate::sim::Tier,
+    /// Why the tier that served the run did ([`crate::sim::TierReason`]): an averaged
     /// setting whose run left the law was served by the full model.
-    pub tier_reason: crate::averaged::TierReason,
+    pub tier_reason: crate::sim::TierReason,
 }
 
 impl BenchRow {
@@ -175,8 +175,8 @@ impl BenchRow {
     /// for the averaged tier.
     pub fn setting(&self) -> String {
         match self.tier {
-            crate::averaged::Tier::Averaged => return "averaged".to_string(),
-            crate::averaged::Tier::Hybrid => return "hybrid".to_string(),
+            crate::sim::Tier::Averaged => return "averaged".to_string(),
+            crate::sim::Tier::Hybrid => return "hybrid".to_string(),
             _ => {}
         }
         setting_name(self.method, self.envelope)
@@ -206,7 +206,7 @@ fn tight(method: Method, tol: f64) -> RunOptions {
         method,
         envelope: None,
         // The methods compared are integrators of the full model.
-        tier: crate::averaged::Tier::Full,
+        tier: crate::sim::Tier::Full,
         ode: Options {
             rtol: tol,
             atol: tol,
@@ -260,7 +260,7 @@ pub fn run(
             d_f_ss: ss.measures.d_f,
             run,
         };
-        use crate::averaged::Tier;
+        use crate::sim::Tier;
         let mut settings: Vec<(Method, Option<f64>, Tier)> = vec![];
         if o.tiers.contains(&Tier::Full) {
             for &m in &o.methods {
@@ -286,8 +286,8 @@ pub fn run(
                 let mut times = vec![];
                 let mut last = None;
                 for _ in 0..o.repeats.max(1) {
-                    // Each averaged repeat builds its table: the time is a run's from nothing.
-                    crate::averaged::forget_tables();
+                    // Each repeat builds its own table (a run owns its store): the time is a
+                    // run's from nothing.
                     let t = Instant::now();
                     let r = sim::simulate(&c.params, &opts, &mut solver)?;
                     times.push(t.elapsed().as_secs_f64());

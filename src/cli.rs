@@ -255,14 +255,14 @@ impl CalibrateArgs {
 
 impl DiagnoseArgs {
     /// Candidates and fit options, checked.
-    pub fn resolve(&self) -> Result<crate::campaign::diagnose::DiagnoseOptions, CliError> {
+    pub fn resolve(&self) -> Result<crate::diagnosis::diagnose::DiagnoseOptions, CliError> {
         iter_flag(self.max_iter)?;
         if let Some(json) = &self.json {
             let inputs = campaign_files(&self.campaign);
             let inputs: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
             check_output("json", json, &inputs)?;
         }
-        let mut o = crate::campaign::diagnose::DiagnoseOptions::default();
+        let mut o = crate::diagnosis::diagnose::DiagnoseOptions::default();
         if !self.candidates.is_empty() {
             o.candidates = self
                 .candidates
@@ -313,7 +313,7 @@ pub struct BenchArgs {
     /// the averaged slow model) and hybrid (one more: hybrid windows, auto with envelope 1e-4
     /// inside them); each builds its table afresh for every repeat. Default: full.
     #[arg(long, value_delimiter = ',', value_name = "TIERS")]
-    pub tiers: Vec<crate::averaged::Tier>,
+    pub tiers: Vec<crate::sim::Tier>,
     /// Output HDF5 file; diagrams go beside it (<stem>_<case>.png/.svg).
     #[arg(short, long, default_value = "results/bench.h5")]
     pub out: PathBuf,
@@ -374,7 +374,7 @@ impl BenchArgs {
                 })
                 .collect::<Result<_, _>>()?;
         }
-        if self.tiers.contains(&crate::averaged::Tier::Auto) {
+        if self.tiers.contains(&crate::sim::Tier::Auto) {
             return Err(CliError::Flag {
                 flag: "tiers".into(),
                 value: "auto".into(),
@@ -700,7 +700,7 @@ pub struct RunArgs {
     /// model in windows where it is not valid) or full (every period integrated). Default auto.
     /// The result says which served and why.
     #[arg(long, value_name = "TIER")]
-    pub tier: Option<crate::averaged::Tier>,
+    pub tier: Option<crate::sim::Tier>,
 
     /// Print the results as one JSON object on stdout (no other output there).
     #[arg(long)]

@@ -21,7 +21,7 @@ pub mod cli;
 pub mod config;
 pub mod console;
 pub mod cycle;
-pub mod hybrid;
+pub mod diagnosis;
 pub mod interrupt;
 pub mod measures;
 pub mod model;

@@ -180,7 +180,7 @@ fn set_measures(file: &H5File, prefix: &str, r: &RunResult, path: &Path) -> Resu
     .map_err(&e)?;
     file.set_attr_string(&format!("{prefix}status"), r.status.name())
         .map_err(&e)?;
-    // The model that served the run and why (crate::averaged::TierReason names).
+    // The model that served the run and why (crate::sim::TierReason names).
     file.set_attr_string(&format!("{prefix}tier"), r.tier.name())
         .map_err(&e)?;
     file.set_attr_string(&format!("{prefix}tier_reason"), r.tier_reason.name())

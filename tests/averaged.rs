@@ -2,9 +2,8 @@
 //! reduce to: the rigid Coulomb limit, the small-amplitude creep slope, and the settled sliding
 //! force of full runs where vibration eliminates stick-slip.
 
-use stickslip::averaged::{
-    AveragingOptions, SHARED, Shooter, Table, simulate_slow_with, table_span,
-};
+use stickslip::averaged::{AveragingOptions, SHARED, Shooter, Table, table_span};
+use stickslip::sim::slow::simulate_slow_with;
 use stickslip::model::Params;
 use stickslip::ode::Solver;
 use stickslip::sim::{RunOptions, run_case_with};
@@ -134,7 +133,7 @@ fn settled_sliding_force_of_full_runs() {
         );
         let averaged = table.force(v_d).expect("inside the table");
         let mut opts = RunOptions {
-            tier: stickslip::averaged::Tier::Full,
+            tier: stickslip::sim::Tier::Full,
             ..RunOptions::default()
         };
         opts.ode.rtol = 1e-8;
@@ -176,7 +175,7 @@ fn settled_sliding_force_of_full_runs() {
 /// table's (12-state) and the slow model's.
 #[test]
 fn slow_model_reproduces_full_runs_above_the_resonance() {
-    use stickslip::averaged::simulate_slow;
+    use stickslip::sim::slow::simulate_slow;
     let v_d = 0.5e-3;
     for f in [3000.0, 4000.0] {
         for ratio in [0.4, 1.0, 2.0] {
@@ -185,7 +184,7 @@ fn slow_model_reproduces_full_runs_above_the_resonance() {
                 ..params(f, ratio * v_d / (2.0 * std::f64::consts::PI * f), v_d)
             };
             let opts = RunOptions {
-                tier: stickslip::averaged::Tier::Full,
+                tier: stickslip::sim::Tier::Full,
                 ..RunOptions::default()
             };
             let mut solver = Solver::new(opts.method);
@@ -266,7 +265,7 @@ fn zones_where_averaging_fails_are_marked() {
             }
             // A stick-slip run through them says so.
             let t_end = stickslip::sim::planned_time(&p, 3);
-            let slow = stickslip::averaged::simulate_slow(&p, &table, t_end, 1.0 / f, 1e-8)
+            let slow = stickslip::sim::slow::simulate_slow(&p, &table, t_end, 1.0 / f, 1e-8)
                 .expect("a table");
             assert!(
                 slow.left_law.is_some(),
@@ -284,7 +283,8 @@ fn zones_where_averaging_fails_are_marked() {
 /// peak force within 0.5 % (the escape is the slip's start), and its mean force within 0.5 %.
 #[test]
 fn escape_force_puts_the_slip_where_the_full_model_has_it_below_the_resonance() {
-    use stickslip::averaged::{SHARED, Tier, escape_force, simulate_slow, table_span};
+    use stickslip::averaged::{SHARED, escape_force, table_span};
+    use stickslip::sim::{Tier, slow::simulate_slow};
     use stickslip::ode::Method;
     use stickslip::sim::{RunOptions, end_time, run_case};
     let mut p = Params {
@@ -332,7 +332,8 @@ fn escape_force_puts_the_slip_where_the_full_model_has_it_below_the_resonance() 
 /// tier hands the run to the full model and says why.
 #[test]
 fn hybrid_windows_reproduce_the_full_model_below_the_resonance() {
-    use stickslip::averaged::{Tier, TierReason, shared_table};
+    use stickslip::averaged::TableStore;
+    use stickslip::sim::{Tier, TierReason};
     use stickslip::model::Rig;
     use stickslip::ode::{Method, Options};
     use stickslip::sim::{DEFAULT_ENVELOPE, end_time, envelope_for, run_case, sampling};
@@ -367,12 +368,12 @@ fn hybrid_windows_reproduce_the_full_model_below_the_resonance() {
     assert!((h.peak_force / f.peak_force - 1.0).abs() <= 0.005);
     assert!((h.mean_force / f.mean_force - 1.0).abs() <= 0.005);
     // The windows: one or more per stick-slip cycle, under half the run's periods.
-    let table = shared_table(&p).expect("the law");
+    let table = TableStore::new().table(&p).expect("the law");
     let rig = Rig::new(p).expect("valid");
     let t_end = end_time(&p, &RunOptions::default()).expect("a time");
     let (_, k) = sampling(&p, 16);
     let env = envelope_for(&p, k, DEFAULT_ENVELOPE);
-    let run = stickslip::hybrid::simulate_hybrid(
+    let run = stickslip::sim::hybrid::simulate_hybrid(
         &rig,
         &table,
         t_end,
@@ -478,7 +479,7 @@ fn slow_model_continued_along_its_cycle_keeps_the_measures() {
 /// every period integrated), the other options at their defaults.
 fn tiered(
     p: &Params,
-    tier: stickslip::averaged::Tier,
+    tier: stickslip::sim::Tier,
     envelope: Option<f64>,
 ) -> stickslip::sim::CaseResult {
     let opts = RunOptions {
@@ -500,7 +501,8 @@ fn tiered(
 /// 0.01.
 #[test]
 fn a_diverging_slow_model_hands_the_point_to_the_full_model() {
-    use stickslip::averaged::{Tier, TierReason, shared_table};
+    use stickslip::averaged::TableStore;
+    use stickslip::sim::{Tier, TierReason};
     let p = Params {
         k_d: 2223.0095692182826,
         ..params(
@@ -509,7 +511,7 @@ fn a_diverging_slow_model_hands_the_point_to_the_full_model() {
             0.00014909760458231002,
         )
     };
-    let table = shared_table(&p).expect("a table");
+    let table = TableStore::new().table(&p).expect("a table");
     let t_end = stickslip::sim::planned_time(&p, 3);
     let slow = simulate_slow_with(&p, &table, t_end, 1.0 / p.f, 1e-7, None, true)
         .expect("a table of two nodes or more");
@@ -543,7 +545,7 @@ fn a_diverging_slow_model_hands_the_point_to_the_full_model() {
 /// point with the full model (`near_zone`), within 0.5 % of every period integrated.
 #[test]
 fn auto_leaves_a_drive_velocity_near_a_zone_to_the_full_model() {
-    use stickslip::averaged::{Tier, TierReason};
+    use stickslip::sim::{Tier, TierReason};
     let p = Params {
         k_d: 4941.771544836056,
         ..params(
@@ -589,12 +591,13 @@ fn auto_leaves_a_drive_velocity_near_a_zone_to_the_full_model() {
 /// mean force.
 #[test]
 fn a_soft_drives_fast_slips_are_no_divergence() {
-    use stickslip::averaged::{Tier, TierReason, shared_table, slip_speed};
+    use stickslip::averaged::TableStore;
+    use stickslip::sim::{Tier, TierReason, slow::slip_speed};
     let p = Params {
         k_d: 5000.0,
         ..params(2000.0, 5e-9, 0.000271)
     };
-    let table = shared_table(&p).expect("a table");
+    let table = TableStore::new().table(&p).expect("a table");
     let span = table.nodes.last().unwrap().v_mean;
     assert!(
         slip_speed(&p) > 4.0 * span,

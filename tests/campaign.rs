@@ -6,7 +6,7 @@
 
 use rand::{SeedableRng, rngs::StdRng};
 use stickslip::campaign::Campaign;
-use stickslip::campaign::diagnose::{DiagnoseOptions, Diagnosis, Verdict, diagnose};
+use stickslip::diagnosis::diagnose::{DiagnoseOptions, Diagnosis, Verdict, diagnose};
 use stickslip::campaign::synth::{Design, SynthSpec, draw, synth};
 use stickslip::model::{EffectKind, Effects};
 
@@ -200,7 +200,7 @@ fn effect_free_data_has_no_significant_gap() {
 /// or a subset of it, runs nothing more and counts as cache hits; another model runs again.
 #[test]
 fn work_counts_each_simulation_once() {
-    use stickslip::campaign::fit::{Model, Target};
+    use stickslip::diagnosis::fit::{Model, Target};
     let (_dir, c) = campaign(Effects::none(), 7);
     let all = Target::new(c.recordings.iter().collect());
     let n = c.recordings.len();
@@ -242,7 +242,7 @@ fn work_counts_each_simulation_once() {
 /// is that full fit, the column not differenced twice.
 #[test]
 fn screens_stop_out_of_reach_and_difference_only_the_added_columns() {
-    use stickslip::campaign::fit::{self, FitOptions, Model, Target};
+    use stickslip::diagnosis::fit::{self, FitOptions, Model, Target};
     let (_dir, c) = campaign(Effects::none(), 5);
     let all = Target::new(c.recordings.iter().collect());
     let base = fit::fit(&all, &Model::default(), &[], FitOptions::default());
@@ -306,7 +306,7 @@ fn screens_stop_out_of_reach_and_difference_only_the_added_columns() {
 /// without a run; one that has not stalled is continued.
 #[test]
 fn refining_a_stalled_fit_spends_nothing() {
-    use stickslip::campaign::fit::{self, FitOptions, Model, Target};
+    use stickslip::diagnosis::fit::{self, FitOptions, Model, Target};
     let (_dir, c) = campaign(Effects::none(), 5);
     let all = Target::new(c.recordings.iter().collect());
     // With no tolerance a fit ends only where it stalls (or at its iterations' end).
@@ -362,7 +362,7 @@ fn friction_along_the_track_is_unexplained_but_located() {
 /// wavelength at most half the longest drive travel (`v_d` times the record's length).
 #[test]
 fn plausible_ranges_come_from_the_recordings_and_hold_the_truth() {
-    use stickslip::campaign::fit::{Plausible, SLIP_BOUND_MARGIN, Target};
+    use stickslip::diagnosis::fit::{Plausible, SLIP_BOUND_MARGIN, Target};
     let mut fx = Effects::none();
     fx.set(EffectKind::SensorDynamics, "f_n", 40.0).unwrap();
     fx.set(EffectKind::SensorDynamics, "zeta", 0.05).unwrap();
@@ -382,7 +382,7 @@ fn plausible_ranges_come_from_the_recordings_and_hold_the_truth() {
     let t_slip = all
         .measured
         .iter()
-        .map(|m| m.get(stickslip::campaign::features::Feature::SlipTime))
+        .map(|m| m.get(stickslip::diagnosis::features::Feature::SlipTime))
         .filter(|v| v.is_finite() && *v > 0.0)
         .fold(f64::INFINITY, f64::min);
     assert!(

@@ -9,7 +9,7 @@ use stickslip::sim::{RunOptions, run_case_with, simulate_with};
 /// integration; the averaged tier has its own in tests/averaged.rs).
 fn full_model() -> RunOptions {
     RunOptions {
-        tier: stickslip::averaged::Tier::Full,
+        tier: stickslip::sim::Tier::Full,
         ..RunOptions::default()
     }
 }

@@ -1,13 +1,13 @@
-//! The fingerprint checks of `diagnose` (`campaign::fingerprint`) on campaigns whose truth is
+//! The fingerprint checks of `diagnose` (`diagnosis::fingerprint`) on campaigns whose truth is
 //! known: a force sensor that rings shows its ringing after slips, a slow sensor that a
 //! campaign does not have predicts a ringing the recordings do not show, and an effect that does
 //! not act on the spectrum after slips is not judged by it; the held-out feature families
 //! carry a true sensor and not a stand-in; and a screw error shows along the travel where the
 //! campaign has one and not where it does not.
 
-use stickslip::campaign::diagnose::held_out_families;
-use stickslip::campaign::fingerprint::{Seen, check};
-use stickslip::campaign::fit::{self, FitOptions, FitResult, Model, Target};
+use stickslip::diagnosis::diagnose::held_out_families;
+use stickslip::diagnosis::fingerprint::{Seen, check};
+use stickslip::diagnosis::fit::{self, FitOptions, FitResult, Model, Target};
 use stickslip::campaign::synth::{Design, SynthSpec, synth};
 use stickslip::campaign::{Campaign, Recording};
 use stickslip::model::{EffectKind, Effects};
@@ -132,7 +132,7 @@ fn a_screw_error_shows_along_the_travel_and_not_without_one() {
         let c = Campaign::load(dir.path()).unwrap();
         (dir, c)
     };
-    let family = |checks: &[stickslip::campaign::fingerprint::Check], name: &str| {
+    let family = |checks: &[stickslip::diagnosis::fingerprint::Check], name: &str| {
         checks.iter().find(|c| c.family == name).unwrap().clone()
     };
     let (_d, c) = full(truth.effects.clone(), 8);

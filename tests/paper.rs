@@ -12,7 +12,7 @@ use stickslip::sim::{CaseResult, EarlyStop, RunOptions, run_case};
 /// averaged tier has its own in tests/averaged.rs).
 fn full_model() -> RunOptions {
     RunOptions {
-        tier: stickslip::averaged::Tier::Full,
+        tier: stickslip::sim::Tier::Full,
         ..RunOptions::default()
     }
 }

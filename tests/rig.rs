@@ -26,7 +26,7 @@
 //! `cargo test --release --test rig -- --ignored --nocapture` (docs/campaigns.md).
 
 use stickslip::campaign::Campaign;
-use stickslip::campaign::diagnose::{DiagnoseOptions, Diagnosis, Verdict, diagnose};
+use stickslip::diagnosis::diagnose::{DiagnoseOptions, Diagnosis, Verdict, diagnose};
 
 /// The panel's campaigns, in the order of `PANEL` in `rig.py`.
 const PANEL: [&str; 12] = [
@@ -366,7 +366,7 @@ fn rig2_constant_actuator_gain_is_no_slow_sensor() {
 /// ten-point grid from 200 Hz to 20 kHz. The start must lie there and already lower the gap.
 #[test]
 fn rig_in_band_actuator_resonance_is_found_by_its_scan() {
-    use stickslip::campaign::fit::{self, FitOptions, Model, Target};
+    use stickslip::diagnosis::fit::{self, FitOptions, Model, Target};
     use stickslip::model::EffectKind;
     let dir = tempfile::tempdir().unwrap();
     let (c, _) = make("actuator-inband", dir.path());

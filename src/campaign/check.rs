@@ -78,7 +78,7 @@ fn distinct(v: &[f64]) -> usize {
 }
 
 /// The median of `v` (the upper one of an even count); NaN where `v` is empty.
-pub(super) fn median(mut v: Vec<f64>) -> f64 {
+pub(crate) fn median(mut v: Vec<f64>) -> f64 {
     if v.is_empty() {
         return f64::NAN;
     }

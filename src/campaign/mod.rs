@@ -1,5 +1,7 @@
-//! Measured campaigns: directories of recordings from a test stand like the paper's, and the
-//! tools that compare them with the model (`synth`, `calibrate`, `diagnose`).
+//! Measured campaigns: directories of recordings from a test stand like the paper's, their
+//! loading and plausibility checks ([`check`]), the simulation of a recording's conditions, and
+//! synthetic campaigns ([`synth`]). What compares them with the model (features, fits, evidence,
+//! verdicts, report) is [`crate::diagnosis`], which imports this room and never the reverse.
 //!
 //! # Format
 //! A campaign is a directory. Each recording is two files with the same stem:
@@ -20,11 +22,6 @@
 //! the message names the file, the line and the problem. No recording is skipped silently.
 
 pub mod check;
-pub mod diagnose;
-pub mod features;
-pub mod fingerprint;
-pub mod fit;
-pub mod report;
 pub mod synth;
 
 use crate::config::{self, ConfigError, Doc};

@@ -19,7 +19,6 @@
 
 use super::spec::SweepSpec;
 use super::{Plan, Results, measured};
-use crate::config::{ConfigError, Doc};
 use crate::output::{self, OutputError, h5err};
 use std::path::Path;
 
@@ -27,66 +26,6 @@ use std::path::Path;
 pub const R_TOL: f64 = 0.01;
 /// Largest relative difference of the mean force of a check that agrees (docs/model.md's 0.5 %).
 pub const FORCE_TOL: f64 = 0.005;
-
-/// The `[check]` table of a sweep file. Every field documents its default and range.
-#[derive(Clone, Debug, PartialEq)]
-pub struct CheckSpec {
-    /// Share of the averaged points re-run with the full model, drawn at random (by the point's
-    /// index). Default 0.01; range 0 to 1.
-    pub share: f64,
-    /// No random share in a sweep of fewer grid points with vibration than this (the boundary
-    /// band is checked whatever the size). Default 100; set 0 to check small sweeps too.
-    pub min_points: usize,
-    /// Every averaged point with `|r − level| ≤ band` is checked. Default 0.03; range 0 to 1.
-    pub band: f64,
-}
-
-impl Default for CheckSpec {
-    fn default() -> Self {
-        CheckSpec {
-            share: 0.01,
-            min_points: 100,
-            band: 0.03,
-        }
-    }
-}
-
-impl CheckSpec {
-    /// Reads a `[check]` table, naming the key, its value and what is allowed on error.
-    pub fn parse(doc: &Doc, t: &toml::Table) -> Result<CheckSpec, ConfigError> {
-        let sec = "check";
-        let mut c = CheckSpec::default();
-        for (k, v) in t {
-            match k.as_str() {
-                "share" => {
-                    let x = doc.number(sec, k, v)?;
-                    if !(0.0..=1.0).contains(&x) {
-                        return Err(doc.err(sec, k, format!("{x}: must lie within 0 to 1")));
-                    }
-                    c.share = x;
-                }
-                "band" => {
-                    let x = doc.number(sec, k, v)?;
-                    if !(0.0..=1.0).contains(&x) {
-                        return Err(doc.err(sec, k, format!("{x}: must lie within 0 to 1")));
-                    }
-                    c.band = x;
-                }
-                "min_points" => {
-                    c.min_points = v
-                        .as_integer()
-                        .filter(|n| *n >= 0)
-                        .ok_or_else(|| doc.err(sec, k, "expected a whole number, 0 or more"))?
-                        as usize;
-                }
-                _ => {
-                    return Err(doc.err(sec, k, "unknown key; allowed: share, min_points, band"));
-                }
-            }
-        }
-        Ok(c)
-    }
-}
 
 /// The boundary level of `r` the band is about.
 pub fn level(spec: &SweepSpec) -> f64 {
@@ -258,7 +197,7 @@ pub fn summary(spec: &SweepSpec, plan: &Plan, res: &Results) -> Summary {
             .count(),
         hybrid: (0..plan.points.len())
             .filter(|&i| {
-                averaged_run(res, i).is_some_and(|r| r.tier == crate::averaged::Tier::Hybrid)
+                averaged_run(res, i).is_some_and(|r| r.tier == crate::sim::Tier::Hybrid)
             })
             .count(),
         checked: c.len(),

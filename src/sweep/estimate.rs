@@ -105,7 +105,9 @@ pub fn estimate(
     let plan = Plan::new(spec);
     let owners = shard::owners(spec, count);
     let t0 = Instant::now();
-    let tables = build_tables(spec, &plan, &owners);
+    // The sample's runs find the tables built here (their builds are timed apart).
+    let store = crate::averaged::TableStore::new();
+    let tables = build_tables(spec, &plan, &owners, &store);
     let opts = SweepOptions {
         out: out.clone(),
         threads,
@@ -116,7 +118,7 @@ pub fn estimate(
         shard: Some(sh),
         tally: None,
     };
-    let outcome = super::run(spec, &opts);
+    let outcome = super::run_with(spec, &opts, &store);
     let sample_wall = t0.elapsed().as_secs_f64();
     let records = outcome.and_then(|o| {
         journal::read(&shard::runs_path(&o.out), &journal::fingerprint(&spec.text))
@@ -239,8 +241,10 @@ fn build_tables(
     spec: &SweepSpec,
     plan: &Plan,
     owners: &[usize],
+    store: &crate::averaged::TableStore,
 ) -> std::collections::HashMap<usize, f64> {
-    use crate::averaged::{Tier, needs_table, shared_table, table_key};
+    use crate::averaged::TableStore;
+    use crate::sim::{Tier, choose::needs_table};
     let tier = spec.run.tier;
     let none = plan.effects.is_empty();
     let mut took = std::collections::HashMap::<Vec<u64>, f64>::new();
@@ -253,10 +257,10 @@ fn build_tables(
         {
             continue;
         }
-        let key = table_key(p);
+        let key = TableStore::key(p);
         let secs = *took.entry(key).or_insert_with(|| {
             let t = Instant::now();
-            let _ = shared_table(p);
+            let _ = store.table(p);
             t.elapsed().as_secs_f64()
         });
         share.insert(i, secs / plan.table_share[i].max(1) as f64);
@@ -400,7 +404,7 @@ values = [0.0, 0.4]
         let owners: Vec<usize> = (0..n)
             .map(|i| usize::from(plan.points[i].f == 4000.0 && plan.points[i].k_d == 11_700.0))
             .collect();
-        let share = build_tables(&spec, &plan, &owners);
+        let share = build_tables(&spec, &plan, &owners, &crate::averaged::TableStore::new());
         let mut got: Vec<usize> = share.keys().copied().collect();
         got.sort();
         let want: Vec<usize> = (0..n)

@@ -26,7 +26,7 @@
 //! a resumed sweep or shard loads them instead of building them again (building is
 //! deterministic, so either way the results are the same bit for bit).
 
-use crate::averaged::{Tier, TierReason};
+use crate::sim::{Tier, TierReason};
 use crate::measures::Measures;
 use crate::ode::{Stats, Status};
 use crate::sim::RunResult;
@@ -249,7 +249,7 @@ pub fn read(path: &Path, fp: &str) -> Result<(Vec<(Task, RunResult)>, usize), St
 }
 
 /// The journal line of the averaged law's table `t` under its key
-/// ([`crate::averaged::table_key`]): `tab <key as hex words joined by commas> <fields of
+/// ([`crate::averaged::TableStore::key`]): `tab <key as hex words joined by commas> <fields of
 /// Table::to_fields> ~<checksum>`.
 pub fn format_table(key: &[u64], t: &crate::averaged::Table) -> String {
     let key: Vec<String> = key.iter().map(|k| format!("{k:x}")).collect();
@@ -353,7 +353,7 @@ mod tests {
         let t = Table::build(&p, 4.0 * p.v_d, SHARED).unwrap();
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("j");
-        let key = crate::averaged::table_key(&p);
+        let key = crate::averaged::TableStore::key(&p);
         let mut j = Journal::create(&path, "abc").unwrap();
         j.record_table(&key, &t).unwrap();
         let mut bad = format_table(&[7], &t);

@@ -361,7 +361,9 @@ pub fn merge(opts: &MergeOptions) -> Result<MergeOutcome, SweepError> {
         .num_threads(opts.threads.unwrap_or(0))
         .build()
         .map_err(|e| SweepError::State(e.to_string()))?;
-    let traced = super::traces(&spec, &plan, &results, &pool);
+    // The merge owns the tables of the averaged law its traced runs build.
+    let store = crate::averaged::TableStore::new();
+    let traced = super::traces(&spec, &plan, &results, &pool, &store);
     let started = started.unwrap_or_else(crate::output::now_iso);
     let finished = crate::output::now_iso();
     crate::output::ensure_parent(&opts.out)?;

@@ -22,6 +22,7 @@ pub mod shard;
 pub mod spec;
 pub mod status;
 
+use crate::averaged::TableStore;
 use crate::model::{Params, params::PARAMS};
 use crate::ode::{Solver, Status};
 use crate::progress::Progress;
@@ -48,8 +49,8 @@ pub struct Plan {
     /// The boundary level of `r` about which averaged points are checked ([`check::level`]).
     pub check_level: f64,
     /// For each point, how many points with vibration share its table of the averaged law
-    /// ([`crate::averaged::table_key`]): under `auto` a point whose table serves no other runs
-    /// in full ([`crate::averaged::TierReason::Unshared`]).
+    /// ([`crate::averaged::TableStore::key`]): under `auto` a point whose table serves no other runs
+    /// in full ([`crate::sim::TierReason::Unshared`]).
     pub table_share: Vec<usize>,
 }
 
@@ -83,7 +84,7 @@ impl Plan {
             points.push(p);
         }
         let table_share = {
-            let keys: Vec<Vec<u64>> = points.iter().map(crate::averaged::table_key).collect();
+            let keys: Vec<Vec<u64>> = points.iter().map(crate::averaged::TableStore::key).collect();
             let mut count: HashMap<&Vec<u64>, usize> = HashMap::new();
             for (k, p) in keys.iter().zip(&points) {
                 if p.vibrates() {
@@ -325,22 +326,28 @@ pub struct SweepOutcome {
 /// Runs one task with the given solver: a check with the full model integrating every period
 /// (no envelope following), and under auto a point
 /// alone with its table of the averaged law too (the table would cost what the full run does).
-fn run_task(plan: &Plan, t: Task, opts: &RunOptions, solver: &mut Solver) -> RunResult {
-    use crate::averaged::{Tier, TierReason};
+fn run_task(
+    plan: &Plan,
+    t: Task,
+    opts: &RunOptions,
+    solver: &mut Solver,
+    store: &TableStore,
+) -> RunResult {
+    use crate::sim::{Tier, TierReason};
     let p = plan.params(t);
     let full_because = match t {
         Task::Check(_) => Some(TierReason::Check),
         Task::Point(i)
             if opts.tier == Tier::Auto
                 && plan.table_share[i] < 2
-                && crate::averaged::needs_table(p, plan.effects.is_empty(), opts.tier) =>
+                && crate::sim::choose::needs_table(p, plan.effects.is_empty(), opts.tier) =>
         {
             Some(TierReason::Unshared)
         }
         _ => None,
     };
     let Some(why) = full_because else {
-        return sim::simulate_with(p, &plan.effects, opts, solver)
+        return sim::simulate_in(p, &plan.effects, opts, solver, store)
             .expect("parameters and options were validated");
     };
     // A check is the judge of an averaged point, so it integrates every period: envelope
@@ -356,7 +363,7 @@ fn run_task(plan: &Plan, t: Task, opts: &RunOptions, solver: &mut Solver) -> Run
         },
         ..opts.clone()
     };
-    let mut r = sim::simulate_with(p, &plan.effects, &full, solver)
+    let mut r = sim::simulate_in(p, &plan.effects, &full, solver, store)
         .expect("parameters and options were validated");
     r.tier_reason = why;
     r
@@ -378,7 +385,7 @@ fn tasks_of(plan: &Plan, points: &[usize]) -> Vec<Task> {
         .copied()
         .filter(|&i| plan.points[i].vibrates())
         .collect();
-    pts.sort_by_cached_key(|&i| crate::averaged::table_key(&plan.points[i]));
+    pts.sort_by_cached_key(|&i| crate::averaged::TableStore::key(&plan.points[i]));
     t.extend(pts.into_iter().map(Task::Point));
     t
 }
@@ -413,6 +420,9 @@ struct Executor<'a> {
     interrupted: bool,
     /// The keys of the averaged law's tables the journal holds.
     tables: std::collections::HashSet<Vec<u64>>,
+    /// The averaged law's tables of this sweep, shared by all its runs (every `k_d`, `h_d` of
+    /// one `f`, `u0`, `v_d` and contact uses one), loaded from the journal on resuming.
+    store: &'a TableStore,
 }
 
 impl Executor<'_> {
@@ -426,7 +436,7 @@ impl Executor<'_> {
     ) -> Result<(), SweepError> {
         let method = self.run_opts.method;
         let mut io_error: Option<String> = None;
-        let (plan, run_opts, pool) = (self.plan, self.run_opts, self.pool);
+        let (plan, run_opts, pool, store) = (self.plan, self.run_opts, self.pool, self.store);
         std::thread::scope(|sc| {
             let (tx, rx) = std::sync::mpsc::channel::<(Task, RunResult)>();
             sc.spawn(move || {
@@ -439,7 +449,7 @@ impl Executor<'_> {
                     todo.par_iter().with_max_len(1).for_each_init(
                         || (tx.clone(), Solver::new(method)),
                         |(tx, solver), &t| {
-                            let r = run_task(plan, t, run_opts, solver);
+                            let r = run_task(plan, t, run_opts, solver, store);
                             // The receiver lives until every sender is gone.
                             let _ = tx.send((t, r));
                         },
@@ -476,9 +486,9 @@ impl Executor<'_> {
         // resumed sweep (or shard) loads it instead of building it again.
         if r.tier.uses_law() {
             let p = self.plan.params(t);
-            let key = crate::averaged::table_key(p);
+            let key = crate::averaged::TableStore::key(p);
             if !self.tables.contains(&key)
-                && let Some(table) = crate::averaged::cached_table(p)
+                && let Some(table) = self.store.cached(p)
             {
                 match self.journal.record_table(&key, &table) {
                     Ok(()) => {
@@ -527,7 +537,8 @@ impl Executor<'_> {
         progress: &mut Progress,
         mine: &impl Fn(&usize) -> bool,
     ) -> Result<(), SweepError> {
-        let (spec, plan, run_opts, pool) = (self.spec, self.plan, self.run_opts, self.pool);
+        let (spec, plan, run_opts, pool, store) =
+            (self.spec, self.plan, self.run_opts, self.pool, self.store);
         let method = run_opts.method;
         let planes = refine::plane_count(spec);
         let (plane_of, _) = shard::planes(spec);
@@ -548,7 +559,7 @@ impl Executor<'_> {
                                 let mut solver = Solver::new(method);
                                 // Until the sender is gone: no plane asks for more.
                                 while let Ok(Ok(t)) = task_rx.lock().map(|rx| rx.recv()) {
-                                    let r = run_task(plan, t, run_opts, &mut solver);
+                                    let r = run_task(plan, t, run_opts, &mut solver, store);
                                     let _ = res_tx.send((t, r));
                                 }
                             });
@@ -643,8 +654,18 @@ impl Executor<'_> {
 }
 
 /// Runs a whole sweep to `opts.out`, or one shard of it to the shard's file (see the module
-/// docs and [`shard`]).
+/// docs and [`shard`]). The sweep owns the tables of the averaged law its runs share.
 pub fn run(spec: &SweepSpec, opts: &SweepOptions) -> Result<SweepOutcome, SweepError> {
+    run_with(spec, opts, &TableStore::new())
+}
+
+/// [`run`] with the averaged law's tables of `store` (the tables it builds are left there):
+/// the estimate's sample runs find the tables it timed apart.
+pub fn run_with(
+    spec: &SweepSpec,
+    opts: &SweepOptions,
+    store: &TableStore,
+) -> Result<SweepOutcome, SweepError> {
     let start = Instant::now();
     let started = crate::output::now_iso();
     spec.run.validate().map_err(sim::SimError::from)?;
@@ -734,7 +755,7 @@ pub fn run(spec: &SweepSpec, opts: &SweepOptions) -> Result<SweepOutcome, SweepE
         // The averaged law's tables kept by the interrupted sweep: loaded, not built again.
         for (key, table) in journal::read_tables(&jpath) {
             kept_tables.insert(key.clone());
-            crate::averaged::preload(key, table);
+            store.preload(key, table);
         }
         resumed = results.absorb(&plan, records);
         Journal::append(&jpath)
@@ -802,6 +823,7 @@ pub fn run(spec: &SweepSpec, opts: &SweepOptions) -> Result<SweepOutcome, SweepE
         made: 0,
         interrupted: false,
         tables: kept_tables,
+        store,
     };
     let tables_loaded_n = exec.tables.len();
     // The tasks of the first round: the whole grid, or the coarse grid of a refinement (the
@@ -845,7 +867,7 @@ pub fn run(spec: &SweepSpec, opts: &SweepOptions) -> Result<SweepOutcome, SweepE
     // Points that keep traces are run once more with tracing on (deterministic: same numbers).
     // A shard leaves them to the merge.
     let traced = if opts.shard.is_none() {
-        traces(spec, &plan, &results, &pool)
+        traces(spec, &plan, &results, &pool, store)
     } else {
         vec![]
     };
@@ -892,6 +914,7 @@ fn traces(
     plan: &Plan,
     results: &Results,
     pool: &rayon::ThreadPool,
+    store: &TableStore,
 ) -> Vec<(usize, Trace)> {
     let method = spec.run.method;
     let points: Vec<usize> = spec
@@ -909,7 +932,7 @@ fn traces(
                         trace: true,
                         ..spec.run.clone()
                     };
-                    let r = sim::simulate_with(&plan.points[i], &plan.effects, &o, solver)
+                    let r = sim::simulate_in(&plan.points[i], &plan.effects, &o, solver, store)
                         .expect("validated");
                     (i, r.trace.unwrap_or_default())
                 },

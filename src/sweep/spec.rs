@@ -191,7 +191,7 @@ pub struct SweepSpec {
     /// The names set in `[fixed]`, in file order.
     pub fixed_keys: Vec<String>,
     /// Full-model checks of the averaged points (`[check]`).
-    pub check: super::check::CheckSpec,
+    pub check: CheckSpec,
 }
 
 /// The SI unit of an axis name (a parameter, `v_a` or `va_ratio`).
@@ -234,6 +234,67 @@ pub fn logspace(a: f64, b: f64, count: usize) -> Vec<f64> {
         .collect()
 }
 
+/// The `[check]` table of a sweep file: the full-model checks of its averaged points
+/// ([`check`](super::check) performs them). Every field documents its default and range.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CheckSpec {
+    /// Share of the averaged points re-run with the full model, drawn at random (by the point's
+    /// index). Default 0.01; range 0 to 1.
+    pub share: f64,
+    /// No random share in a sweep of fewer grid points with vibration than this (the boundary
+    /// band is checked whatever the size). Default 100; set 0 to check small sweeps too.
+    pub min_points: usize,
+    /// Every averaged point with `|r − level| ≤ band` is checked. Default 0.03; range 0 to 1.
+    pub band: f64,
+}
+
+impl Default for CheckSpec {
+    fn default() -> Self {
+        CheckSpec {
+            share: 0.01,
+            min_points: 100,
+            band: 0.03,
+        }
+    }
+}
+
+impl CheckSpec {
+    /// Reads a `[check]` table, naming the key, its value and what is allowed on error.
+    pub fn parse(doc: &Doc, t: &toml::Table) -> Result<CheckSpec, ConfigError> {
+        let sec = "check";
+        let mut c = CheckSpec::default();
+        for (k, v) in t {
+            match k.as_str() {
+                "share" => {
+                    let x = doc.number(sec, k, v)?;
+                    if !(0.0..=1.0).contains(&x) {
+                        return Err(doc.err(sec, k, format!("{x}: must lie within 0 to 1")));
+                    }
+                    c.share = x;
+                }
+                "band" => {
+                    let x = doc.number(sec, k, v)?;
+                    if !(0.0..=1.0).contains(&x) {
+                        return Err(doc.err(sec, k, format!("{x}: must lie within 0 to 1")));
+                    }
+                    c.band = x;
+                }
+                "min_points" => {
+                    c.min_points = v
+                        .as_integer()
+                        .filter(|n| *n >= 0)
+                        .ok_or_else(|| doc.err(sec, k, "expected a whole number, 0 or more"))?
+                        as usize;
+                }
+                _ => {
+                    return Err(doc.err(sec, k, "unknown key; allowed: share, min_points, band"));
+                }
+            }
+        }
+        Ok(c)
+    }
+}
+
 impl SweepSpec {
     /// Reads and validates a sweep file.
     pub fn load(path: &Path) -> Result<SweepSpec, ConfigError> {
@@ -271,7 +332,7 @@ impl SweepSpec {
             effects: crate::model::Effects::none(),
             refine: None,
             fixed_keys: vec![],
-            check: super::check::CheckSpec::default(),
+            check: CheckSpec::default(),
         };
         let mut refine: Option<&toml::Table> = None;
         let mut axis_tables: Vec<&toml::Table> = vec![];
@@ -369,7 +430,7 @@ impl SweepSpec {
                 ("output", toml::Value::Table(t)) => output = Some(t),
                 ("refine", toml::Value::Table(t)) => refine = Some(t),
                 ("check", toml::Value::Table(t)) => {
-                    spec.check = super::check::CheckSpec::parse(doc, t)?
+                    spec.check = CheckSpec::parse(doc, t)?
                 }
                 _ => {
                     return Err(doc.err(

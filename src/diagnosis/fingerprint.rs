@@ -51,7 +51,7 @@
 
 use super::features::{smooth, zigzag};
 use super::fit::{Model, simulate};
-use super::{Recording, Solvers};
+use crate::campaign::{Recording, Solvers};
 use rayon::prelude::*;
 
 /// Strength (in standard errors, summed in quadrature over statistics) below which a family

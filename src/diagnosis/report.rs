@@ -4,7 +4,7 @@
 use super::diagnose::{CONDITIONS, Diagnosis};
 use super::features::FEATURES;
 use super::fit::{Estimate, FitResult, Model};
-use super::{Campaign, Recording, Solvers, simulate_grid};
+use crate::campaign::{Campaign, Recording, Solvers, simulate_grid};
 use crate::output::{self, OutputError, ds_attr_str, h5err, write_vec};
 use crate::plot::{Figure, PlotError, render};
 use plotters::coord::Shift;
@@ -695,7 +695,7 @@ fn simulated_force(rec: &Recording, m: &Model) -> Vec<f64> {
         rec.t[0],
         rec.dt(),
         rec.t.len(),
-        super::FIT_TOLERANCE,
+        crate::campaign::FIT_TOLERANCE,
         &mut s,
     )
     .map(|t| t.f_d)

@@ -19,7 +19,7 @@
 use super::features::{
     FEATURES, Feature, FeatureSet, Stage, quantize, quantum, stage_features, stages, weigh_quantum,
 };
-use super::{Recording, SimTrace, Solvers, simulate_grid};
+use crate::campaign::{Recording, SimTrace, Solvers, simulate_grid};
 use crate::model::effects::actuator_gain;
 use crate::model::{EffectKind, Effects, Params};
 use crate::sweep::spec::logspace;
@@ -841,7 +841,7 @@ pub fn simulate(model: &Model, rec: &Recording, solvers: &mut Solvers) -> Option
         rec.t[0],
         rec.dt(),
         rec.t.len(),
-        super::FIT_TOLERANCE,
+        crate::campaign::FIT_TOLERANCE,
         solvers,
     )
     .ok()
@@ -1674,7 +1674,7 @@ pub fn starts(target: &Target, base: &FitResult, kind: EffectKind) -> Vec<Model>
 /// contact age at a typical breakaway, to which a base fit's `F_s` absorbs dwell-time ageing.
 /// `None` where no unit has both.
 fn typical_stick_time(target: &Target) -> Option<f64> {
-    let t = super::check::median(
+    let t = crate::campaign::check::median(
         target
             .measured
             .iter()

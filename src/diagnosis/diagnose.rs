@@ -73,7 +73,8 @@
 
 use super::features::{FEATURES, Feature, N_FEATURES, PHASES};
 use super::fit::{self, FitOptions, FitResult, Model, Target};
-use super::{Campaign, CampaignError, fingerprint};
+use crate::campaign::{Campaign, CampaignError};
+use super::fingerprint;
 use crate::model::EffectKind;
 use faer::Mat;
 use rayon::prelude::*;

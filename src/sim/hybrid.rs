@@ -26,11 +26,13 @@
 //! The rules follow `../shared/research/AVERAGING.md` §4.3 (a prototype written apart from this
 //! code); `benches/tiers/README.md` measures them against the full model.
 
-use crate::averaged::{AveragingError, Slow, Table};
+use crate::averaged::orbit::AveragingError;
+use crate::averaged::table::Table;
+use crate::sim::slow::Slow;
 use crate::measures::Measures;
 use crate::model::{Rig, V, X};
 use crate::ode::{Envelope, Method, OdeSystem, Options, OutputGrid, Solver, Stats, Status};
-use crate::sim::Trace;
+use crate::sim::trace::Trace;
 
 /// Largest difference between the stroboscopic body velocity's changes over the last two
 /// periods, relative to `max(v_a, |V̄|)`, for a full window to hand back to the slow model: the
@@ -101,8 +103,8 @@ pub fn simulate_hybrid(
     }
     let period = 1.0 / p.f;
     let periods = (t_end / period).floor() as u64;
-    let window = crate::sim::window_start(p, t_end);
-    let mut an = crate::averaged::slow_analyzer(p, t_end, period);
+    let window = crate::sim::window::window_start(p, t_end);
+    let mut an = crate::sim::slow::slow_analyzer(p, t_end, period);
     let stride = trace.map(|n| (periods + 1).div_ceil(n.max(1) as u64).max(1));
     let mut tr = stride.map(|_| Trace::default());
     let mut sample = |n: u64, f: f64, v: f64, z: f64| {
@@ -129,7 +131,7 @@ pub fn simulate_hybrid(
     let mut mode = Mode::Slow([0.0, 0.0]);
     sample(0, 0.0, 0.0, 0.0);
     let v_a = p.v_a();
-    let reach = crate::averaged::divergence_bound(p, table);
+    let reach = crate::sim::slow::divergence_bound(p, table);
     while n < periods && status == Status::Success {
         let t0 = n as f64 * period;
         let from = n;

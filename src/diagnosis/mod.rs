@@ -1,0 +1,16 @@
+//! The diagnosis of a campaign: where measured recordings ([`crate::campaign`]) depart from the
+//! model, which unmodelled effect causes it, and how far the gap shrinks once it is added.
+//!
+//! Rooms, from the bottom: [`features`] (what is compared: the features of a force signal and
+//! their noise floors), [`fit`] (models, plausible bounds, predictions on the campaign's
+//! recordings with the shared simulation cache, Levenberg-Marquardt fits), [`fingerprint`] (the
+//! signatures an effect must leave beyond the features), [`diagnose`] (calibration, screens,
+//! held-out folds, evidence and the verdict), [`report`] (JSON, HDF5, text and figures of a
+//! diagnosis). Each imports only the rooms above it in this list and [`crate::campaign`]; a
+//! planner of recordings belongs beside this room, importing it.
+
+pub mod diagnose;
+pub mod features;
+pub mod fingerprint;
+pub mod fit;
+pub mod report;
