@@ -1,11 +1,11 @@
 //! The commands, as library calls: each takes a resolved configuration and does the work.
 
 use crate::campaign::{self, Campaign, CampaignError};
-use crate::diagnosis;
 use crate::cli::{
     BenchArgs, BoundaryArgs, CalibrateArgs, CliError, Command, DiagnoseArgs, MergeArgs, PlotArgs,
     RunArgs, SlurmArgs, StatusArgs, SweepArgs, SynthArgs,
 };
+use crate::diagnosis;
 use crate::ode::Solver;
 use crate::output::{self, OutputError};
 use crate::plot::{self, PlotError};
@@ -835,13 +835,7 @@ pub fn run(a: &RunArgs) -> Result<(), AppError> {
     );
     // The repeats share the first run's table of the averaged law unless asked to build their own.
     let mut store = crate::averaged::TableStore::new();
-    let mut res = sim::run_case_in(
-        &case.params,
-        &case.effects,
-        &case.run,
-        &mut solver,
-        &store,
-    )?;
+    let mut res = sim::run_case_in(&case.params, &case.effects, &case.run, &mut solver, &store)?;
     drop(waiting);
     // Timing: the run's own wall time (as `wall_time`; the reference without vibration is timed
     // apart), its median over the repeats, as hyperfine and the peers' timing loops report.
@@ -850,13 +844,7 @@ pub fn run(a: &RunArgs) -> Result<(), AppError> {
         if a.fresh_tables {
             store = crate::averaged::TableStore::new();
         }
-        res = sim::run_case_in(
-            &case.params,
-            &case.effects,
-            &case.run,
-            &mut solver,
-            &store,
-        )?;
+        res = sim::run_case_in(&case.params, &case.effects, &case.run, &mut solver, &store)?;
         times.push(res.run.wall_time);
     }
     times.sort_by(f64::total_cmp);

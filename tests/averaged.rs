@@ -3,9 +3,9 @@
 //! force of full runs where vibration eliminates stick-slip.
 
 use stickslip::averaged::{AveragingOptions, SHARED, Shooter, Table, table_span};
-use stickslip::sim::slow::simulate_slow_with;
 use stickslip::model::Params;
 use stickslip::ode::Solver;
+use stickslip::sim::slow::simulate_slow_with;
 use stickslip::sim::{RunOptions, run_case_with};
 
 fn params(f: f64, u0: f64, v_d: f64) -> Params {
@@ -284,9 +284,9 @@ fn zones_where_averaging_fails_are_marked() {
 #[test]
 fn escape_force_puts_the_slip_where_the_full_model_has_it_below_the_resonance() {
     use stickslip::averaged::{SHARED, escape_force, table_span};
-    use stickslip::sim::{Tier, slow::simulate_slow};
     use stickslip::ode::Method;
     use stickslip::sim::{RunOptions, end_time, run_case};
+    use stickslip::sim::{Tier, slow::simulate_slow};
     let mut p = Params {
         f: 1500.0,
         k_d: 11_700.0,
@@ -333,10 +333,10 @@ fn escape_force_puts_the_slip_where_the_full_model_has_it_below_the_resonance() 
 #[test]
 fn hybrid_windows_reproduce_the_full_model_below_the_resonance() {
     use stickslip::averaged::TableStore;
-    use stickslip::sim::{Tier, TierReason};
     use stickslip::model::Rig;
     use stickslip::ode::{Method, Options};
     use stickslip::sim::{DEFAULT_ENVELOPE, end_time, envelope_for, run_case, sampling};
+    use stickslip::sim::{Tier, TierReason};
     let mut p = Params {
         f: 1500.0,
         k_d: 11_700.0,

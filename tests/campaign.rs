@@ -6,8 +6,8 @@
 
 use rand::{SeedableRng, rngs::StdRng};
 use stickslip::campaign::Campaign;
-use stickslip::diagnosis::diagnose::{DiagnoseOptions, Diagnosis, Verdict, diagnose};
 use stickslip::campaign::synth::{Design, SynthSpec, draw, synth};
+use stickslip::diagnosis::diagnose::{DiagnoseOptions, Diagnosis, Verdict, diagnose};
 use stickslip::model::{EffectKind, Effects};
 
 /// A small campaign (16 recordings, 4 drives × 4 vibrations, 5 kHz, two cycles in each

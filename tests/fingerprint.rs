@@ -5,11 +5,11 @@
 //! carry a true sensor and not a stand-in; and a screw error shows along the travel where the
 //! campaign has one and not where it does not.
 
+use stickslip::campaign::synth::{Design, SynthSpec, synth};
+use stickslip::campaign::{Campaign, Recording};
 use stickslip::diagnosis::diagnose::held_out_families;
 use stickslip::diagnosis::fingerprint::{Seen, check};
 use stickslip::diagnosis::fit::{self, FitOptions, FitResult, Model, Target};
-use stickslip::campaign::synth::{Design, SynthSpec, synth};
-use stickslip::campaign::{Campaign, Recording};
 use stickslip::model::{EffectKind, Effects};
 
 /// A small campaign (16 recordings, 10 kHz, three cycles in each recording's second half) with

@@ -253,8 +253,8 @@ pub enum AveragingError {
         /// Scaled residual at the end.
         residual: f64,
     },
-    /// The slow model of a hybrid run ran away: its mean velocity passed [`DIVERGED`] times
-    /// the larger of the table's span and [`slip_speed`], or turned non-finite.
+    /// The slow model of a hybrid run ran away: its mean velocity passed [`DIVERGED`](crate::sim::slow::DIVERGED) times
+    /// the larger of the table's span and [`slip_speed`](crate::sim::slow::slip_speed), or turned non-finite.
     #[error("the slow model diverged (mean velocity {0:.3e} m/s)")]
     Diverged(f64),
 }

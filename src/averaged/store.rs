@@ -93,7 +93,10 @@ mod tests {
         assert!(store.cached(&p).is_none(), "a new store is empty");
         let a = store.table(&p).expect("a law");
         // Another drive shares the table; a clone of the store is the same store.
-        let q = Params { k_d: 2.0 * p.k_d, ..p };
+        let q = Params {
+            k_d: 2.0 * p.k_d,
+            ..p
+        };
         let b = store.clone().table(&q).expect("a law");
         assert!(std::sync::Arc::ptr_eq(&a, &b));
         // Another store builds its own, equal to the first (building is deterministic).

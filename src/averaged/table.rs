@@ -2,8 +2,8 @@
 //! text form (for journals), and the escape force below the contact resonance.
 
 use crate::averaged::orbit::{AveragingError, AveragingOptions, Fast, FastBase, Orbit, Shooter};
-use crate::ode::{Method, Options, OutputGrid, Solver, Status};
 use crate::model::Params;
+use crate::ode::{Method, Options, OutputGrid, Solver, Status};
 
 /// `F_eff(V)` tabulated on `0 ≤ V ≤ V_max` (odd in `V`: `F_eff(−V) = −F_eff(V)`), with the orbit
 /// at every node.
@@ -472,7 +472,7 @@ pub fn escape_force(p: &Params, table: &Table) -> Option<f64> {
     (rep.status == Status::Success).then_some(escaped).flatten()
 }
 
-/// Upper end of the table [`shared_table`] builds for `p` \[m/s\]: 40 `v_d`, 10 `v_a` and 20
+/// Upper end of the table [`TableStore::table`](crate::averaged::TableStore::table) builds for `p` \[m/s\]: 40 `v_d`, 10 `v_a` and 20
 /// `v_s`, the largest. Beyond it the law is continued with the viscous slope `h_v` (the
 /// vibration's share of the friction falls as `v_a/V`, and LuGre's Stribeck term has decayed
 /// there). It does not depend on `k_d` or `h_d`, so one table serves every drive.
@@ -480,7 +480,7 @@ pub fn table_span(p: &Params) -> f64 {
     (40.0 * p.v_d).max(10.0 * p.v_a()).max(20.0 * p.v_s)
 }
 
-/// The options of [`shared_table`]: the defaults but the one-period integration at `rtol`
+/// The options of [`TableStore::table`](crate::averaged::TableStore::table): the defaults but the one-period integration at `rtol`
 /// 1e-5. At 3000 Hz, `v_a/v_d` = 0.4 (`k_d` = 11 700 N/m, `v_d` = 0.5 mm/s) the law agrees with
 /// a table at `rtol` 1e-9 and `force_tol` 1e-5 N to 7e-4 N everywhere on `[0, table_span]` (33
 /// nodes, as at 1e-6, for 0.7 of its work; 1.8e-4 N with the refinement's midpoints kept as

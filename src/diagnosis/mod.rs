@@ -10,7 +10,12 @@
 //! planner of recordings belongs beside this room, importing it.
 
 pub mod diagnose;
+pub mod evidence;
 pub mod features;
 pub mod fingerprint;
 pub mod fit;
+pub mod folds;
+pub mod model;
 pub mod report;
+pub mod target;
+pub mod verdict;

@@ -84,7 +84,7 @@ pub fn contact_resonance(p: &Params) -> f64 {
 /// the law was found from rest on; [`Tier::Averaged`] drops
 /// the separation rule. Under auto the law must also hold within [`ZONE_MARGIN`] of `v_d`
 /// ([`TierReason::NearZone`]). The run itself then checks that its steady window stays where the law
-/// may serve ([`SlowRun::left_law`]), and hands over to the full model where it does not
+/// may serve ([`SlowRun::left_law`](crate::sim::slow::SlowRun::left_law)), and hands over to the full model where it does not
 /// ([`TierReason::LeftLaw`]).
 pub fn choose(
     p: &Params,

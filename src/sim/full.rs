@@ -9,8 +9,8 @@ use crate::sim::options::*;
 use crate::sim::result::{RunResult, nan_measures};
 use crate::sim::tier::{Tier, TierReason};
 use crate::sim::trace::Trace;
-use std::time::Instant;
 use crate::sim::window::{first_check, first_loading, sampling, window_start};
+use std::time::Instant;
 
 /// The per-sample work of a run: the measures, the trace, the limit-cycle watch and the
 /// early-stop checks, fed one output sample at a time by the integrator.
@@ -153,7 +153,12 @@ pub const SETTLED_MEAN: f64 = 0.001;
 /// falls into it (`docs/methods.md`, "Near a slide's stability limit"). At 2000 Hz,
 /// `u0` = 79 nm, `v_d` = 1.1 mm/s the envelope at 1e-4 gave `r` = 0.073 where every period
 /// integrated gives 0. The statistics count both integrations ([`serve`] times the whole).
-pub(crate) fn integrate_full(rig: &Rig, t_end: f64, opts: &RunOptions, solver: &mut Solver) -> RunResult {
+pub(crate) fn integrate_full(
+    rig: &Rig,
+    t_end: f64,
+    opts: &RunOptions,
+    solver: &mut Solver,
+) -> RunResult {
     let first = integrate(rig, t_end, opts, solver);
     let m = &first.measures;
     if opts.envelope.is_none()
@@ -425,7 +430,7 @@ pub fn integrate_stages(
     rep
 }
 
-/// Envelope following in [`simulate`] where a stick-slip cycle spans many vibration periods:
+/// Envelope following in [`simulate`](crate::sim::simulate) where a stick-slip cycle spans many vibration periods:
 /// from this longest jump on ([`Envelope::max_jump`], a fiftieth of the cycle estimate in
 /// periods) the periods after a landing and the integration tolerance are those of
 /// [`ENVELOPE_LONG_SETTLE`] and [`ENVELOPE_LONG_INNER`]. On the overnight sample

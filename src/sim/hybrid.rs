@@ -28,10 +28,10 @@
 
 use crate::averaged::orbit::AveragingError;
 use crate::averaged::table::Table;
-use crate::sim::slow::Slow;
 use crate::measures::Measures;
 use crate::model::{Rig, V, X};
 use crate::ode::{Envelope, Method, OdeSystem, Options, OutputGrid, Solver, Stats, Status};
+use crate::sim::slow::Slow;
 use crate::sim::trace::Trace;
 
 /// Largest difference between the stroboscopic body velocity's changes over the last two

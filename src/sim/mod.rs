@@ -21,8 +21,8 @@ pub use self::tier::{Tier, TierReason};
 pub use self::trace::Trace;
 pub use self::window::*;
 
-use crate::averaged::store::TableStore;
 use crate::averaged::orbit::AveragingError;
+use crate::averaged::store::TableStore;
 use crate::averaged::table::Table;
 use crate::measures::Measures;
 use crate::model::{Effects, Params, Rig};

@@ -20,7 +20,7 @@ pub struct RunOptions {
     /// Stick-slip cycles (of the run without vibration) the steady window must hold.
     /// Default 3. Range 1 to 1000.
     pub min_cycles: u32,
-    /// Simulated time \[s\]; `None` (default) chooses it from the run (see [`planned_time`]).
+    /// Simulated time \[s\]; `None` (default) chooses it from the run (see [`planned_time`](crate::sim::planned_time)).
     /// Range: > 0 and at most [`T_END_MAX`], and past `t_on` in a two-stage run.
     pub t_end: Option<f64>,
     /// Samples per vibration period for the smoothing (more when the stick-slip needs a finer
@@ -41,7 +41,7 @@ pub struct RunOptions {
     /// integrating them (see [`cycle`](crate::cycle); `RunResult::continued_from` says from
     /// when). The measures are those of the integrated run to 1e-4 of dF (4e-5 on the paper's
     /// ranges; the re-stick is a kink between samples). The averaged slow model
-    /// ([`crate::averaged::simulate_slow_with`]) is continued along its limit cycle alike.
+    /// ([`simulate_slow_with`](crate::sim::slow::simulate_slow_with)) is continued along its limit cycle alike.
     /// Default true.
     pub periodic: bool,
     /// Envelope following for runs with vibration: the extrapolation tolerance of one jump over
@@ -50,10 +50,10 @@ pub struct RunOptions {
     /// [`DEFAULT_ENVELOPE`]. Range 1e-8 to 0.1. A two-stage run (`t_on > 0`) integrates every
     /// period.
     pub envelope: Option<f64>,
-    /// Which model serves a run with vibration ([`averaged::choose`](crate::averaged::choose)):
+    /// Which model serves a run with vibration ([`choose`](crate::sim::choose::choose)):
     /// `auto` (default) averages the vibration out where the averaged law is valid and the
     /// forcing fast against the drive, `averaged` wherever the law exists, `full` never. The
-    /// result records the tier and why ([`RunResult::tier`]).
+    /// result records the tier and why ([`RunResult::tier`](crate::sim::RunResult::tier)).
     pub tier: Tier,
 }
 
@@ -89,7 +89,7 @@ pub const EARLY_STOP_RANGE: f64 = 0.005;
 /// ... and the window's mean force must lie within this relative distance of the asymptote
 /// extrapolated from its thirds, a fifth of the 0.5 % accuracy of the mean force.
 pub const EARLY_STOP_DRIFT: f64 = 0.001;
-/// Early stop of a settling sliding run ([`Analyzer::settling`]): two exponential fits must
+/// Early stop of a settling sliding run ([`Analyzer::settling`](crate::measures::Analyzer::settling)): two exponential fits must
 /// predict the planned window's max − min of the smoothed force to this share of the nominal
 /// amplitude `2 (F_s − F_c)` (`r` to about 0.002, a fifth of docs/model.md's 0.01), and the ripple
 /// about the exponential must stay below it too.
@@ -117,7 +117,7 @@ pub const EARLY_STOP_EARLIEST: f64 = 0.004;
 /// over [`EARLY_STOP_CHECKS`]. Sliding runs whose force settles in milliseconds (large `v_a`,
 /// a small mean friction) end at the first checks.
 pub const EARLY_STOP_GROWTH: f64 = 0.25;
-/// Envelope following in [`simulate`]: the slopes are measured over this many vibration periods
+/// Envelope following in [`simulate`](crate::sim::simulate): the slopes are measured over this many vibration periods
 /// ([`Envelope::baseline`](crate::ode::Envelope::baseline)). Averaging over four periods removes
 /// most of the integrator's period-to-period noise and of the alternating mode a jump excites
 /// while sticking (the bristle relaxation, a stroboscopic eigenvalue near −0.7), which read as

@@ -25,7 +25,7 @@ pub struct RunResult {
     /// Wall-clock time of the integration and analysis \[s\].
     pub wall_time: f64,
     /// Time from which the samples were read off the run's limit cycle instead of integrated
-    /// ([`RunOptions::periodic`]) \[s\]; `None` where every sample was integrated.
+    /// ([`RunOptions::periodic`](crate::sim::RunOptions::periodic)) \[s\]; `None` where every sample was integrated.
     #[serde(default)]
     pub continued_from: Option<f64>,
     /// Error bound of the mean force \[N\] where the measures are those of the settled level,
@@ -40,7 +40,7 @@ pub struct RunResult {
     /// the law's table is counted apart).
     #[serde(default = "full_tier")]
     pub tier: Tier,
-    /// Why that tier served ([`averaged::choose`](crate::averaged::choose)).
+    /// Why that tier served ([`choose`](crate::sim::choose::choose)).
     #[serde(default)]
     pub tier_reason: TierReason,
     /// Time traces, when asked for.
@@ -107,7 +107,6 @@ impl CaseResult {
     }
 }
 
-
 /// Bad parameters or options.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum SimError {
@@ -127,7 +126,7 @@ pub enum SimError {
         /// End of the run \[s\].
         t_end: f64,
     },
-    /// A run over the work budget ([`T_END_MAX`], [`PERIODS_MAX`]): the message names the
+    /// A run over the work budget ([`T_END_MAX`](crate::sim::T_END_MAX), [`PERIODS_MAX`](crate::sim::PERIODS_MAX)): the message names the
     /// parameters that make it long.
     #[error("{0}")]
     Budget(String),

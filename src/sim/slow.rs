@@ -92,7 +92,7 @@ pub struct SlowRun {
 
 /// Integrates the averaged slow model of `p` from rest to `t_end` with Radau IIA at `rtol`,
 /// sampling the drive force every `dt` seconds for the measures (window: the second half, as a
-/// full run's), and says where the window left the valid law ([`SlowRun::left_law`]). A table
+/// full run's), and says where the window left the valid law ([`SlowRun::left_law`](crate::sim::slow::SlowRun::left_law)). A table
 /// of fewer than two nodes is refused.
 pub fn simulate_slow(
     p: &Params,
@@ -104,9 +104,9 @@ pub fn simulate_slow(
     simulate_slow_with(p, table, t_end, dt, rtol, None, true)
 }
 
-/// How far past the larger of the table's upper end ([`table_span`]) and the fastest slip
+/// How far past the larger of the table's upper end ([`table_span`](crate::averaged::table_span)) and the fastest slip
 /// ([`slip_speed`]) the slow model's mean velocity may run in the steady window before the run
-/// counts as diverged and leaves the law ([`SlowRun::left_law`]): a window beyond four times
+/// counts as diverged and leaves the law ([`SlowRun::left_law`](crate::sim::slow::SlowRun::left_law)): a window beyond four times
 /// both is a runaway of the integration, not friction. On the overnight grid's even sixteenth
 /// (2000 Hz, `u0` = 12.6 nm, `v_d` = 0.15 mm/s) the slow model ran off to `V` ≈ 1e17 m/s and,
 /// without this bound, reported `r` ≈ 5e21 as a success. (Four times the table alone was too

@@ -7,19 +7,19 @@
 )]
 #[serde(rename_all = "snake_case")]
 pub enum Tier {
-    /// Per run, by the rules of [`choose`]: the averaged slow model where they hold, else the
+    /// Per run, by the rules of [`choose`](crate::sim::choose::choose): the averaged slow model where they hold, else the
     /// full model. The default.
     #[default]
     Auto,
     /// The averaged slow model wherever its law was found and holds along the run's steady
-    /// window ([`SlowRun::left_law`]), the rules of [`choose`] about the time scales and the
+    /// window ([`SlowRun::left_law`](crate::sim::slow::SlowRun::left_law)), the rules of [`choose`](crate::sim::choose::choose) about the time scales and the
     /// contact resonance left out; the full model where it does not (there is no law to use),
     /// and the result says so.
     Averaged,
     /// The full model, every forcing period integrated.
     Full,
     /// The averaged slow model where its law holds, the full model in windows where the mean
-    /// velocity passes zones where it does not ([`crate::hybrid`]); the full model where there
+    /// velocity passes zones where it does not ([`hybrid`](crate::sim::hybrid)); the full model where there
     /// is no law.
     Hybrid,
 }
@@ -81,7 +81,7 @@ impl std::str::FromStr for Tier {
     }
 }
 
-/// Why a run was served by its tier ([`choose`]). Stored as its code in journals and HDF5
+/// Why a run was served by its tier ([`choose`](crate::sim::choose::choose)). Stored as its code in journals and HDF5
 /// files; [`TierReason::text`] is the sentence of JSON results and summaries.
 #[derive(
     Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize,
@@ -97,32 +97,32 @@ pub enum TierReason {
     TwoStage,
     /// Model extensions are on.
     Effects,
-    /// The forcing is not fast enough against the drive oscillator ([`SEPARATION`]).
+    /// The forcing is not fast enough against the drive oscillator ([`SEPARATION`](crate::sim::choose::SEPARATION)).
     Separation,
     /// The averaged law was not found from rest on (the continuation stopped at once).
     NoLaw,
-    /// Every rule of [`choose`] holds.
+    /// Every rule of [`choose`](crate::sim::choose::choose) holds.
     Valid,
     /// `averaged` was asked for and its law exists.
     AskedAveraged,
     /// A full run checking an averaged one in a sweep (`crate::sweep::check`); where it
     /// disagrees it replaces the averaged run.
     Check,
-    /// The forcing lies below the contact resonance ([`contact_resonance`]).
+    /// The forcing lies below the contact resonance ([`contact_resonance`](crate::sim::choose::contact_resonance)).
     BelowResonance,
     /// The averaged run's steady window passed a mean velocity where the law may not stand
-    /// for the vibration ([`SlowRun::left_law`]): the full model served.
+    /// for the vibration ([`SlowRun::left_law`](crate::sim::slow::SlowRun::left_law)): the full model served.
     LeftLaw,
     /// In a sweep under `auto`, no other point shares the point's table of the averaged law:
     /// building it would cost about what the full run does.
     Unshared,
-    /// The vibration's velocity amplitude lies below [`MIN_VA_RATIO`] times the drive velocity.
+    /// The vibration's velocity amplitude lies below [`MIN_VA_RATIO`](crate::sim::choose::MIN_VA_RATIO) times the drive velocity.
     SmallAmplitude,
     /// `hybrid` was asked for and its law exists.
     AskedHybrid,
     /// Under `auto`, the averaged run's steady window passed zones where the law does not
     /// stand for the vibration ([`TierReason::LeftLaw`]), and hybrid windows integrated the full
-    /// model there ([`crate::hybrid`]).
+    /// model there ([`hybrid`](crate::sim::hybrid)).
     Zones,
     /// A hybrid run was asked for, but the law's continuation stopped short of its span: the
     /// orbits it did not reach may hide the attractor the body escapes from (1000 Hz, `v_a/v_d`
@@ -130,7 +130,7 @@ pub enum TierReason {
     /// full model served.
     PartialLaw,
     /// Under auto, the drive velocity lies in a zone of the law where the fast orbit does not
-    /// contract, or within [`ZONE_MARGIN`] of one: the full model served.
+    /// contract, or within [`ZONE_MARGIN`](crate::sim::choose::ZONE_MARGIN) of one: the full model served.
     NearZone,
 }
 

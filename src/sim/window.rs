@@ -2,7 +2,9 @@
 //! shared by every tier.
 
 use crate::model::Params;
-use crate::sim::options::{EARLY_STOP_EARLIEST, EARLY_STOP_FIRST, EARLY_STOP_SETTLED, PERIODS_MAX, RunOptions, T_END_MAX};
+use crate::sim::options::{
+    EARLY_STOP_EARLIEST, EARLY_STOP_FIRST, EARLY_STOP_SETTLED, PERIODS_MAX, RunOptions, T_END_MAX,
+};
 use crate::sim::result::SimError;
 
 /// Simulated time chosen for a run \[s\]: long enough that the second half (the steady window)

@@ -196,9 +196,7 @@ pub fn summary(spec: &SweepSpec, plan: &Plan, res: &Results) -> Summary {
             .filter(|&i| averaged_run(res, i).is_some())
             .count(),
         hybrid: (0..plan.points.len())
-            .filter(|&i| {
-                averaged_run(res, i).is_some_and(|r| r.tier == crate::sim::Tier::Hybrid)
-            })
+            .filter(|&i| averaged_run(res, i).is_some_and(|r| r.tier == crate::sim::Tier::Hybrid))
             .count(),
         checked: c.len(),
         within_r: c.iter().filter(|c| c.within_r).count(),

@@ -26,10 +26,10 @@
 //! a resumed sweep or shard loads them instead of building them again (building is
 //! deterministic, so either way the results are the same bit for bit).
 
-use crate::sim::{Tier, TierReason};
 use crate::measures::Measures;
 use crate::ode::{Stats, Status};
 use crate::sim::RunResult;
+use crate::sim::{Tier, TierReason};
 use std::fs::{File, OpenOptions};
 use std::io::Write;
 use std::path::{Path, PathBuf};

@@ -84,7 +84,10 @@ impl Plan {
             points.push(p);
         }
         let table_share = {
-            let keys: Vec<Vec<u64>> = points.iter().map(crate::averaged::TableStore::key).collect();
+            let keys: Vec<Vec<u64>> = points
+                .iter()
+                .map(crate::averaged::TableStore::key)
+                .collect();
             let mut count: HashMap<&Vec<u64>, usize> = HashMap::new();
             for (k, p) in keys.iter().zip(&points) {
                 if p.vibrates() {

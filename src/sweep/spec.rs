@@ -429,9 +429,7 @@ impl SweepSpec {
                 ("run", toml::Value::Table(t)) => config::apply_run(doc, t, &mut spec.run)?,
                 ("output", toml::Value::Table(t)) => output = Some(t),
                 ("refine", toml::Value::Table(t)) => refine = Some(t),
-                ("check", toml::Value::Table(t)) => {
-                    spec.check = CheckSpec::parse(doc, t)?
-                }
+                ("check", toml::Value::Table(t)) => spec.check = CheckSpec::parse(doc, t)?,
                 _ => {
                     return Err(doc.err(
                         "",

@@ -1,0 +1,597 @@
+//! A set of recordings ready for fitting: their measured features, the predictions of a model
+//! on them (through the simulation cache every subset shares), the standardised residuals and
+//! the work they cost.
+
+use super::features::{
+    FEATURES, Feature, FeatureSet, Stage, quantize, quantum, stage_features, stages, weigh_quantum,
+};
+use super::model::{Bound, Model, Plausible, SLIP_BOUND_MARGIN, STRIBECK_DELTA, default_range};
+use crate::campaign::{Recording, SimTrace, Solvers, simulate_grid};
+use crate::model::{EffectKind, Params};
+use rayon::prelude::*;
+use std::collections::HashMap;
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::Instant;
+
+/// A set of recordings with their measured features, ready for fitting. Each recording gives
+/// one unit per stage ([`stages`]: one, or two where the vibration is switched on within it),
+/// and every unit its own features.
+pub struct Target<'a> {
+    /// The recordings.
+    pub recs: Vec<&'a Recording>,
+    /// The units: recording index and stage.
+    pub units: Vec<(usize, Stage)>,
+    /// Measured features of every unit (with `r` where a reference is in the set).
+    pub measured: Vec<FeatureSet>,
+    /// For each vibrated unit, the unit it is compared with for `r`: the resting stage of the
+    /// same recording, else a recording without vibration of the same drive in the set.
+    pub reference: Vec<Option<usize>>,
+    /// The plausible ranges of the effects' fitted parameters, derived from the whole
+    /// campaign's recordings (a subset keeps the campaign's: [`Plausible::of`]).
+    pub bounds: Plausible,
+    /// Simulated features already computed, shared with every subset ([`Target::sub`]).
+    cache: Arc<SimCache>,
+}
+
+/// Features of simulations already run, by recording and by the model as it acts on that
+/// recording ([`SimCache::key`]): a fit's Jacobian column of a parameter that cannot act on a
+/// recording, a scan's reference recordings, a model evaluated twice, cost a lookup instead of a
+/// simulation. A hit returns exactly what the simulation would (it is deterministic), so results
+/// do not depend on what the cache holds or on the order threads fill it.
+#[derive(Default)]
+pub(crate) struct SimCache {
+    map: Mutex<HashMap<(usize, Vec<u64>), Vec<FeatureSet>>>,
+    /// The measured features of each recording ([`measured_features`]), by recording.
+    measured: Mutex<HashMap<usize, Vec<FeatureSet>>>,
+    /// Simulations run (each a recording under a model: a cache miss).
+    simulations: AtomicUsize,
+    /// Predictions served from the map without a simulation.
+    hits: AtomicUsize,
+    /// Time spent in the simulations and their features \[ns\], summed over the threads that
+    /// ran them.
+    nanos: AtomicU64,
+}
+
+/// The work behind a diagnosis: how many simulations its fits, scans, folds and fingerprints
+/// ran, and what they cost. A recording simulated under one model counts once,
+/// however often its features are asked for (the cache; two threads that ask for the same
+/// prediction at the same moment may both run it, so two runs' counts can differ by a few).
+/// Every other step (features of the recordings, linear algebra, the decision) costs a few
+/// percent beside the simulations.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Work {
+    /// Simulations run: recordings simulated under a model, each over its whole sample grid.
+    pub simulations: usize,
+    /// Predictions a fit asked for that an earlier simulation already held (no run).
+    pub cache_hits: usize,
+    /// Time of the simulations \[s\], each timed on the thread that ran it and summed: their
+    /// CPU time on an otherwise idle machine (more where other work takes the cores), and on
+    /// `n` cores about `n` times the wall time they take.
+    pub simulation_cpu: f64,
+}
+
+impl SimCache {
+    /// Cache entries at most: beyond, new simulations are not kept (a diagnosis of 30
+    /// recordings fills a few thousand).
+    const CAPACITY: usize = 200_000;
+
+    /// The model as it acts on `rec`, and its key. Without vibration (`u0 = 0`) the actuator's
+    /// gain multiplies a zero amplitude and the load modulation `1 + c u0 sin(..)` is exactly 1,
+    /// so their parameters are set to their defaults: the simulation is bit for bit the same.
+    pub(crate) fn key(model: &Model, rec: &Recording) -> (Model, (usize, Vec<u64>)) {
+        let mut m = model.clone();
+        if rec.params.u0 == 0.0 {
+            for (k, v) in m.effects.list.iter_mut() {
+                if matches!(k, EffectKind::ActuatorResponse | EffectKind::NormalCoupling) {
+                    for (x, p) in v.iter_mut().zip(k.info().params) {
+                        *x = p.default;
+                    }
+                }
+            }
+        }
+        let mut bits = vec![
+            m.f_s.to_bits(),
+            m.f_c.to_bits(),
+            m.v_s.to_bits(),
+            m.h_d.to_bits(),
+        ];
+        for (k, v) in &m.effects.list {
+            bits.push(*k as u64);
+            bits.extend(v.iter().map(|x| x.to_bits()));
+        }
+        (m, (rec as *const Recording as usize, bits))
+    }
+
+    /// The measured features of `rec`, computed where not cached.
+    fn measured(&self, rec: &Recording) -> Vec<FeatureSet> {
+        let key = rec as *const Recording as usize;
+        let lock = || self.measured.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(f) = lock().get(&key) {
+            return f.clone();
+        }
+        let f = measured_features(rec);
+        lock().insert(key, f.clone());
+        f
+    }
+
+    /// The features of `rec` under `model`, simulated where not cached.
+    pub(crate) fn features(
+        &self,
+        model: &Model,
+        rec: &Recording,
+        solvers: &mut Solvers,
+    ) -> Vec<FeatureSet> {
+        let (m, key) = Self::key(model, rec);
+        let lock = || self.map.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(f) = lock().get(&key) {
+            self.hits.fetch_add(1, Ordering::Relaxed);
+            return f.clone();
+        }
+        let clock = Instant::now();
+        let f = predict_one(&m, rec, solvers);
+        self.nanos.fetch_add(
+            u64::try_from(clock.elapsed().as_nanos()).unwrap_or(u64::MAX),
+            Ordering::Relaxed,
+        );
+        self.simulations.fetch_add(1, Ordering::Relaxed);
+        let mut map = lock();
+        if map.len() < Self::CAPACITY {
+            map.insert(key, f.clone());
+        }
+        f
+    }
+}
+
+pub(crate) fn same_drive(a: &Params, b: &Params) -> bool {
+    a.v_d == b.v_d && a.k_d == b.k_d && a.f_n == b.f_n && a.m == b.m
+}
+
+/// Fills `r` of every vibrated unit that has a reference.
+pub(crate) fn fill_r(fs: &mut [FeatureSet], reference: &[Option<usize>]) {
+    for i in 0..fs.len() {
+        if let Some(j) = reference[i] {
+            let (d, d0) = (fs[i].get(Feature::DF), fs[j].get(Feature::DF));
+            let (s, s0) = (
+                fs[i].stderr[Feature::DF as usize],
+                fs[j].stderr[Feature::DF as usize],
+            );
+            let r = d / d0;
+            fs[i].value[Feature::R as usize] = r;
+            let rel = (s / d).powi(2) + (s0 / d0).powi(2);
+            fs[i].stderr[Feature::R as usize] = if rel.is_finite() {
+                r * rel.sqrt()
+            } else {
+                f64::NAN
+            };
+        }
+    }
+}
+
+/// Features of every stage of a trace sampled at the recording's times; `x_s` and `x_d` count
+/// only where given (where the recording has them), so measured and simulated traces pass
+/// through one pipeline.
+///
+/// A displacement channel the recording holds quantized ([`quantum`]: an encoder's step) is
+/// quantized alike in a simulated trace, and its harmonic amplitude weighted by the step
+/// ([`weigh_quantum`]).
+pub fn trace_features(
+    rec: &Recording,
+    f_d: &[f64],
+    x_s: Option<&[f64]>,
+    x_d: Option<&[f64]>,
+) -> Vec<FeatureSet> {
+    let q_s = rec.x_s.as_deref().and_then(quantum);
+    let q_d = rec.x_d.as_deref().and_then(quantum);
+    let xs_q = x_s.zip(q_s).map(|(x, q)| quantize(x, q));
+    let xd_q = x_d.zip(q_d).map(|(x, q)| quantize(x, q));
+    let x_s = xs_q.as_deref().or(x_s);
+    let x_d = xd_q.as_deref().or(x_d);
+    stages(&rec.t, &rec.params)
+        .into_iter()
+        .map(|st| {
+            let mut fs = stage_features(&rec.t, f_d, x_s, x_d, rec.dt(), st, rec.params.t_on);
+            if let Some(q) = q_s {
+                weigh_quantum(&mut fs, q);
+            }
+            fs
+        })
+        .collect()
+}
+
+/// Features of a recording's measured signals, one set per stage.
+pub fn measured_features(rec: &Recording) -> Vec<FeatureSet> {
+    trace_features(rec, &rec.f_d, rec.x_s.as_deref(), rec.x_d.as_deref())
+}
+
+impl<'a> Target<'a> {
+    /// Prepares recordings for fitting, with the plausible ranges of the effects' parameters
+    /// derived from them ([`Plausible::of`]).
+    pub fn new(recs: Vec<&'a Recording>) -> Target<'a> {
+        let mut t = Target::with_bounds(recs, Plausible::default(), Arc::default());
+        t.bounds = Plausible::of(&t);
+        t
+    }
+
+    /// A subset of this target's recordings, with this target's plausible ranges: the bounds of
+    /// a fit are the campaign's, whichever recordings it is scored on.
+    pub fn sub(&self, recs: Vec<&'a Recording>) -> Target<'a> {
+        Target::with_bounds(recs, self.bounds.clone(), Arc::clone(&self.cache))
+    }
+
+    fn with_bounds(
+        recs: Vec<&'a Recording>,
+        bounds: Plausible,
+        cache: Arc<SimCache>,
+    ) -> Target<'a> {
+        let per: Vec<Vec<FeatureSet>> = recs.par_iter().map(|r| cache.measured(r)).collect();
+        let mut units = vec![];
+        let mut measured = vec![];
+        for (i, (r, fs)) in recs.iter().zip(per).enumerate() {
+            for (st, f) in stages(&r.t, &r.params).into_iter().zip(fs) {
+                units.push((i, st));
+                measured.push(f);
+            }
+        }
+        let reference: Vec<Option<usize>> = units
+            .iter()
+            .map(|&(i, st)| {
+                if st.freq == 0.0 {
+                    return None;
+                }
+                // The resting stage of the same recording first, then a recording without
+                // vibration of the same drive, then any resting stage of that drive.
+                let resting = |u: &(usize, Stage)| u.1.freq == 0.0;
+                units
+                    .iter()
+                    .position(|u| u.0 == i && resting(u))
+                    .or_else(|| {
+                        units.iter().position(|u| {
+                            resting(u)
+                                && !recs[u.0].vibrates()
+                                && same_drive(&recs[u.0].params, &recs[i].params)
+                        })
+                    })
+                    .or_else(|| {
+                        units.iter().position(|u| {
+                            resting(u) && same_drive(&recs[u.0].params, &recs[i].params)
+                        })
+                    })
+                    // A reference without a stick-slip gives no `r` (a ratio of noise levels).
+                    .filter(|&j| {
+                        let (k, st) = units[j];
+                        super::features::is_reference(&recs[k].f_d[st.lo..st.hi], &measured[j])
+                    })
+            })
+            .collect();
+        fill_r(&mut measured, &reference);
+        Target {
+            recs,
+            units,
+            measured,
+            reference,
+            bounds,
+            cache,
+        }
+    }
+
+    /// The simulations run so far by this target and every subset of it ([`Target::sub`]
+    /// shares its cache), with their cost.
+    pub fn work(&self) -> Work {
+        Work {
+            simulations: self.cache.simulations.load(Ordering::Relaxed),
+            cache_hits: self.cache.hits.load(Ordering::Relaxed),
+            simulation_cpu: self.cache.nanos.load(Ordering::Relaxed) as f64 * 1e-9,
+        }
+    }
+
+    /// The units of recording `i`.
+    pub fn units_of(&self, i: usize) -> impl Iterator<Item = usize> + '_ {
+        (0..self.units.len()).filter(move |&u| self.units[u].0 == i)
+    }
+
+    /// Simulated features of every unit under `model` (NaN features when a run fails).
+    pub fn predict(&self, model: &Model) -> Vec<FeatureSet> {
+        self.predict_for(model, None)
+    }
+
+    /// [`Target::predict`] on the recordings `need` marks alone (every one where `None`); the
+    /// others' units are [`FeatureSet::nan`]. The rows of [`Target::residuals`] of a needed
+    /// recording are those of `predict` wherever the recordings its units are compared with
+    /// for `r` ([`Target::reference`]) are needed too ([`Target::needed_with_references`]).
+    pub fn predict_for(&self, model: &Model, need: Option<&[bool]>) -> Vec<FeatureSet> {
+        let per: Vec<Vec<FeatureSet>> = self
+            .recs
+            .par_iter()
+            .enumerate()
+            .map_init(Solvers::default, |s, (i, r)| {
+                if need.is_none_or(|n| n[i]) {
+                    self.cache.features(model, r, s)
+                } else {
+                    vec![FeatureSet::nan(); self.units.iter().filter(|u| u.0 == i).count()]
+                }
+            })
+            .collect();
+        let mut out: Vec<FeatureSet> = per.into_iter().flatten().collect();
+        debug_assert_eq!(out.len(), self.units.len());
+        fill_r(&mut out, &self.reference);
+        out
+    }
+
+    /// The recordings whose rows `keep` marks (rows as [`Target::row_recordings`]), with the
+    /// recordings their units are compared with for `r`: what [`Target::predict_for`] must
+    /// simulate for those rows.
+    pub fn needed_with_references(&self, keep: &[bool]) -> Vec<bool> {
+        let mut need = vec![false; self.recs.len()];
+        for (&r, &k) in self.row_recordings().iter().zip(keep) {
+            need[r] |= k;
+        }
+        for (u, reference) in self.reference.iter().enumerate() {
+            if let Some(j) = reference
+                && need[self.units[u].0]
+            {
+                need[self.units[*j].0] = true;
+            }
+        }
+        need
+    }
+
+    /// The recording each row of [`Target::residuals`] belongs to: one row per feature the
+    /// measurement of each unit defines, unit by unit.
+    pub fn row_recordings(&self) -> Vec<usize> {
+        let mut rows = vec![];
+        for (u, m) in self.measured.iter().enumerate() {
+            let n = FEATURES
+                .iter()
+                .filter(|f| m.value[**f as usize].is_finite())
+                .count();
+            rows.extend(std::iter::repeat_n(self.units[u].0, n));
+        }
+        rows
+    }
+
+    /// The feature of each row of [`Target::residuals`] (rows as [`Target::row_recordings`]).
+    pub fn row_features(&self) -> Vec<Feature> {
+        self.measured
+            .iter()
+            .flat_map(|m| {
+                FEATURES
+                    .iter()
+                    .copied()
+                    .filter(|f| m.value[*f as usize].is_finite())
+            })
+            .collect()
+    }
+
+    /// The standardised differences, one per (unit, feature) that the measurement defines, in
+    /// a fixed layout; a feature the model does not produce (no cycles) counts 0, since dF
+    /// carries that difference.
+    pub fn residuals(&self, pred: &[FeatureSet]) -> Vec<f64> {
+        self.measured
+            .iter()
+            .zip(pred)
+            .flat_map(|(m, p)| zscores(m, p))
+            .collect()
+    }
+}
+
+/// The standardised differences of every feature the measurement defines, in [`FEATURES`] order.
+pub fn zscores(m: &FeatureSet, p: &FeatureSet) -> Vec<f64> {
+    FEATURES.iter().filter_map(|&f| zscore(m, p, f)).collect()
+}
+
+/// The standardised difference of one feature (None where the measurement does not define it).
+pub fn zscore(m: &FeatureSet, p: &FeatureSet, f: Feature) -> Option<f64> {
+    let i = f as usize;
+    let mv = m.value[i];
+    if !mv.is_finite() {
+        return None;
+    }
+    let pv = p.value[i];
+    // The model may leave a harmonic's phase undefined (its amplitude in the noise): the
+    // amplitude carries that difference, as dF does for a model without cycles.
+    if !pv.is_finite() && f.is_phase() {
+        return Some(0.0);
+    }
+    if !pv.is_finite() {
+        return Some(if p.value[Feature::DF as usize].is_finite() {
+            0.0
+        } else {
+            1e3
+        });
+    }
+    let se = |s: f64| if s.is_finite() { s * s } else { 0.0 };
+    let fl = f.floor(mv);
+    let sigma = (se(m.stderr[i]) + se(p.stderr[i]) + fl * fl).sqrt();
+    let d = if f.is_phase() {
+        // Angles: the difference wrapped to (−π, π].
+        let tau = std::f64::consts::TAU;
+        let w = (pv - mv).rem_euclid(tau);
+        if w > 0.5 * tau { w - tau } else { w }
+    } else {
+        pv - mv
+    };
+    Some(d / sigma)
+}
+
+/// The simulation of recording `rec` under `model` on its sample grid, at the fits' tolerance
+/// (`None` where the run fails).
+pub fn simulate(model: &Model, rec: &Recording, solvers: &mut Solvers) -> Option<SimTrace> {
+    let p = model.params_for(rec);
+    simulate_grid(
+        &p,
+        &model.effects,
+        rec.t[0],
+        rec.dt(),
+        rec.t.len(),
+        crate::campaign::FIT_TOLERANCE,
+        solvers,
+    )
+    .ok()
+    .filter(|tr| tr.status == crate::ode::Status::Success)
+}
+
+pub(crate) fn predict_one(
+    model: &Model,
+    rec: &Recording,
+    solvers: &mut Solvers,
+) -> Vec<FeatureSet> {
+    match simulate(model, rec, solvers) {
+        Some(tr) => trace_features(
+            rec,
+            &tr.f_d,
+            rec.x_s.as_ref().map(|_| &tr.x_s[..]),
+            rec.x_d.as_ref().map(|_| &tr.x_d[..]),
+        ),
+        None => vec![FeatureSet::nan(); stages(&rec.t, &rec.params).len()],
+    }
+}
+
+/// `√(mean z²)`.
+pub fn gap(z: &[f64]) -> f64 {
+    if z.is_empty() {
+        return 0.0;
+    }
+    (z.iter().map(|v| v * v).sum::<f64>() / z.len() as f64).sqrt()
+}
+
+impl Plausible {
+    /// The bounds a campaign's recordings imply (the units' measured features, their conditions
+    /// and sampling):
+    /// - a force sensor's `f_n` and an actuator's `f_r` no lower than the fastest drive
+    ///   oscillator of the campaign, `√(k_d/m)/2π` (a resonance below it would turn each
+    ///   stick-slip cycle into a ringing of its own); a sensor's also no lower than
+    ///   [`SLIP_BOUND_MARGIN`]` / (2 t_slip)` with `t_slip` the shortest recorded slip (the mean
+    ///   peak-to-trough time of a unit's smoothed force): a sensor slower than that cannot
+    ///   record a drop that fast;
+    /// - a screw error's `wavelength` no longer than half the longest drive travel recorded
+    ///   (`v_d` times the record's length: a longer one is a drift, not a periodic error) and
+    ///   no shorter than the shortest one any recording resolves (`2 v_d / f_sample`);
+    /// - a friction lag `tau` no longer than the longest stick-slip period recorded (a longer
+    ///   memory acts as a changed friction level, not as a lag);
+    /// - a Stribeck exponent within [`STRIBECK_DELTA`] (not from the campaign: from measured
+    ///   friction curves).
+    pub fn of(t: &Target) -> Plausible {
+        let mut bounds = vec![];
+        let mut push =
+            |effect: EffectKind, param: &'static str, lo: f64, hi: f64, reason: String| {
+                let (a, b) = default_range(effect, param);
+                let (lo, hi) = (lo.max(a), hi.min(b));
+                if lo < hi && (lo > a || hi < b) {
+                    bounds.push(Bound {
+                        effect,
+                        param,
+                        lo,
+                        hi,
+                        reason,
+                    });
+                }
+            };
+        if t.recs.is_empty() {
+            return Plausible { bounds };
+        }
+        // The fastest drive oscillator.
+        let f_osc = t
+            .recs
+            .iter()
+            .map(|r| (r.params.k_d / r.params.m).sqrt() / std::f64::consts::TAU)
+            .fold(0.0, f64::max);
+        // The shortest recorded slip and the longest stick-slip period, over the units.
+        let feature_over = |f: Feature, pick: fn(f64, f64) -> f64, init: f64| {
+            t.measured
+                .iter()
+                .map(|m| m.get(f))
+                .filter(|v| v.is_finite() && *v > 0.0)
+                .fold(init, pick)
+        };
+        let t_slip = feature_over(Feature::SlipTime, f64::min, f64::INFINITY);
+        let period = feature_over(Feature::Period, f64::max, 0.0);
+        let slip_lo = if t_slip.is_finite() {
+            SLIP_BOUND_MARGIN / (2.0 * t_slip)
+        } else {
+            0.0
+        };
+        let (sensor_lo, why) = if slip_lo > f_osc {
+            (
+                slip_lo,
+                format!(
+                    "the shortest recorded slip lasts {:.1} ms: a slower sensor cannot record it ({SLIP_BOUND_MARGIN} / (2 t_slip)); the fastest drive oscillator is {f_osc:.1} Hz",
+                    1e3 * t_slip
+                ),
+            )
+        } else {
+            (
+                f_osc,
+                format!(
+                    "no lower than the fastest drive oscillator, sqrt(k_d/m)/2pi = {f_osc:.1} Hz{}",
+                    if t_slip.is_finite() {
+                        format!(
+                            " (the shortest recorded slip, {:.1} ms, allows {slip_lo:.1} Hz)",
+                            1e3 * t_slip
+                        )
+                    } else {
+                        String::new()
+                    }
+                ),
+            )
+        };
+        push(
+            EffectKind::SensorDynamics,
+            "f_n",
+            sensor_lo,
+            f64::INFINITY,
+            why,
+        );
+        push(
+            EffectKind::ActuatorResponse,
+            "f_r",
+            f_osc,
+            f64::INFINITY,
+            format!("no lower than the fastest drive oscillator, sqrt(k_d/m)/2pi = {f_osc:.1} Hz"),
+        );
+        let travel = t
+            .recs
+            .iter()
+            .map(|r| r.params.v_d * (r.t[r.t.len() - 1] - r.t[0]))
+            .fold(0.0, f64::max);
+        let resolved = t
+            .recs
+            .iter()
+            .map(|r| 2.0 * r.params.v_d * r.dt())
+            .fold(f64::INFINITY, f64::min);
+        push(
+            EffectKind::DriveRipple,
+            "wavelength",
+            resolved,
+            0.5 * travel,
+            format!(
+                "at most half the longest drive travel recorded ({:.3} mm) and at least the shortest wavelength a recording resolves (2 v_d / sampling rate = {:.2} um)",
+                1e3 * travel,
+                1e6 * resolved
+            ),
+        );
+        if period > 0.0 {
+            push(
+                EffectKind::FrictionalLag,
+                "tau",
+                0.0,
+                period,
+                format!(
+                    "no longer than the longest stick-slip period recorded ({:.0} ms)",
+                    1e3 * period
+                ),
+            );
+        }
+        push(
+            EffectKind::StribeckShape,
+            "delta",
+            STRIBECK_DELTA.0,
+            STRIBECK_DELTA.1,
+            format!(
+                "Stribeck exponents of measured friction curves lie about 0.5 to 2 (1: Tustin's exponential, 2: Gaussian); outside {} to {} the curve is a step or a straight line",
+                STRIBECK_DELTA.0, STRIBECK_DELTA.1
+            ),
+        );
+        Plausible { bounds }
+    }
+}

@@ -1,0 +1,213 @@
+//! What a diagnosis returns: its options, the ranked candidates, where the gap lies, and the
+//! verdict.
+
+use super::evidence::*;
+use super::features::{Feature, N_FEATURES};
+use super::fingerprint;
+use super::fit::{self, FitOptions, FitResult};
+use crate::model::EffectKind;
+
+/// Options of a diagnosis.
+#[derive(Clone, Debug)]
+pub struct DiagnoseOptions {
+    /// Candidate effects. Default: every candidate of the library.
+    pub candidates: Vec<EffectKind>,
+    /// Fit options.
+    pub fit: FitOptions,
+    /// Fit and rank the candidates also where the verdict is `no_significant_gap` before any
+    /// is fitted (held-out gap below [`SIGNIFICANT_GAP`], no feature's gap concentrated):
+    /// nothing is left to explain there, and by default no candidate is fitted (an empty
+    /// ranking; most of a diagnosis's time is its candidates). Default false.
+    pub rank_always: bool,
+}
+
+impl Default for DiagnoseOptions {
+    fn default() -> Self {
+        DiagnoseOptions {
+            candidates: EffectKind::candidates(),
+            fit: FitOptions::default(),
+            rank_always: false,
+        }
+    }
+}
+
+/// One candidate's result.
+#[derive(Clone, Debug)]
+pub struct Ranked {
+    /// The effect.
+    pub effect: EffectKind,
+    /// Its fit on all recordings.
+    pub fit: FitResult,
+    /// Held-out gap (pooled over the folds).
+    pub gap_after: f64,
+    /// Standard deviation of the folds' held-out gaps.
+    pub gap_spread: f64,
+    /// `(E0 − E1) / E0` on the held-out recordings.
+    pub reduction: f64,
+    /// Ranking score `E1 (1 + 0.05 k)`.
+    pub score: f64,
+    /// Each held-out recording's own gap under the fold's model (NaN where not checked).
+    pub per_recording: Vec<f64>,
+    /// The number of held-out residuals behind each of [`Ranked::per_recording`].
+    pub per_recording_n: Vec<usize>,
+    /// The held-out evidence for it against the model it extends (the base model, or the first
+    /// named effect for a second).
+    pub evidence: Evidence,
+    /// Its fitted parameters that end on a bound of their plausible range ([`fit::at_bounds`]).
+    pub at_bound: Vec<String>,
+    /// Its held-out gap in each feature (NaN where no held-out unit defines it): against the
+    /// base model's ([`Diagnosis::base_per_feature`]), where its fit acts.
+    pub per_feature: Vec<f64>,
+    /// The feature in which its own held-out gap still concentrates, where one does
+    /// ([`FEATURE_GAP`] on two recordings or more).
+    pub concentrated: Option<(Feature, f64, usize)>,
+    /// Wall time of its scan, fit and cross-validation \[s\].
+    pub wall_time: f64,
+    /// Its fingerprints checked against the recordings ([`fingerprint::check`]) and its
+    /// held-out feature families ([`held_out_families`](crate::diagnosis::diagnose::held_out_families)): for a candidate the decision reached
+    /// (named, tied or rejected), empty for the others.
+    pub fingerprints: Vec<fingerprint::Check>,
+    /// Why it is not named although its evidence would name it: a trace fingerprint absent.
+    pub rejected: Option<String>,
+}
+
+/// Where the gap lies, from the calibrated base model over all recordings.
+#[derive(Clone, Debug)]
+pub struct Where {
+    /// Per feature: RMS z and share of the summed z².
+    pub features: Vec<(Feature, f64, f64)>,
+    /// Per phase: RMS z and share of the summed z².
+    pub phases: Vec<(&'static str, f64, f64)>,
+    /// Per condition: Spearman correlation of the per-recording gap with it.
+    pub conditions: Vec<(&'static str, f64)>,
+    /// Per recording: name, gap, conditions (v_d, k_d, f, v_a/v_d, stick time, k_t u0/F_c),
+    /// checked on held-out data or not.
+    pub recordings: Vec<RecordingGap>,
+    /// The gap on recordings with vibration and without.
+    pub with_vibration: (f64, f64),
+    /// A sentence or two.
+    pub summary: String,
+}
+
+/// The gap of one recording.
+#[derive(Clone, Debug)]
+pub struct RecordingGap {
+    /// File stem.
+    pub name: String,
+    /// Gap under the calibrated base model.
+    pub gap_base: f64,
+    /// Gap under the top-ranked candidate (NaN when none was tried).
+    pub gap_best: f64,
+    /// Checked on held-out data (its kind of condition has two groups or more).
+    pub held_out: bool,
+    /// Its fold.
+    pub fold: usize,
+    /// `[v_d, k_d, f, v_a/v_d, stick time, k_t u0/F_c]`.
+    pub conditions: [f64; 6],
+    /// z per feature under the base model, the largest over the recording's stages (NaN where
+    /// undefined).
+    pub z_base: [f64; N_FEATURES],
+}
+
+/// Names of [`RecordingGap::conditions`].
+pub const CONDITIONS: [&str; 6] = ["v_d", "k_d", "f", "va_ratio", "stick_time", "kt_u0_over_Fc"];
+
+/// Verdict.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Verdict {
+    /// A candidate explains the gap.
+    Effect,
+    /// The base model matches within noise.
+    NoSignificantGap,
+    /// No candidate explains the gap.
+    Unexplained,
+    /// Two candidates or more explain it and the data cannot tell them apart
+    /// ([`Diagnosis::tie`]): none is named.
+    Tie,
+}
+
+impl Verdict {
+    /// Name in the JSON report.
+    pub fn name(self) -> &'static str {
+        match self {
+            Verdict::Effect => "effect",
+            Verdict::NoSignificantGap => "no_significant_gap",
+            Verdict::Unexplained => "unexplained",
+            Verdict::Tie => "tie",
+        }
+    }
+}
+
+/// The full diagnosis.
+#[derive(Clone, Debug)]
+pub struct Diagnosis {
+    /// Verdict.
+    pub verdict: Verdict,
+    /// The named effect (with verdict `effect`).
+    pub best_effect: Option<EffectKind>,
+    /// The named effects in order (the first is `best_effect`; a second when forward selection
+    /// names one).
+    pub effects: Vec<EffectKind>,
+    /// The named effects explain only part of the gap: they leave a significant one, or a fitted
+    /// parameter ends on a bound of its plausible range (see the module docs).
+    pub partial: bool,
+    /// The feature in which the base model's held-out gap concentrates, where one does
+    /// ([`FEATURE_GAP`]): the feature, its held-out gap and the number of checked recordings
+    /// on which its `|z|` reaches that level.
+    pub concentrated: Option<(Feature, f64, usize)>,
+    /// The harmonic feature the base model misses systematically on held-out data ([`BIAS_Z`](crate::diagnosis::folds::BIAS_Z),
+    /// [`BIAS_T`](crate::diagnosis::folds::BIAS_T), [`BIAS_UNITS`](crate::diagnosis::folds::BIAS_UNITS)),
+    /// where one does: the feature, its mean `z`, the `t` of that mean and the units.
+    pub systematic: Option<(Feature, f64, f64, usize)>,
+    /// Where only [`Diagnosis::concentrated`] makes the gap significant: the held-out
+    /// reduction of the gap beyond noise, `(E0 − E1)/(E0 − 1)`, which the decision used.
+    pub reduction_beyond_noise: Option<f64>,
+    /// Held-out gap of the calibrated base model.
+    pub gap_before: f64,
+    /// Spread of the folds' held-out gaps of the base model.
+    pub gap_before_spread: f64,
+    /// Held-out gap of the named effects (of the base model when none is named).
+    pub gap_after: f64,
+    /// Spread of the folds' held-out gaps of the named effects.
+    pub gap_after_spread: f64,
+    /// `(E0 − E1) / E0`.
+    pub reduction: f64,
+    /// Share of held-out recordings with a gap (at least [`GAPPED`](crate::diagnosis::diagnose::GAPPED)) whose gap the top
+    /// candidate lowers (informative: the decision weighs the evidence).
+    pub breadth: f64,
+    /// The top candidate's held-out evidence against the base model.
+    pub evidence: Option<Evidence>,
+    /// The top candidate's held-out evidence against the runner-up, with the runner-up.
+    pub evidence_runner_up: Option<(EffectKind, Evidence)>,
+    /// The candidates the data cannot tell apart, best first, with verdict [`Verdict::Tie`]
+    /// (empty otherwise).
+    pub tie: Vec<EffectKind>,
+    /// What the verdict's reader must know: a named effect's parameter on a bound of its
+    /// plausible range, a first effect not converged, ...
+    pub warnings: Vec<String>,
+    /// The campaign's plausible ranges of the effects' parameters.
+    pub bounds: fit::Plausible,
+    /// The base model's held-out gap in each feature (NaN where no held-out unit defines it).
+    pub base_per_feature: Vec<f64>,
+    /// The base calibration on all recordings.
+    pub base: FitResult,
+    /// Candidates, best first; empty where the verdict is `no_significant_gap` (unless
+    /// [`DiagnoseOptions::rank_always`]).
+    pub ranking: Vec<Ranked>,
+    /// Second effects tried with the first named one, best first.
+    pub second: Vec<Ranked>,
+    /// Where the gap lies.
+    pub location: Where,
+    /// Where the gap left by the named effects lies (empty when none is named).
+    pub remaining: String,
+    /// Number of folds.
+    pub folds: usize,
+    /// Names of the recordings checked on held-out data.
+    pub held_out: Vec<String>,
+    /// What the design cannot check on held-out data, one sentence each.
+    pub not_checked: Vec<String>,
+    /// Wall time \[s\].
+    pub wall_time: f64,
+    /// The simulations behind the diagnosis, with their cost.
+    pub work: fit::Work,
+}
