@@ -344,7 +344,7 @@ pub fn write_h5(
     o: &BenchOptions,
 ) -> Result<(), OutputError> {
     output::ensure_parent(path)?;
-    let tmp = output::temp_path(path);
+    let tmp = output::temp_for(path)?;
     {
         let e = h5err(path);
         let f = H5File::create(&tmp).map_err(&e)?;

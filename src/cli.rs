@@ -153,14 +153,30 @@ pub struct DiagnoseArgs {
     pub no_plots: bool,
 }
 
+/// The effect `name` of a flag that takes an effect's name alone (`calibrate --effect`,
+/// `synth --draw`, `diagnose --candidates`): its parameters are fitted or drawn, so `NAME:k=v`
+/// is refused, naming the effect it would be.
 fn effect_flag(flag: &str, name: &str) -> Result<crate::model::EffectKind, CliError> {
-    crate::model::EffectKind::from_name(name).ok_or_else(|| CliError::Flag {
-        flag: flag.into(),
-        value: name.into(),
-        msg: format!(
-            "unknown effect; allowed: {}",
-            crate::model::effects::names().join(", ")
-        ),
+    use crate::model::EffectKind;
+    EffectKind::from_name(name).ok_or_else(|| {
+        let head = name.split_once(':').map(|(h, _)| h.trim());
+        let msg = match head.and_then(EffectKind::from_name) {
+            Some(k) => format!(
+                "`{}` is an effect, but --{flag} takes its name alone, without parameters (they \
+                 are fitted or drawn here): give --{flag} {}",
+                k.name(),
+                k.name()
+            ),
+            None => format!(
+                "unknown effect; allowed: {}",
+                crate::model::effects::names().join(", ")
+            ),
+        };
+        CliError::Flag {
+            flag: flag.into(),
+            value: name.into(),
+            msg,
+        }
     })
 }
 

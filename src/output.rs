@@ -53,6 +53,27 @@ pub fn temp_path(path: &Path) -> PathBuf {
     PathBuf::from(s)
 }
 
+/// [`temp_path`] of `path`, refused where something other than a regular file is there (a
+/// folder left by hand, a device): the error names the temporary path, not `path`, and says
+/// what is in the way. A stale regular file there is an interrupted write's and is replaced.
+pub fn temp_for(path: &Path) -> Result<PathBuf> {
+    let tmp = temp_path(path);
+    if special(&tmp) {
+        return Err(OutputError::Io {
+            path: tmp.display().to_string(),
+            source: std::io::Error::new(
+                std::io::ErrorKind::InvalidInput,
+                format!(
+                    "a folder (or device, pipe, socket) is in the way of the temporary file \
+                     written there before it is renamed onto {}; remove or rename it",
+                    path.display()
+                ),
+            ),
+        });
+    }
+    Ok(tmp)
+}
+
 /// Whether `path` names something that is there and is not a regular file (following links):
 /// a device, pipe, socket or folder, which no command reads as a file or replaces.
 pub fn special(path: &Path) -> bool {
@@ -210,7 +231,7 @@ pub fn write_case_h5(
     effects: &crate::model::Effects,
 ) -> Result<()> {
     ensure_parent(path)?;
-    let tmp = temp_path(path);
+    let tmp = temp_for(path)?;
     {
         let e = h5err(path);
         let file = H5File::create(&tmp).map_err(&e)?;
@@ -280,7 +301,7 @@ pub fn write_trace_group(
 /// Writes a trace as CSV with a header of names and units (`t \[s\],F_d \[N\],...`).
 pub fn write_trace_csv(path: &Path, tr: &Trace) -> Result<()> {
     ensure_parent(path)?;
-    let tmp = temp_path(path);
+    let tmp = temp_for(path)?;
     let e = ioerr(path);
     {
         let f = std::fs::File::create(&tmp).map_err(&e)?;

@@ -133,6 +133,8 @@ fn census_of_bad_input() {
     let cond = "v_d = 1e-3\nk_d = 1e4\nf = 0\nu0 = 0\n";
     camp("camp", &good, cond);
     camp("c_notnum", &good.replacen("\n0.05,", "\nx,", 1), cond);
+    camp("c_cr", &good.replace('\n', "\r"), cond);
+    camp("c_bom2", &format!("\u{feff}\u{feff}{good}"), cond);
     camp("c_nohead", &good.replacen("t,F_d", "time,F_d", 1), cond);
     camp(
         "c_dupcol",
@@ -238,6 +240,13 @@ fn census_of_bad_input() {
         "refine_res",
         "[[axis]]\nname = \"u0\"\nlogspace = [1e-8, 1e-6, 3]\n[refine]\nalong = \"u0\"\nresolution = 0.0\n",
     );
+    sw(
+        "refine_level",
+        "[[axis]]\nname = \"u0\"\nlogspace = [1e-8, 1e-6, 3]\n[refine]\nalong = \"u0\"\nresolution = 0.1\nlevel = -1\n",
+    );
+    // Another sweep than the one done.h5 holds, and a sweep whose every run fails.
+    sw("s2", &SWEEP.replace("name = \"s\"", "name = \"s2\""));
+    sw("allfail", &format!("{SWEEP}max_steps = 10\n"));
     sw(
         "trace_off",
         "[[axis]]\nname = \"u0\"\nvalues = [1e-8, 1e-7]\n[output]\ntraces = [{ u0 = 5.0 }]\n",
@@ -601,6 +610,31 @@ fn census_of_bad_input() {
             vec!["refine_res.toml", "resolution"],
         ),
         (
+            s(&["sweep", "refine_level.toml"]),
+            2,
+            vec![
+                "refine_level.toml",
+                "level = -1",
+                "never crosses",
+                "level > 0",
+            ],
+        ),
+        (
+            s(&["sweep", "s2.toml", "-o", "done.h5", "--resume", "-q"]),
+            1,
+            vec!["done.h5", "another sweep ('s'", "not of 's2'", "-o"],
+        ),
+        (
+            s(&["sweep", "allfail.toml", "--estimate"]),
+            1,
+            vec![
+                "every one of the",
+                "sampled runs failed",
+                "max_steps",
+                "no estimate",
+            ],
+        ),
+        (
             s(&["sweep", "trace_off.toml"]),
             2,
             vec!["trace_off.toml", "u0", "5"],
@@ -774,6 +808,26 @@ fn census_of_bad_input() {
             vec!["a.csv:52", "`x` is not a number"],
         ),
         (s(&["calibrate", "c_nohead"]), 2, vec!["a.csv:1", "`t`"]),
+        (
+            s(&["calibrate", "c_cr"]),
+            2,
+            vec!["a.csv:1", "carriage return alone", "\\r\\n"],
+        ),
+        (
+            s(&["calibrate", "c_bom2"]),
+            2,
+            vec!["a.csv:1", "2 byte-order marks", "one at most"],
+        ),
+        (
+            s(&["calibrate", "camp", "--effect", "viscous:h_v=1"]),
+            2,
+            vec![
+                "--effect",
+                "`viscous` is an effect",
+                "name alone",
+                "--effect viscous",
+            ],
+        ),
         (
             s(&["calibrate", "c_dupcol"]),
             2,
@@ -1211,6 +1265,20 @@ fn census_of_paths_between_files_and_processes() {
         ]),
         1,
         vec!["another sweep"],
+        false,
+    ));
+    // A folder left where the merge writes its temporary file: the message names that path.
+    copy_dir(&d.join("sh.h5.shards"), &d.join("stale.h5.shards"));
+    std::fs::create_dir(d.join("stale.h5.tmp")).unwrap();
+    cases.push((
+        s(&["merge", "stale.h5", "--no-plot"]),
+        1,
+        vec![
+            "stale.h5.tmp",
+            "folder",
+            "in the way",
+            "remove or rename it",
+        ],
         false,
     ));
     // merge: its inputs are never its output.

@@ -8,7 +8,8 @@
 //! - `NAME.csv`: a header row, then one row per sample with the columns `t` \[s\] and `F_d`
 //!   \[N\] (measured drive force), and where recorded `x_s` \[m\] (body displacement) and `x_d`
 //!   \[m\] (drive displacement), in any order; other columns are ignored (a UTF-8 byte-order
-//!   mark is skipped, a repeated column name is an error). Uniform sampling at any rate (the
+//!   mark is skipped, two are refused, a repeated column name is an error; lines end in `\n` or
+//!   `\r\n`, a carriage return alone is refused). Uniform sampling at any rate (the
 //!   spacing may vary by at most 1 %), at least 200 rows, time increasing. Features that need
 //!   a missing column are skipped, and the reports say so.
 //! - `NAME.toml`: the conditions in SI units: `v_d`, `k_d`, `f` and `u0` (or `v_a`, or
@@ -260,12 +261,35 @@ fn read_csv(path: &Path) -> Result<Columns, CampaignError> {
         line,
         msg,
     };
+    // Lines end in \n or \r\n; a file whose lines end in a carriage return alone (classic Mac
+    // OS) would read as one line of as many columns as samples.
+    if text.contains('\r') && !text.contains('\n') {
+        return Err(bad(
+            1,
+            "the lines end in a carriage return alone (\\r, classic Mac OS), so the file reads \
+             as one line; save it with \\n or \\r\\n line endings"
+                .into(),
+        ));
+    }
     let mut lines = text.lines().enumerate();
     let (_, header) = lines
         .next()
         .ok_or_else(|| bad(1, "empty file; expected a header row t,F_d,x_s,x_d".into()))?;
     // A byte-order mark written by spreadsheet programs is not part of the first name.
     let header = header.strip_prefix('\u{feff}').unwrap_or(header);
+    // A second mark is no part of a name either, but no program should write it: say so
+    // rather than miss the first column.
+    let marks = header.chars().take_while(|&c| c == '\u{feff}').count();
+    if marks > 0 {
+        return Err(bad(
+            1,
+            format!(
+                "the file starts with {} byte-order marks (U+FEFF); a UTF-8 file has one at \
+                 most: remove the extra ones",
+                marks + 1
+            ),
+        ));
+    }
     let names: Vec<&str> = header.split(',').map(|s| s.trim()).collect();
     if names.len() > MAX_COLUMNS {
         return Err(bad(

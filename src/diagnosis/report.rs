@@ -522,7 +522,7 @@ pub fn write_h5(
 ) -> Result<(), OutputError> {
     use rust_hdf5::H5File;
     output::ensure_parent(path)?;
-    let tmp = output::temp_path(path);
+    let tmp = output::temp_for(path)?;
     {
         let f = H5File::create(&tmp).map_err(h5err(&tmp))?;
         let root = f.root_group();

@@ -199,7 +199,7 @@ pub fn write(d: &SweepData, pts: &[BoundaryPoint]) -> Result<PathBuf, OutputErro
     let stem = path.with_extension("");
     let csv = PathBuf::from(format!("{}_boundary.csv", stem.display()));
     {
-        let tmp = output::temp_path(&csv);
+        let tmp = output::temp_for(&csv)?;
         let e = ioerr(&csv);
         let mut w = std::io::BufWriter::new(std::fs::File::create(&tmp).map_err(&e)?);
         let names: Vec<String> = pts

@@ -48,6 +48,9 @@ pub struct Estimate {
     pub units: usize,
     /// Runs made for the sample.
     pub sample_runs: usize,
+    /// Runs of the sample that failed (any status but success): their times say little of a
+    /// run that succeeds, and the summary says how many there were.
+    pub sample_failed: usize,
     /// Wall time of the sample \[s\].
     pub sample_wall: f64,
     /// Predicted runs of the whole sweep.
@@ -131,6 +134,25 @@ pub fn estimate(
         Task::Point(i) => r.wall_time + tables.get(&i).copied().unwrap_or(0.0),
         _ => r.wall_time,
     };
+    // A sample whose every run failed predicts nothing: its times are those of failures.
+    let failed: Vec<&(Task, crate::sim::RunResult)> = records
+        .iter()
+        .filter(|(_, r)| r.status != crate::ode::Status::Success)
+        .collect();
+    if !records.is_empty() && failed.len() == records.len() {
+        let (t, r) = failed[0];
+        return Err(SweepError::State(format!(
+            "every one of the {} sampled runs failed (the first, {}, ended with {}), so their \
+             times predict nothing of this sweep; no estimate. Try one of its points with \
+             `stickslip run` and mend the sweep file",
+            records.len(),
+            match *t {
+                Task::Point(i) | Task::Check(i) => format!("grid point {i}"),
+                Task::Ref(k) => format!("reference run {k}"),
+            },
+            r.status.name()
+        )));
+    }
     // Dense sweeps: the sample's points; [refine] sweeps: its planes, counted below.
     let sampled = owners.iter().filter(|&&o| o == 0).count();
     let longest_run = records.iter().map(|(_, r)| r.wall_time).fold(0.0, f64::max);
@@ -147,6 +169,7 @@ pub fn estimate(
         sampled,
         units,
         sample_runs: records.len(),
+        sample_failed: failed.len(),
         sample_wall,
         runs: 0.0,
         cpu: 0.0,
@@ -323,6 +346,14 @@ impl fmt::Display for Estimate {
             self.sample_runs,
             human(self.sample_wall)
         )?;
+        if self.sample_failed > 0 {
+            writeln!(
+                f,
+                "  {} of the {} sampled runs failed: their times are counted as they ran, which \
+                 says little of the runs that succeed",
+                self.sample_failed, self.sample_runs
+            )?;
+        }
         let se = if self.cpu_stderr.is_finite() {
             format!(" ± {} (one standard error)", human(self.cpu_stderr))
         } else {

@@ -250,7 +250,7 @@ pub fn write(
 ) -> Result<(), OutputError> {
     let (started, finished) = (stamp.started, stamp.finished);
     output::ensure_parent(path)?;
-    let tmp = output::temp_path(path);
+    let tmp = output::temp_for(path)?;
     {
         let e = h5err(path);
         let file = H5File::create(&tmp).map_err(&e)?;

@@ -765,10 +765,27 @@ pub fn run_with(
             .map_err(|e| SweepError::State(format!("{}: {e}", jpath.display())))?
     } else {
         if opts.resume && is_complete(&target) && opts.shard.is_none() {
-            return Err(SweepError::State(format!(
-                "{} is already complete; nothing to resume",
-                target.display()
-            )));
+            // Complete, but of which sweep: a user who resumes into another sweep's result must
+            // not read that their own sweep is done.
+            let held = rust_hdf5::H5File::open(&target).ok().map(|f| {
+                (
+                    f.attr_string("sweep_name").unwrap_or_default(),
+                    f.attr_string("sweep_file").unwrap_or_default(),
+                )
+            });
+            return Err(SweepError::State(match held {
+                Some((name, text)) if text != spec.text => format!(
+                    "{} holds the complete result of another sweep ('{name}', from another \
+                     sweep file), not of '{}': there is nothing of this sweep to resume. \
+                     Write this sweep to another file with -o",
+                    target.display(),
+                    spec.name
+                ),
+                _ => format!(
+                    "{} is already complete; nothing to resume",
+                    target.display()
+                ),
+            }));
         }
         // A file without its journal is no checkpoint of this sweep: --resume must not replace
         // it (with nothing there, there is nothing to lose, and the sweep starts).

@@ -84,7 +84,8 @@ pub struct Axis {
 /// ```toml
 /// [refine]
 /// measure = "r"          # default "r"; any kept measure
-/// level = 0.05           # default 0.05 (elimination, docs/model.md)
+/// level = 0.05           # default 0.05 (elimination, docs/model.md); > 0 for r, dF, their
+///                        # errors and the period, within (0, 1) for the stick fraction
 /// along = "u0"           # the axis refined: a linspace or logspace axis, not zipped
 /// across = "f"           # the dimension whose values stay as given (the plane's other side)
 /// resolution = 0.01      # finest step along `along`: relative on a logspace axis (0.01: 1 %),
@@ -563,6 +564,28 @@ impl SweepSpec {
                     ));
                 }
             }
+        }
+        // A level the measure never crosses refines nothing: r, dF, their errors and the period
+        // are never negative and a stick fraction lies within 0 to 1; the boundary of such a
+        // measure lies strictly inside its range.
+        let range = match measure.as_str() {
+            "stick_fraction" => Some((0.0, 1.0, "0 < level < 1")),
+            "r" | "r_stderr" | "dF" | "dF_stderr" | "period" => {
+                Some((0.0, f64::INFINITY, "level > 0"))
+            }
+            _ => None,
+        };
+        if let Some((lo, hi, rule)) = range
+            && !(level > lo && level < hi)
+        {
+            return Err(doc.err(
+                sec,
+                "level",
+                format!(
+                    "level = {level}: {measure} never crosses it, so nothing would be refined; \
+                     allowed: {rule}"
+                ),
+            ));
         }
         let along = along.ok_or_else(|| {
             doc.err(
