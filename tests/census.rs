@@ -246,7 +246,7 @@ fn census_of_bad_input() {
     );
     // Another sweep than the one done.h5 holds, and a sweep whose every run fails.
     sw("s2", &SWEEP.replace("name = \"s\"", "name = \"s2\""));
-    sw("allfail", &format!("{SWEEP}max_steps = 10\n"));
+    sw("allfail", &format!("{SWEEP}[solver]\nmax_steps = 10\n"));
     sw(
         "trace_off",
         "[[axis]]\nname = \"u0\"\nvalues = [1e-8, 1e-7]\n[output]\ntraces = [{ u0 = 5.0 }]\n",
