@@ -318,9 +318,9 @@ pub fn write(d: &SweepData, pts: &[BoundaryPoint]) -> Result<PathBuf, OutputErro
 }
 
 /// `stickslip boundary FILE`: computes and writes the boundary.
-pub fn run(path: &Path) -> Result<(PathBuf, Vec<BoundaryPoint>), super::SweepError> {
+pub fn run(path: &Path) -> Result<(PathBuf, Vec<BoundaryPoint>), super::error::SweepError> {
     let d = SweepData::read(path)?;
-    let pts = compute(&d).map_err(super::SweepError::State)?;
+    let pts = compute(&d).map_err(super::error::SweepError::State)?;
     let csv = write(&d, &pts)?;
     Ok((csv, pts))
 }

@@ -17,23 +17,11 @@
 //! The boundary level is the `[refine]` level where `r` is refined, else r = 0.05
 //! ([`ELIMINATED`](super::boundary::ELIMINATED)).
 
+pub use super::plan::{Comparison, FORCE_TOL, R_TOL, replaced};
+use super::plan::{Plan, Results, averaged_run, check_level as level, compare, measured};
 use super::spec::SweepSpec;
-use super::{Plan, Results, measured};
 use crate::output::{self, OutputError, h5err};
 use std::path::Path;
-
-/// Largest `|Δr|` of a check that agrees (docs/model.md's accuracy of `r`).
-pub const R_TOL: f64 = 0.01;
-/// Largest relative difference of the mean force of a check that agrees (docs/model.md's 0.5 %).
-pub const FORCE_TOL: f64 = 0.005;
-
-/// The boundary level of `r` the band is about.
-pub fn level(spec: &SweepSpec) -> f64 {
-    spec.refine
-        .as_ref()
-        .filter(|r| r.measure == "r")
-        .map_or(super::boundary::ELIMINATED, |r| r.level)
-}
 
 /// Whether point `i` is in the random share `share`: a 64-bit mix (SplitMix64's finaliser) of
 /// its index, as a number in [0, 1), below `share`.
@@ -56,11 +44,6 @@ fn with_vibration(plan: &Plan) -> usize {
     plan.points.iter().filter(|p| p.vibrates()).count()
 }
 
-/// The averaged run of point `i` (its own run, where the averaged model served it).
-fn averaged_run(res: &Results, i: usize) -> Option<&crate::sim::RunResult> {
-    measured(res.points[i].as_ref()).filter(|r| r.tier.uses_law())
-}
-
 /// The points among those `owned` to check: each averaged point with measures in the random
 /// share, or with `r` within the band about the level.
 pub fn points(spec: &SweepSpec, plan: &Plan, res: &Results, owned: &[bool]) -> Vec<usize> {
@@ -77,60 +60,6 @@ pub fn points(spec: &SweepSpec, plan: &Plan, res: &Results, owned: &[bool]) -> V
             random_share(spec, n, i) || (r - lv).abs() <= spec.check.band
         })
         .collect()
-}
-
-/// One averaged point against its full run.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Comparison {
-    /// Flat index of the grid point.
-    pub point: usize,
-    /// Drawn in the random share (else: in the band about the level).
-    pub random: bool,
-    /// `r` of the averaged and of the full run.
-    pub r: (f64, f64),
-    /// Mean drive force of the averaged and of the full run \[N\].
-    pub mean_force: (f64, f64),
-    /// `|Δr| ≤` [`R_TOL`].
-    pub within_r: bool,
-    /// Relative difference of the mean force `≤` [`FORCE_TOL`].
-    pub within_force: bool,
-    /// The two `r` on opposite sides of the level.
-    pub side_change: bool,
-}
-
-impl Comparison {
-    /// Whether the full run replaces the averaged one.
-    pub fn replaced(&self) -> bool {
-        !self.within_r || !self.within_force || self.side_change
-    }
-}
-
-/// The comparison of point `i`, where it was checked (its full run has measures, as has its
-/// averaged run and their reference); `random` says whether it was drawn in the random share.
-fn compare(plan: &Plan, res: &Results, i: usize, random: bool) -> Option<Comparison> {
-    let avg = averaged_run(res, i)?;
-    let full = measured(res.checks[i].as_ref())?;
-    let rf = measured(res.refs[plan.point_ref[i]].as_ref())?;
-    let ra = crate::sim::reduction(&avg.measures, &rf.measures).0;
-    let rb = crate::sim::reduction(&full.measures, &rf.measures).0;
-    let (fa, fb) = (avg.measures.mean_force, full.measures.mean_force);
-    let lv = plan.check_level;
-    Some(Comparison {
-        point: i,
-        random,
-        r: (ra, rb),
-        mean_force: (fa, fb),
-        // NaN on either side (a reference without stick-slip) agrees only with NaN.
-        within_r: (ra - rb).abs() <= R_TOL || (ra.is_nan() && rb.is_nan()),
-        within_force: (fa / fb - 1.0).abs() <= FORCE_TOL,
-        side_change: (ra < lv) != (rb < lv),
-    })
-}
-
-/// Whether the full run of point `i` replaces its averaged one ([`Comparison::replaced`]);
-/// false where it was not checked.
-pub fn replaced(plan: &Plan, res: &Results, i: usize) -> bool {
-    compare(plan, res, i, false).is_some_and(|c| c.replaced())
 }
 
 /// Every comparison of the sweep so far, by point.

@@ -26,10 +26,12 @@
 //! them (each task makes the references its points need); a task of a `[refine]` sweep holds
 //! `ceil(N_plane / N)` planes.
 
+use super::SweepOptions;
+use super::error::SweepError;
 use super::journal::{self, Task};
+use super::plan::Plan;
 use super::shard::{self, Shard};
 use super::spec::SweepSpec;
-use super::{Plan, SweepError, SweepOptions};
 use std::fmt;
 use std::time::Instant;
 

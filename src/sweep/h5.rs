@@ -27,9 +27,9 @@
 //! `shard_count`.
 //! Group `traces` holds the traces of the chosen points, one group per point.
 
+use super::plan::{Plan, Results};
 use super::shard::Shard;
 use super::spec::SweepSpec;
-use super::{Plan, Results};
 use crate::model::params::PARAMS;
 use crate::output::{self, OutputError, ds_attr_str, h5err, ioerr};
 use crate::sim::{self, Trace};
@@ -395,4 +395,18 @@ pub fn describe_point(spec: &SweepSpec, i: usize) -> String {
         .map(|(n, v)| format!("{n}={v}"))
         .collect::<Vec<_>>()
         .join(" ")
+}
+
+/// Whether a shard's file is complete: its HDF5 file says so and its runs are kept beside it.
+pub fn shard_complete(path: &Path) -> bool {
+    is_complete(path) && super::shard::runs_path(path).exists()
+}
+
+/// Whether an HDF5 sweep file exists and is marked complete.
+pub fn is_complete(path: &Path) -> bool {
+    rust_hdf5::H5File::open(path)
+        .ok()
+        .and_then(|f| f.attr_string("sweep_status").ok())
+        .as_deref()
+        == Some("complete")
 }

@@ -10,23 +10,26 @@
 
 pub mod boundary;
 pub mod check;
+pub mod error;
 pub mod estimate;
 pub mod figures;
 pub mod h5;
 pub mod journal;
 pub mod lock;
 pub mod merge;
+pub mod plan;
 pub mod read;
 pub mod refine;
 pub mod shard;
+pub mod shards;
 pub mod spec;
 pub mod status;
+pub mod traces;
 
 use crate::averaged::TableStore;
-use crate::model::{Params, params::PARAMS};
 use crate::ode::{Solver, Status};
 use crate::progress::Progress;
-use crate::sim::{self, RunOptions, RunResult, Trace};
+use crate::sim::{self, RunOptions, RunResult};
 use journal::{Journal, Task};
 use rayon::prelude::*;
 use shard::Shard;
@@ -35,217 +38,12 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
-/// The expanded grid and its reference runs.
-#[derive(Clone, Debug)]
-pub struct Plan {
-    /// Parameters of every grid point, flat in C order.
-    pub points: Vec<Params>,
-    /// Parameters of every distinct reference run (no vibration).
-    pub refs: Vec<Params>,
-    /// For each point, the index of its reference.
-    pub point_ref: Vec<usize>,
-    /// Model extensions of every run.
-    pub effects: crate::model::Effects,
-    /// The boundary level of `r` about which averaged points are checked ([`check::level`]).
-    pub check_level: f64,
-    /// For each point, how many points with vibration share its table of the averaged law
-    /// ([`crate::averaged::TableStore::key`]): under `auto` a point whose table serves no other runs
-    /// in full ([`crate::sim::TierReason::Unshared`]).
-    pub table_share: Vec<usize>,
-}
+pub use self::error::SweepError;
+pub use self::h5::{is_complete, shard_complete};
+pub use self::plan::{Plan, Results};
 
-/// The bits of every parameter that a run without vibration depends on (all but u0, f, t_on).
-fn reference_key(p: &Params) -> Vec<u64> {
-    PARAMS
-        .iter()
-        .filter(|i| !matches!(i.name, "u0" | "f" | "t_on"))
-        .map(|i| i.get(p).to_bits())
-        .collect()
-}
-
-impl Plan {
-    /// Expands a validated sweep.
-    pub fn new(spec: &SweepSpec) -> Plan {
-        let n = spec.len();
-        let mut points = Vec::with_capacity(n);
-        let mut refs = vec![];
-        let mut point_ref = Vec::with_capacity(n);
-        let mut index: HashMap<Vec<u64>, usize> = HashMap::new();
-        for i in 0..n {
-            let p = spec
-                .point_params(i)
-                .expect("points were validated when the sweep was read");
-            let key = reference_key(&p);
-            let r = *index.entry(key).or_insert_with(|| {
-                refs.push(p.without_vibration());
-                refs.len() - 1
-            });
-            point_ref.push(r);
-            points.push(p);
-        }
-        let table_share = {
-            let keys: Vec<Vec<u64>> = points
-                .iter()
-                .map(crate::averaged::TableStore::key)
-                .collect();
-            let mut count: HashMap<&Vec<u64>, usize> = HashMap::new();
-            for (k, p) in keys.iter().zip(&points) {
-                if p.vibrates() {
-                    *count.entry(k).or_default() += 1;
-                }
-            }
-            keys.iter()
-                .map(|k| count.get(k).copied().unwrap_or(0))
-                .collect()
-        };
-        Plan {
-            points,
-            refs,
-            point_ref,
-            effects: spec.effects.clone(),
-            check_level: check::level(spec),
-            table_share,
-        }
-    }
-
-    /// All runs the sweep needs: every reference, and every point with vibration.
-    pub fn tasks(&self) -> Vec<Task> {
-        let mut t: Vec<Task> = (0..self.refs.len()).map(Task::Ref).collect();
-        t.extend(
-            (0..self.points.len())
-                .filter(|&i| self.points[i].vibrates())
-                .map(Task::Point),
-        );
-        t
-    }
-
-    /// Parameters of a task's run.
-    pub fn params(&self, t: Task) -> &Params {
-        match t {
-            Task::Ref(i) => &self.refs[i],
-            Task::Point(i) | Task::Check(i) => &self.points[i],
-        }
-    }
-}
-
-/// A run with measures (succeeded, or unsettled and flagged), if any.
-pub(crate) fn measured(r: Option<&RunResult>) -> Option<&RunResult> {
-    r.filter(|r| r.status.has_measures())
-}
-
-/// Results collected so far (`None`: not run yet).
-#[derive(Clone, Debug)]
-pub struct Results {
-    /// Reference runs.
-    pub refs: Vec<Option<RunResult>>,
-    /// Grid-point runs (only points with vibration are run; the others use their reference).
-    pub points: Vec<Option<RunResult>>,
-    /// Full-model checks of averaged points ([`check`]).
-    pub checks: Vec<Option<RunResult>>,
-}
-
-impl Results {
-    fn new(plan: &Plan) -> Results {
-        Results {
-            refs: vec![None; plan.refs.len()],
-            points: vec![None; plan.points.len()],
-            checks: vec![None; plan.points.len()],
-        }
-    }
-
-    fn store(&mut self, t: Task, r: RunResult) {
-        match t {
-            Task::Ref(i) => self.refs[i] = Some(r),
-            Task::Point(i) => self.points[i] = Some(r),
-            Task::Check(i) => self.checks[i] = Some(r),
-        }
-    }
-
-    /// Stores journal records that belong to this plan and are not stored yet (later records
-    /// of a task do not replace the first); returns how many were stored.
-    fn absorb(&mut self, plan: &Plan, records: Vec<(Task, RunResult)>) -> usize {
-        let mut stored = 0;
-        for (t, r) in records {
-            let valid = match t {
-                Task::Ref(i) => i < plan.refs.len(),
-                Task::Point(i) | Task::Check(i) => i < plan.points.len(),
-            };
-            if valid && !self.has(t) {
-                self.store(t, r);
-                stored += 1;
-            }
-        }
-        stored
-    }
-
-    /// Runs stored (references and points).
-    fn count(&self) -> usize {
-        self.refs
-            .iter()
-            .chain(&self.points)
-            .chain(&self.checks)
-            .filter(|r| r.is_some())
-            .count()
-    }
-
-    fn has(&self, t: Task) -> bool {
-        match t {
-            Task::Ref(i) => self.refs[i].is_some(),
-            Task::Point(i) => self.points[i].is_some(),
-            Task::Check(i) => self.checks[i].is_some(),
-        }
-    }
-
-    /// The reduction coefficient of grid point `i` and its standard error (5.1): 1 without
-    /// vibration, NaN where the point or its reference has no measures.
-    pub fn reduction(&self, plan: &Plan, i: usize) -> (f64, f64) {
-        let (own, rf) = self.point(plan, i);
-        match (measured(own), measured(rf)) {
-            (Some(a), Some(b)) if plan.points[i].vibrates() => {
-                sim::reduction(&a.measures, &b.measures)
-            }
-            (Some(_), Some(_)) => (1.0, 0.0),
-            _ => (f64::NAN, f64::NAN),
-        }
-    }
-
-    /// The value of measure `name` (one of [`spec::MEASURES`]) at grid point `i`: NaN where
-    /// the point, or for `r` its reference, has no measures.
-    pub fn measure(&self, plan: &Plan, i: usize, name: &str) -> f64 {
-        let Some(own) = measured(self.point(plan, i).0) else {
-            return f64::NAN;
-        };
-        let m = &own.measures;
-        match name {
-            "r" => self.reduction(plan, i).0,
-            "r_stderr" => self.reduction(plan, i).1,
-            "dF" => m.d_f,
-            "dF_stderr" => m.d_f_stderr,
-            "mean_force" => m.mean_force,
-            "stick_fraction" => m.stick_fraction,
-            "period" => m.period,
-            "peak_force" => m.peak_force,
-            "trough_force" => m.trough_force,
-            "cycles" => m.cycles as f64,
-            _ => f64::NAN,
-        }
-    }
-
-    /// The run that stands for grid point `i` (its own, its full-model check where that
-    /// disagrees with its averaged run ([`check::replaced`]), or its reference when it has no
-    /// vibration) and its reference.
-    pub fn point(&self, plan: &Plan, i: usize) -> (Option<&RunResult>, Option<&RunResult>) {
-        let rf = self.refs[plan.point_ref[i]].as_ref();
-        let own = if !plan.points[i].vibrates() {
-            rf
-        } else if check::replaced(plan, self, i) {
-            self.checks[i].as_ref()
-        } else {
-            self.points[i].as_ref()
-        };
-        (own, rf)
-    }
-}
+use self::plan::{failed_points, tasks_of};
+use self::refine::first_points;
 
 /// How to run a sweep. Fields document their defaults.
 #[derive(Clone, Debug)]
@@ -278,29 +76,6 @@ impl SweepOptions {
             None => self.out.clone(),
         }
     }
-}
-
-/// What stopped a sweep.
-#[derive(Debug, thiserror::Error)]
-pub enum SweepError {
-    /// Journal or output-file trouble.
-    #[error("{0}")]
-    State(String),
-    /// File output.
-    #[error(transparent)]
-    Output(#[from] crate::output::OutputError),
-    /// Bad run options.
-    #[error(transparent)]
-    Sim(#[from] sim::SimError),
-    /// Stopped on request ([`crate::interrupt`]): every finished run is in the journal and the
-    /// checkpoint; resuming continues.
-    #[error("interrupted: {recorded} runs recorded in {journal}; resume to continue")]
-    Interrupted {
-        /// Runs in the journal (this invocation's and earlier ones').
-        recorded: usize,
-        /// The journal.
-        journal: String,
-    },
 }
 
 /// Summary of a finished sweep.
@@ -370,39 +145,6 @@ fn run_task(
         .expect("parameters and options were validated");
     r.tier_reason = why;
     r
-}
-
-/// The tasks of grid points `points` (flat indices): their references first, then the points
-/// with vibration, without repeats.
-fn tasks_of(plan: &Plan, points: &[usize]) -> Vec<Task> {
-    let mut refs: Vec<usize> = points.iter().map(|&i| plan.point_ref[i]).collect();
-    refs.sort_unstable();
-    refs.dedup();
-    let mut t: Vec<Task> = refs.into_iter().map(Task::Ref).collect();
-    // The points that share a table of the averaged law (every k_d, h_d of one f, u0, v_d and
-    // contact) next to each other: a worker takes runs in order, so it builds the table once
-    // for the runs that follow instead of two workers waiting on one build. The order changes
-    // no number: every run is independent.
-    let mut pts: Vec<usize> = points
-        .iter()
-        .copied()
-        .filter(|&i| plan.points[i].vibrates())
-        .collect();
-    pts.sort_by_cached_key(|&i| crate::averaged::TableStore::key(&plan.points[i]));
-    t.extend(pts.into_iter().map(Task::Point));
-    t
-}
-
-/// The grid points of a sweep's first round among those `owned`: the whole grid, or the coarse
-/// grid of a refinement.
-fn first_points(spec: &SweepSpec, owned: impl Fn(usize) -> bool) -> Vec<usize> {
-    match &spec.refine {
-        None => (0..spec.len()).filter(|&i| owned(i)).collect(),
-        Some(_) => refine::coarse_points(spec)
-            .into_iter()
-            .filter(|&i| owned(i))
-            .collect(),
-    }
 }
 
 /// Runs rounds of tasks in parallel: each finished run goes to the journal at once, and the
@@ -701,9 +443,9 @@ pub fn run_with(
         && runs_file.exists()
         && !jpath.exists()
     {
-        let judged = merge::judge(spec, &plan, sh, &target, &fp)
+        let judged = shards::judge(spec, &plan, sh, &target, &fp)
             .map_err(|e| SweepError::State(format!("shard {sh}: {e}")))?;
-        let whole = judged == merge::ShardState::Complete;
+        let whole = judged == shards::ShardState::Complete;
         if !(whole && is_complete(&target)) {
             if !opts.resume {
                 return Err(SweepError::State(format!(
@@ -711,7 +453,7 @@ pub fn run_with(
                      lacking is made) or start afresh with --overwrite",
                     runs_file.display(),
                     match judged {
-                        merge::ShardState::Broken { missing, .. } => {
+                        shards::ShardState::Broken { missing, .. } => {
                             format!("lacks {missing} runs")
                         }
                         _ => "is whole beside a damaged or unfinished file".to_string(),
@@ -887,7 +629,7 @@ pub fn run_with(
     // Points that keep traces are run once more with tracing on (deterministic: same numbers).
     // A shard leaves them to the merge.
     let traced = if opts.shard.is_none() {
-        traces(spec, &plan, &results, &pool, store)
+        traces::traces(spec, &plan, &results, &pool, store)
     } else {
         vec![]
     };
@@ -925,70 +667,4 @@ pub fn run_with(
         wall_time: start.elapsed().as_secs_f64(),
         out: target,
     })
-}
-
-/// The traces of the sweep's chosen points (`[output] traces`) that have results, run once more
-/// with tracing on (the runs are deterministic: the same numbers).
-fn traces(
-    spec: &SweepSpec,
-    plan: &Plan,
-    results: &Results,
-    pool: &rayon::ThreadPool,
-    store: &TableStore,
-) -> Vec<(usize, Trace)> {
-    let method = spec.run.method;
-    let points: Vec<usize> = spec
-        .trace_points()
-        .into_iter()
-        .filter(|&i| results.point(plan, i).0.is_some())
-        .collect();
-    pool.install(|| {
-        points
-            .into_par_iter()
-            .map_init(
-                || Solver::new(method),
-                |solver, i| {
-                    let o = RunOptions {
-                        trace: true,
-                        ..spec.run.clone()
-                    };
-                    let r = sim::simulate_in(&plan.points[i], &plan.effects, &o, solver, store)
-                        .expect("validated");
-                    (i, r.trace.unwrap_or_default())
-                },
-            )
-            .collect()
-    })
-}
-
-/// The grid points among `owned` whose run or reference did not succeed (a refinement leaves
-/// the points far from the level out on purpose: those do not count).
-fn failed_points(spec: &SweepSpec, plan: &Plan, results: &Results, owned: &[bool]) -> usize {
-    (0..plan.points.len())
-        .filter(|&i| owned[i])
-        .filter(|&i| {
-            let (own, rf) = results.point(plan, i);
-            match own {
-                None => spec.refine.is_none(),
-                Some(a) => {
-                    a.status != Status::Success
-                        || rf.map(|r| r.status != Status::Success).unwrap_or(true)
-                }
-            }
-        })
-        .count()
-}
-
-/// Whether a shard's file is complete: its HDF5 file says so and its runs are kept beside it.
-pub fn shard_complete(path: &Path) -> bool {
-    is_complete(path) && shard::runs_path(path).exists()
-}
-
-/// Whether an HDF5 sweep file exists and is marked complete.
-pub fn is_complete(path: &Path) -> bool {
-    rust_hdf5::H5File::open(path)
-        .ok()
-        .and_then(|f| f.attr_string("sweep_status").ok())
-        .as_deref()
-        == Some("complete")
 }

@@ -59,8 +59,8 @@
 //! its last one has landed, and again when a plane it waits for lands one), and a resumed
 //! sweep, whatever its journal holds, goes on to the same points.
 
+use super::plan::{Plan, Results};
 use super::spec::{Refine, SweepSpec};
-use super::{Plan, Results};
 
 /// The shape of the dense grid and where the plane lies in it.
 struct Layout {
@@ -416,4 +416,16 @@ pub fn next_points(spec: &SweepSpec, plan: &Plan, res: &Results, p: usize) -> Ve
     out.sort_unstable();
     out.dedup();
     out
+}
+
+/// The grid points of a sweep's first round among those `owned`: the whole grid, or the coarse
+/// grid of a refinement.
+pub(crate) fn first_points(spec: &SweepSpec, owned: impl Fn(usize) -> bool) -> Vec<usize> {
+    match &spec.refine {
+        None => (0..spec.len()).filter(|&i| owned(i)).collect(),
+        Some(_) => coarse_points(spec)
+            .into_iter()
+            .filter(|&i| owned(i))
+            .collect(),
+    }
 }

@@ -6,11 +6,13 @@
 //! grows), and how long ago its journal last grew (a shard whose journal has not grown for long
 //! is interrupted, not running).
 
+use super::error::SweepError;
 use super::journal;
 use super::merge::{self, ShardState};
+use super::plan::{Plan, tasks_of};
+use super::refine::first_points;
 use super::shard::{self, Shard};
 use super::spec::SweepSpec;
-use super::{Plan, SweepError, first_points, tasks_of};
 use std::fmt;
 use std::path::{Path, PathBuf};
 
