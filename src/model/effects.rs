@@ -659,7 +659,7 @@ impl Resolved {
     pub fn new(fx: &Effects, f: f64, f_n: f64) -> Resolved {
         let mut r = Resolved {
             any: !fx.is_empty(),
-            dim: super::BASE_DIM,
+            dim: crate::model::state::BASE_DIM,
             gain: 1.0,
             aging: None,
             normal: None,
@@ -670,7 +670,7 @@ impl Resolved {
             delta: 2.0,
             elements: 1,
             spread: 0.0,
-            first_extra: super::BASE_DIM,
+            first_extra: crate::model::state::BASE_DIM,
             lag: None,
             track: None,
         };

@@ -20,22 +20,15 @@
 
 pub mod effects;
 pub mod params;
+pub mod state;
 
 pub use effects::{EffectError, EffectKind, Effects};
 pub use params::{ParamError, Params};
+pub use state::{BASE_DIM, S, V, X};
 
 use effects::Resolved;
 
 use crate::ode::OdeSystem;
-
-/// Index of the body displacement `x` \[m\] in the state.
-pub const X: usize = 0;
-/// Index of the body velocity `v` [m/s].
-pub const V: usize = 1;
-/// Index of the contact deformation `s` \[m\].
-pub const S: usize = 2;
-/// Number of state components of the base model.
-pub const BASE_DIM: usize = 3;
 
 /// The LuGre contact law evaluated at one relative velocity and deformation, with the partial
 /// derivatives the Jacobian needs.

@@ -1,7 +1,7 @@
 //! Bookkeeping of envelope following (see [`Envelope`]): the stroboscopic samples, the slope
 //! and its change, the choice of the jump and the samples synthesised inside a jump.
 
-use super::Envelope;
+use super::options::Envelope;
 
 /// The first stretch at the run's own tolerance, in refusal streaks (see [`Strobe::refuse`]).
 pub(crate) const LOOSE_FIRST: u64 = 2;
