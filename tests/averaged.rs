@@ -620,3 +620,38 @@ fn a_soft_drives_fast_slips_are_no_divergence() {
     let rel = auto.run.measures.mean_force / full.run.measures.mean_force - 1.0;
     assert!(rel.abs() < 0.005, "mean force {rel}");
 }
+
+/// A store's tables are shared, never a source of difference: averaged runs of two drives
+/// handed one store (the second finds the table the first built) give, bit for bit, what each
+/// gives with a store of its own, and the store holds one table for both.
+#[test]
+fn runs_sharing_a_table_store_give_what_each_gives_alone() {
+    use stickslip::averaged::TableStore;
+    use stickslip::model::Effects;
+    use stickslip::ode::Solver;
+    use stickslip::sim::{RunOptions, Tier, run_case_in};
+    let base = params(3000.0, 2e-8, 5e-4);
+    let opts = RunOptions {
+        tier: Tier::Averaged,
+        ..RunOptions::default()
+    };
+    let mut solver = Solver::new(opts.method);
+    let shared = TableStore::new();
+    for k_d in [8000.0, 11_700.0] {
+        let p = Params { k_d, ..base };
+        let with_shared =
+            run_case_in(&p, &Effects::none(), &opts, &mut solver, &shared).expect("valid");
+        let alone = run_case_in(&p, &Effects::none(), &opts, &mut solver, &TableStore::new())
+            .expect("valid");
+        assert_eq!(with_shared.run.tier, Tier::Averaged, "k_d = {k_d}");
+        assert_eq!(with_shared.run.measures, alone.run.measures, "k_d = {k_d}");
+        assert_eq!(with_shared.run.stats, alone.run.stats, "k_d = {k_d}");
+        assert_eq!(with_shared.r.to_bits(), alone.r.to_bits(), "k_d = {k_d}");
+    }
+    // One table serves both drives: the second drive's run found the first one's.
+    let other_drive = Params {
+        k_d: 20_000.0,
+        ..base
+    };
+    assert!(shared.cached(&other_drive).is_some());
+}
