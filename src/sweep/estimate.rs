@@ -137,12 +137,13 @@ pub fn estimate(
         _ => r.wall_time,
     };
     // A sample whose every run failed predicts nothing: its times are those of failures.
-    let failed: Vec<&(Task, crate::sim::RunResult)> = records
+    let failed = records
         .iter()
         .filter(|(_, r)| r.status != crate::ode::Status::Success)
-        .collect();
-    if !records.is_empty() && failed.len() == records.len() {
-        let (t, r) = failed[0];
+        .count();
+    if let Some((t, r)) = records.first()
+        && failed == records.len()
+    {
         return Err(SweepError::State(format!(
             "every one of the {} sampled runs failed (the first, {}, ended with {}), so their \
              times predict nothing of this sweep; no estimate. Try one of its points with \
@@ -171,7 +172,7 @@ pub fn estimate(
         sampled,
         units,
         sample_runs: records.len(),
-        sample_failed: failed.len(),
+        sample_failed: failed,
         sample_wall,
         runs: 0.0,
         cpu: 0.0,
