@@ -38,16 +38,18 @@
 //! ([`LN_PRIOR_ODDS`]: prior odds of 1 to 20 against any one explanation), `Λ − SE ≥ 0`
 //! ([`EVIDENCE_SE`]), and `Λ ≥ ln 20` still with any one recording left out.
 //!
-//! **Decision.** With `E0`, `E1` the held-out gaps of the calibrated base model and of the best
-//! candidate (the candidates ranked by their evidence against the base model):
+//! **Decision** ([`super::decide`]). With `E0`, `E1` the held-out gaps of the calibrated base
+//! model and of the leader (the qualifying candidate of best evidence against the base model,
+//! where evidence and held-out gap must agree for one candidate to beat another):
 //! - `no_significant_gap` when `E0 <` [`SIGNIFICANT_GAP`] and no single feature's held-out
 //!   gap reaches [`FEATURE_GAP`] on two recordings or more (decided before any candidate is
 //!   fitted: then none is, unless [`DiagnoseOptions::rank_always`]);
-//! - `unexplained` when the best candidate is not clearly more likely than the base model, or
-//!   explains less than [`MIN_PARTIAL`] of the gap (where only a concentrated feature makes the
-//!   gap significant, of the gap beyond noise, `E − 1`, [`NOISE_GAP`]);
-//! - `tie` when it is, but not clearly more likely than some other candidate: those it does
-//!   not clearly beat are listed ([`Diagnosis::tie`]) and none is named;
+//! - `unexplained` when no candidate is clearly more likely than the base model and explains
+//!   at least [`MIN_PARTIAL`] of the gap (where only a concentrated feature makes the gap
+//!   significant, of the gap beyond noise, `E − 1`, [`NOISE_GAP`]);
+//! - `tie` when the leader does not beat some plausible candidate (clearly more likely and no
+//!   lower held-out gap), or a candidate of better evidence did not qualify: those are listed
+//!   ([`Diagnosis::tie`]) and none is named;
 //! - `effect` otherwise, with `partial` where the named effects leave a significant gap
 //!   (`E1 ≥` [`SIGNIFICANT_GAP`], or, where only a concentrated feature made the gap
 //!   significant, a feature that still concentrates it) or a
@@ -71,6 +73,7 @@
 //! absent names it only as partial, with a warning (`held_out_absent`), and no second effect
 //! is tried beside it. A second effect needs the ringing present where it can test it.
 
+use super::decide::{Side, between, decide};
 use super::features::{FEATURES, Feature, N_FEATURES, PHASES};
 use super::fingerprint;
 use super::fit::{self, FitOptions, FitResult, Model, Target};
@@ -401,44 +404,8 @@ fn breadth_of(before: &[f64], after: &[f64]) -> f64 {
     lowered as f64 / pairs.len() as f64
 }
 
-/// The evidence for candidate `a` against candidate `b`, both extending the same model: paired
-/// over the held-out recordings, `a`'s extra parameters counted against `b`'s.
-fn between(a: &Ranked, b: &Ranked) -> Evidence {
-    evidence(
-        &a.per_recording,
-        &a.per_recording_n,
-        &b.per_recording,
-        &b.per_recording_n,
-        a.fit.effect_params as f64 - b.fit.effect_params as f64,
-    )
-}
-
-/// The decision on candidates `ranked` (best evidence first) extending a model: `None` where
-/// the best is not clearly better than that model ([`Evidence::clear`]) or explains less than
-/// `min_share` of the gap (`share` of its held-out gap); else the candidates the data cannot
-/// tell from the best, the best first: one alone is a named effect, more a tie. A candidate
-/// whose fit ends on a bound of its plausible range is no rival: it explains only with values
-/// the rig cannot have. Rejected candidates ([`Ranked::rejected`]) take no part.
-fn decide(ranked: &[Ranked], share: impl Fn(f64) -> f64, min_share: f64) -> Option<Vec<usize>> {
-    let live: Vec<usize> = (0..ranked.len())
-        .filter(|&j| ranked[j].rejected.is_none())
-        .collect();
-    let (&bi, rest) = live.split_first()?;
-    let b = &ranked[bi];
-    if !b.evidence.clear() || !(share(b.gap_after) >= min_share) {
-        return None;
-    }
-    // A rival explains with plausible parameters: one that needs a bound of its range is not.
-    let mut tie = vec![bi];
-    tie.extend(
-        rest.iter()
-            .copied()
-            .filter(|&j| ranked[j].at_bound.is_empty() && !between(b, &ranked[j]).clear()),
-    );
-    Some(tie)
-}
-
-/// [`decide`], with every candidate it would name or tie checked for its fingerprints against
+/// [`decide`] (with its disagreements between evidence and gap in `disagreements`), with
+/// every candidate it would name or tie checked for its fingerprints against
 /// `from`, the model the candidates extend ([`fingerprint::check`]): one whose ringing is
 /// absent is rejected (with the reason) and the decision taken again without it. With
 /// `need_present` (a second effect beside a named one) a candidate whose ringing can test it is
@@ -447,19 +414,26 @@ fn decide(ranked: &[Ranked], share: impl Fn(f64) -> f64, min_share: f64) -> Opti
 /// that shows its own physics in the trace is named (one that predicts nothing the ringing could
 /// show, a screw error's, stands on its features as a first effect does). The ranking is then
 /// reordered so that the candidates not rejected come first, in their order of evidence.
+#[allow(clippy::too_many_arguments)]
 fn vetted(
     ranked: &mut [Ranked],
     all: &Target,
     from: &FitResult,
+    from_side: Side,
     share: impl Fn(f64) -> f64,
     min_share: f64,
     need_present: bool,
+    disagreements: &mut Vec<Disagreement>,
 ) -> Option<Vec<usize>> {
     let recs = &all.recs;
+    let names: Vec<String> = recs.iter().map(|r| r.name.clone()).collect();
     // The measured statistics and `from`'s, made once for every candidate checked here.
     let mut reference: Option<fingerprint::Reference> = None;
     let out = loop {
-        let Some(t) = decide(ranked, &share, min_share) else {
+        let (t, found) = decide(ranked, from_side, &names, &share, min_share);
+        // The disagreements of the last decision (candidates rejected since take no part).
+        *disagreements = found;
+        let Some(t) = t else {
             break None;
         };
         let mut any = false;
@@ -702,10 +676,25 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
         .map(|b| format!("the base calibration ends on a bound of its range ({b}): the base model has not found this rig's values, and every comparison with it is weaker for it"))
         .collect();
     let mut tie: Vec<EffectKind> = vec![];
+    let mut disagreements = vec![];
+    let base_side = Side {
+        name: "base",
+        per_recording: &base_cv.per_recording,
+        n: &base_cv.per_recording_n,
+    };
     let verdict = if no_gap {
         Verdict::NoSignificantGap
     } else {
-        match vetted(&mut ranking, &all, &base, share, MIN_PARTIAL, false) {
+        match vetted(
+            &mut ranking,
+            &all,
+            &base,
+            base_side,
+            share,
+            MIN_PARTIAL,
+            false,
+            &mut disagreements,
+        ) {
             None => Verdict::Unexplained,
             Some(t) if t.len() > 1 => {
                 tie = t.iter().map(|&j| ranking[j].effect).collect();
@@ -810,7 +799,32 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
                 .collect();
             second.sort_by(by_evidence);
             let first_share = |e2: f64| (first_cv.gap - e2) / first_cv.gap;
-            match vetted(&mut second, &all, &first_fit, first_share, MIN_SECOND, true) {
+            let first_side = Side {
+                name: first.effect.name(),
+                per_recording: &first_cv.per_recording,
+                n: &first_cv.per_recording_n,
+            };
+            let mut found = vec![];
+            let decided = vetted(
+                &mut second,
+                &all,
+                &first_fit,
+                first_side,
+                first_share,
+                MIN_SECOND,
+                true,
+                &mut found,
+            );
+            // A second effect's disagreements are named as extensions of the first.
+            disagreements.extend(found.into_iter().map(|mut d| {
+                for n in [&mut d.by_evidence, &mut d.by_gap] {
+                    if n != first.effect.name() {
+                        *n = format!("{} + {n}", first.effect.name());
+                    }
+                }
+                d
+            }));
+            match decided {
                 Some(t) if t.len() == 1 => {
                     let s2 = &second[0];
                     for b in &s2.at_bound {
@@ -858,8 +872,10 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
         };
         locate(c, &all, &fold, &checked, m, None).summary
     };
+    warnings.extend(disagreements.iter().map(|d| d.line()));
     Ok(Diagnosis {
         verdict,
+        disagreements,
         concentrated,
         systematic: systematic(&base_cv),
         reduction_beyond_noise: (noise > 0.0 && verdict != Verdict::NoSignificantGap)

@@ -134,3 +134,91 @@ pub fn evidence(a: &[f64], a_n: &[usize], b: &[f64], b_n: &[usize], extra: f64) 
         least_left_out,
     }
 }
+
+/// How many standard errors (the jackknife over held-out recordings) a difference of two
+/// held-out gaps must exceed to order the two models by their gap ([`GapOrder::order`]).
+pub const GAP_SE: f64 = 1.0;
+/// Relative difference of two held-out gaps below which they do not order the models, as
+/// [`UNCHANGED`] for a fit against the model it extends.
+pub const GAP_REL: f64 = UNCHANGED;
+
+/// The held-out gaps of two models compared over the recordings both define: the second story
+/// beside the [`Evidence`], told by the squared residuals pooled over recordings instead of
+/// their per-recording log ratios.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GapOrder {
+    /// Pooled held-out gap of model A, `√(Σ n_i E_A,i² / Σ n_i)`.
+    pub gap_a: f64,
+    /// Pooled held-out gap of model B.
+    pub gap_b: f64,
+    /// Jackknife standard error of `gap_b − gap_a` over the recordings (NaN with fewer than
+    /// two).
+    pub stderr: f64,
+    /// The recordings it rests on.
+    pub recordings: usize,
+}
+
+impl GapOrder {
+    /// `Some(true)` where A's gap is lower than B's by more than [`GAP_REL`] of B's and
+    /// [`GAP_SE`] standard errors, `Some(false)` where B's is lower by as much, `None` where
+    /// the gaps do not order the two models.
+    pub fn order(&self) -> Option<bool> {
+        let d = self.gap_b - self.gap_a;
+        let se = if self.stderr.is_finite() {
+            self.stderr
+        } else {
+            0.0
+        };
+        if !(d.is_finite() && self.recordings >= 2) {
+            return None;
+        }
+        if d > GAP_REL * self.gap_b && d > GAP_SE * se {
+            Some(true)
+        } else if -d > GAP_REL * self.gap_a && -d > GAP_SE * se {
+            Some(false)
+        } else {
+            None
+        }
+    }
+}
+
+/// The held-out gaps of model A (per-recording gaps `a` over `a_n` residuals) and model B,
+/// pooled over the recordings both define, with the jackknife error of their difference.
+pub fn gap_order(a: &[f64], a_n: &[usize], b: &[f64], b_n: &[usize]) -> GapOrder {
+    let idx: Vec<usize> = (0..a.len().min(b.len()))
+        .filter(|&i| {
+            a[i].is_finite()
+                && b[i].is_finite()
+                && a_n.get(i).is_some_and(|&k| k > 0)
+                && b_n.get(i).is_some_and(|&k| k > 0)
+        })
+        .collect();
+    let pooled = |x: &[f64], n: &[usize], skip: Option<usize>| {
+        let (s, m) = idx
+            .iter()
+            .filter(|&&i| Some(i) != skip)
+            .fold((0.0, 0usize), |(s, m), &i| {
+                (s + n[i] as f64 * x[i] * x[i], m + n[i])
+            });
+        if m == 0 {
+            f64::NAN
+        } else {
+            (s / m as f64).sqrt()
+        }
+    };
+    let diff = |skip| pooled(b, b_n, skip) - pooled(a, a_n, skip);
+    let k = idx.len();
+    let stderr = if k < 2 {
+        f64::NAN
+    } else {
+        let jack: Vec<f64> = idx.iter().map(|&i| diff(Some(i))).collect();
+        let mean = jack.iter().sum::<f64>() / k as f64;
+        ((k - 1) as f64 / k as f64 * jack.iter().map(|j| (j - mean).powi(2)).sum::<f64>()).sqrt()
+    };
+    GapOrder {
+        gap_a: pooled(a, a_n, None),
+        gap_b: pooled(b, b_n, None),
+        stderr,
+        recordings: k,
+    }
+}

@@ -5,10 +5,11 @@
 //! their noise floors), [`fit`] (models, plausible bounds, predictions on the campaign's
 //! recordings with the shared simulation cache, Levenberg-Marquardt fits), [`fingerprint`] (the
 //! signatures an effect must leave beyond the features), [`diagnose`] (calibration, screens,
-//! held-out folds, evidence and the verdict), [`report`] (JSON, HDF5, text and figures of a
+//! held-out folds, evidence and the verdict; [`decide`], the rule that names or ties), [`report`] (JSON, HDF5, text and figures of a
 //! diagnosis). Each imports only the rooms above it in this list and [`crate::campaign`]; a
 //! planner of recordings belongs beside this room, importing it.
 
+pub mod decide;
 pub mod diagnose;
 pub mod evidence;
 pub mod features;

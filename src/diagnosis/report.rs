@@ -74,12 +74,15 @@ pub fn json(c: &Campaign, d: &Diagnosis) -> serde_json::Value {
         }),
         "tie": d.tie.iter().map(|k| k.name()).collect::<Vec<_>>(),
         "warnings": d.warnings,
+        "disagreements": d.disagreements,
         "bounds": d.bounds.bounds.iter().map(|b| json!({
             "effect": b.effect.name(), "param": b.param,
             "lo": num(b.lo), "hi": num(b.hi), "reason": b.reason,
         })).collect::<Vec<_>>(),
         "thresholds": {
-            "rule": "a candidate is named where the held-out data make it clearly more likely than the model it extends and than every plausible rival (ln odds >= ln_prior_odds, >= evidence_se standard errors above 0, and >= ln_prior_odds with any one recording left out) and it explains at least min_partial of the gap; rivals it does not clearly beat make a tie",
+            "rule": "a candidate qualifies where the held-out data make it clearly more likely than the model it extends (ln odds >= ln_prior_odds, >= evidence_se standard errors above 0, and >= ln_prior_odds with any one recording left out) and it explains at least min_partial of the gap; the qualifying candidate of best evidence is named where it is clearly more likely than every plausible rival and no rival's held-out gap is lower than its own (by more than gap_rel of it and gap_se jackknife errors); rivals it does not beat, and candidates of better evidence that do not qualify, make a tie; where evidence and held-out gap order two models the opposite way, the pair is listed under disagreements",
+            "gap_rel": super::diagnose::GAP_REL,
+            "gap_se": super::diagnose::GAP_SE,
             "ln_prior_odds": super::diagnose::LN_PRIOR_ODDS,
             "evidence_se": super::diagnose::EVIDENCE_SE,
             "param_nats": super::diagnose::PARAM_NATS,

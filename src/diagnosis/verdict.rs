@@ -138,6 +138,63 @@ impl Verdict {
     }
 }
 
+/// Two models the held-out data order one way by their evidence and the other way by their
+/// held-out gap ([`crate::diagnosis::decide`], module docs), with the recordings that carry each
+/// side.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Disagreement {
+    /// The model the evidence prefers.
+    pub by_evidence: String,
+    /// The model the held-out gap prefers.
+    pub by_gap: String,
+    /// The evidence \[nats\] for `by_evidence` against `by_gap`.
+    pub ln_odds: f64,
+    /// Pooled held-out gap of `by_evidence` over the recordings both define.
+    pub gap_by_evidence: f64,
+    /// Pooled held-out gap of `by_gap` there (the lower).
+    pub gap_by_gap: f64,
+    /// Jackknife standard error of the gaps' difference.
+    pub gap_stderr: f64,
+    /// How many recordings' log ratios favour `by_evidence`.
+    pub evidence_recordings: usize,
+    /// Those carrying most of it, largest first (at most four).
+    pub evidence_carried_by: Vec<String>,
+    /// How many recordings' squared residuals favour `by_gap`.
+    pub gap_recordings: usize,
+    /// Those carrying most of it, largest first (at most four).
+    pub gap_carried_by: Vec<String>,
+    /// The share of the net squared-gap difference the listed recordings carry.
+    pub gap_share: f64,
+}
+
+impl Disagreement {
+    /// One sentence for the warnings and the report.
+    pub fn line(&self) -> String {
+        format!(
+            "the evidence and the held-out gap disagree about {e} and {g}: the evidence prefers {e} (ln odds {lo:.1}), from {ne} recording(s) with {ec}; the held-out gap prefers {g} ({gg:.3} against {ge:.3}, ± {se:.3}), carried by {gc} ({share}of the squared-residual difference, {ng} recording(s) in its favour); the two cannot be ordered, and are at most a tie",
+            e = self.by_evidence,
+            g = self.by_gap,
+            lo = self.ln_odds,
+            ne = self.evidence_recordings,
+            ec = if self.evidence_carried_by.is_empty() {
+                "none".to_string()
+            } else {
+                format!("most of it in {}", self.evidence_carried_by.join(", "))
+            },
+            gg = self.gap_by_gap,
+            ge = self.gap_by_evidence,
+            se = self.gap_stderr,
+            gc = self.gap_carried_by.join(", "),
+            share = if self.gap_share.is_finite() {
+                format!("{:.0} % ", 100.0 * self.gap_share.min(9.99))
+            } else {
+                String::new()
+            },
+            ng = self.gap_recordings,
+        )
+    }
+}
+
 /// The full diagnosis.
 #[derive(Clone, Debug)]
 pub struct Diagnosis {
@@ -185,6 +242,10 @@ pub struct Diagnosis {
     /// What the verdict's reader must know: a named effect's parameter on a bound of its
     /// plausible range, a first effect not converged, ...
     pub warnings: Vec<String>,
+    /// Where the evidence and the held-out gap order two models (candidates, or a candidate
+    /// and the model it extends) the opposite way ([`crate::diagnosis::decide`]): such a pair
+    /// is at most a tie, and each is also a warning.
+    pub disagreements: Vec<Disagreement>,
     /// The campaign's plausible ranges of the effects' parameters.
     pub bounds: fit::Plausible,
     /// The base model's held-out gap in each feature (NaN where no held-out unit defines it).
