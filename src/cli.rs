@@ -148,6 +148,10 @@ pub struct DiagnoseArgs {
     /// no_significant_gap); by default none is fitted there and the ranking is empty.
     #[arg(long)]
     pub rank_always: bool,
+    /// Skip the detection limits (what the campaign could not have seen: each effect's weakest
+    /// strength that would have shown, computed where the model in hand leaves no gap).
+    #[arg(long)]
+    pub no_limits: bool,
     /// Skip the plots.
     #[arg(long)]
     pub no_plots: bool,
@@ -298,6 +302,7 @@ impl DiagnoseArgs {
         }
         o.fit.max_iter = self.max_iter;
         o.rank_always = self.rank_always;
+        o.limits = !self.no_limits;
         Ok(o)
     }
 }

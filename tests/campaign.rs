@@ -34,6 +34,15 @@ fn campaign(effects: Effects, seed: u64) -> (tempfile::TempDir, Campaign) {
     (dir, c)
 }
 
+/// The default options without the detection limits (`tests/limits.rs` checks those): they
+/// would add a minute of simulations to each of these diagnoses.
+fn no_limits() -> DiagnoseOptions {
+    DiagnoseOptions {
+        limits: false,
+        ..DiagnoseOptions::default()
+    }
+}
+
 fn show(d: &Diagnosis) -> String {
     let mut s = format!(
         "verdict {:?}, best {:?}, effects {:?}, partial {}, E0 {:.2} ± {:.2}, E1 {:.2}, reduction {:.2}, {:.0} s (base {} evaluations, converged {})\n",
@@ -75,7 +84,7 @@ fn identifies(kind: EffectKind, seed: u64) {
         },
     );
     let (_dir, c) = campaign(fx.clone(), seed);
-    let d = diagnose(&c, &DiagnoseOptions::default()).unwrap();
+    let d = diagnose(&c, &no_limits()).unwrap();
     let msg = format!("injected {}\n{}", fx.describe(), show(&d));
     eprintln!("{msg}");
     assert_eq!(d.ranking[0].effect, kind, "{msg}");
@@ -141,7 +150,7 @@ fn names_aging_absorbed_by_the_base_fit_in_the_full_design() {
     synth(dir.path(), &spec).unwrap();
     let c = Campaign::load(dir.path()).unwrap();
     assert_eq!(c.recordings.len(), 30);
-    let d = diagnose(&c, &DiagnoseOptions::default()).unwrap();
+    let d = diagnose(&c, &no_limits()).unwrap();
     let msg = format!("injected {}\n{}", fx.describe(), show(&d));
     eprintln!("{msg}");
     assert_eq!(d.verdict, Verdict::Effect, "{msg}");
@@ -160,7 +169,7 @@ fn names_aging_absorbed_by_the_base_fit_in_the_full_design() {
 #[test]
 fn effect_free_data_has_no_significant_gap() {
     let (_dir, c) = campaign(Effects::none(), 21);
-    let d = diagnose(&c, &DiagnoseOptions::default()).unwrap();
+    let d = diagnose(&c, &no_limits()).unwrap();
     eprintln!("effect-free\n{}", show(&d));
     assert_eq!(d.verdict, Verdict::NoSignificantGap, "{}", show(&d));
     assert_eq!(d.best_effect, None);
@@ -169,7 +178,7 @@ fn effect_free_data_has_no_significant_gap() {
     let asked = DiagnoseOptions {
         candidates: vec![EffectKind::Viscous],
         rank_always: true,
-        ..DiagnoseOptions::default()
+        ..no_limits()
     };
     let d2 = diagnose(&c, &asked).unwrap();
     assert_eq!(d2.ranking.len(), 1, "{}", show(&d2));
@@ -226,7 +235,7 @@ fn work_counts_each_simulation_once() {
     assert_eq!(sub.work().simulations, n + 4);
     assert_eq!(all.work().simulations, n + 4);
     // And the diagnosis reports it: its calibration alone simulates every recording.
-    let d = diagnose(&c, &DiagnoseOptions::default()).unwrap();
+    let d = diagnose(&c, &no_limits()).unwrap();
     assert!(
         d.work.simulations >= n && d.work.simulation_cpu > 0.0,
         "{:?}",

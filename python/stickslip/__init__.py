@@ -759,13 +759,16 @@ def diagnose(
     rank_always: bool = False,
     skip_implausible: bool = False,
     plots: bool = True,
+    limits: bool = True,
 ) -> Diagnosis:
     """Where the model departs from a campaign, which effect explains it, and how far the gap
     shrinks on held-out recordings, as ``stickslip diagnose``.
 
     ``out`` is the folder for ``diagnosis.json``, ``diagnosis.h5`` and the PNG figures
     (default: a temporary folder, removed once the results are read); ``plots=False`` skips
-    the PNG files (the matplotlib figures of :meth:`Diagnosis.figures` remain).
+    the PNG files (the matplotlib figures of :meth:`Diagnosis.figures` remain);
+    ``limits=False`` skips the detection limits (``d.limits``: what the campaign could not have
+    seen, computed where the model in hand leaves no gap).
     """
     tmp: Optional[tempfile.TemporaryDirectory[str]] = None
     if out is None:
@@ -780,6 +783,8 @@ def diagnose(
         args.append("--rank-always")
     if skip_implausible:
         args.append("--skip-implausible")
+    if not limits:
+        args.append("--no-limits")
     if not plots or tmp is not None:
         args.append("--no-plots")
     try:

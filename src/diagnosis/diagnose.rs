@@ -78,6 +78,7 @@ use super::features::{FEATURES, Feature, N_FEATURES, PHASES};
 use super::fingerprint;
 use super::fit::{self, FitOptions, FitResult, Model, Target};
 use super::folds::*;
+use super::limits::{self, Limits};
 use crate::campaign::{Campaign, CampaignError};
 use crate::model::EffectKind;
 use faer::Mat;
@@ -718,6 +719,8 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
     // Partial: the named effects leave a significant gap (or the feature it concentrated in),
     // or a parameter ends on a bound of its plausible range.
     let mut partial = false;
+    // The fit of the named effects (the first, or the first with a second), for the limits.
+    let mut named_fit: Option<FitResult> = None;
     if verdict == Verdict::Effect {
         // The first effect's fit, polished further from its optimum (on its Jacobian there):
         // a second effect is credited only with what the first cannot reach by itself.
@@ -732,6 +735,7 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
                 spread: first.gap_spread,
                 per_recording: first.per_recording.clone(),
                 per_recording_n: first.per_recording_n.clone(),
+                held: vec![],
                 per_feature: vec![],
                 per_feature_bias: vec![],
             };
@@ -839,6 +843,7 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
                         partial = true;
                     }
                     named_concentrated = s2.concentrated.is_some();
+                    named_fit = Some(s2.fit.clone());
                     effects.push(s2.effect);
                     gap_after = s2.gap_after;
                     gap_after_spread = s2.gap_spread;
@@ -853,6 +858,9 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
                 )),
                 None => {}
             }
+        }
+        if named_fit.is_none() {
+            named_fit = Some(first_fit.clone());
         }
         partial |= !first_bounds.is_empty()
             || first_absent.is_some()
@@ -873,9 +881,26 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
         locate(c, &all, &fold, &checked, m, None).summary
     };
     warnings.extend(disagreements.iter().map(|d| d.line()));
+    // What the campaign could not have seen, where the model in hand leaves no gap.
+    let limits = match (verdict, &named_fit) {
+        _ if !opts.limits => Limits::none("not asked for"),
+        (Verdict::NoSignificantGap, _) => {
+            limits::limits(&all, &base, &base_cv, &fold, k_folds, limits::Test::Gap)
+        }
+        (Verdict::Effect, Some(m)) if !partial => {
+            let cv = cross_validate(&all, m, &m.model, &fold, k_folds, &checked);
+            limits::limits(&all, m, &cv, &fold, k_folds, limits::Test::Second)
+        }
+        _ => Limits::none(format!(
+            "the campaign shows a gap the models in hand do not explain in full ({}{}): detection limits say what a campaign without a gap could not have seen; what this one leaves open is for recordings planned to decide it",
+            verdict.name(),
+            if partial { ", partial" } else { "" }
+        )),
+    };
     Ok(Diagnosis {
         verdict,
         disagreements,
+        limits,
         concentrated,
         systematic: systematic(&base_cv),
         reduction_beyond_noise: (noise > 0.0 && verdict != Verdict::NoSignificantGap)
@@ -1151,6 +1176,7 @@ mod tests {
             spread: 0.1,
             per_recording: vec![],
             per_recording_n: vec![],
+            held: vec![],
             per_feature,
             per_feature_bias: vec![],
         }

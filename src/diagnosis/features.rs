@@ -143,6 +143,13 @@ impl Feature {
         )
     }
 
+    /// Whether the feature is a harmonic's amplitude or phase at the forcing frequency (or
+    /// twice it): measured by a fit whose error is the noise's, its phase only where its
+    /// amplitude stands out of that.
+    pub fn is_harmonic(self) -> bool {
+        self.phase() == 5
+    }
+
     /// Unit.
     pub fn unit(self) -> &'static str {
         match self {

@@ -595,39 +595,17 @@ pub fn refit_rows(
 ) -> Model {
     let cs = coords(bounds, &fr.effects);
     let p = cs.len();
-    let rows: Vec<usize> = (0..keep.len()).filter(|&i| keep[i]).collect();
     let mut model = start.clone();
     for &k in &fr.effects {
         model.effects.enable(k);
     }
     let mut theta = fr.theta.clone();
-    if !rows.is_empty() && fr.jacobian.nrows() == keep.len() && fr.jacobian.ncols() == p {
-        let m = rows.len();
-        let diag: Vec<f64> = (0..p)
-            .map(|j| {
-                (0..fr.jacobian.nrows())
-                    .map(|i| fr.jacobian[(i, j)].powi(2))
-                    .sum::<f64>()
-                    .max(1e-12)
-            })
-            .collect();
-        let a = Mat::from_fn(m + p, p, |i, j| {
-            if i < m {
-                if j < first_free {
-                    0.0
-                } else {
-                    fr.jacobian[(rows[i], j)]
-                }
-            } else if i - m == j {
-                (REFIT_DAMPING * diag[j]).sqrt()
-            } else {
-                0.0
-            }
-        });
-        let b = Mat::from_fn(m + p, 1, |i, _| if i < m { -fr.z[rows[i]] } else { 0.0 });
-        let delta = a.col_piv_qr().solve_lstsq(&b);
+    let delta = (fr.jacobian.ncols() == p)
+        .then(|| refit_delta(&fr.jacobian, &fr.z, keep, first_free))
+        .flatten();
+    if let Some(delta) = delta {
         for j in 0..p {
-            let d = delta[(j, 0)];
+            let d = delta[j];
             if d.is_finite() {
                 theta[j] = (theta[j] + step * d).clamp(cs[j].lo, cs[j].hi);
             }
@@ -637,6 +615,49 @@ pub fn refit_rows(
         c.set(&mut model, t);
     }
     model
+}
+
+/// The step of [`refit_rows`] for residuals `z` and their Jacobian `jac` (one row per residual):
+/// `[J_k; √λ D] δ = [−z_k; 0]` on the rows `keep` marks, the columns before `first_free` held
+/// (`None` where the shapes do not match or no row is kept). Linear in `z`: the held-out
+/// residuals of a fold refit to first order are `z + J δ(z)`, which the detection limits
+/// ([`super::limits`]) use on an effect's signature.
+pub fn refit_delta(
+    jac: &Mat<f64>,
+    z: &[f64],
+    keep: &[bool],
+    first_free: usize,
+) -> Option<Vec<f64>> {
+    let p = jac.ncols();
+    let rows: Vec<usize> = (0..keep.len()).filter(|&i| keep[i]).collect();
+    if rows.is_empty() || jac.nrows() != keep.len() || z.len() != keep.len() || p == 0 {
+        return None;
+    }
+    let m = rows.len();
+    let diag: Vec<f64> = (0..p)
+        .map(|j| {
+            (0..jac.nrows())
+                .map(|i| jac[(i, j)].powi(2))
+                .sum::<f64>()
+                .max(1e-12)
+        })
+        .collect();
+    let a = Mat::from_fn(m + p, p, |i, j| {
+        if i < m {
+            if j < first_free {
+                0.0
+            } else {
+                jac[(rows[i], j)]
+            }
+        } else if i - m == j {
+            (REFIT_DAMPING * diag[j]).sqrt()
+        } else {
+            0.0
+        }
+    });
+    let b = Mat::from_fn(m + p, 1, |i, _| if i < m { -z[rows[i]] } else { 0.0 });
+    let delta = a.col_piv_qr().solve_lstsq(&b);
+    Some((0..p).map(|j| delta[(j, 0)]).collect())
 }
 
 /// Damping of [`refit_rows`], relative to the diagonal of the full `JᵀJ`.

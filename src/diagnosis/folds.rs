@@ -114,6 +114,9 @@ pub(crate) struct CrossValidated {
     pub(crate) per_recording: Vec<f64>,
     /// The number of held-out residuals behind each recording's gap.
     pub(crate) per_recording_n: Vec<usize>,
+    /// Each row's held-out residual (rows as [`Target::row_recordings`]; NaN on rows not
+    /// held out, and where only the per-recording gaps were kept).
+    pub(crate) held: Vec<f64>,
     /// Each feature's held-out gap, with the number of checked recordings on which its `|z|`
     /// is at least [`FEATURE_GAP`] (NaN, 0 where no checked unit defines it).
     pub(crate) per_feature: Vec<(f64, usize)>,
@@ -168,7 +171,33 @@ pub(crate) fn cross_validate(
 ) -> CrossValidated {
     let row_rec = all.row_recordings();
     let row_feat = all.row_features();
-    let n = all.recs.len();
+    let mut held = vec![f64::NAN; row_rec.len()];
+    for k in 0..k_folds {
+        if !(0..all.recs.len()).any(|i| fold[i] == k && checked[i]) {
+            continue;
+        }
+        let keep: Vec<bool> = row_rec.iter().map(|&r| fold[r] != k).collect();
+        let z = refit_without(all, fr, start, &keep, 0);
+        for (row, &r) in row_rec.iter().enumerate() {
+            if fold[r] == k && checked[r] {
+                held[row] = z[row];
+            }
+        }
+    }
+    summarise(&row_rec, &row_feat, all.recs.len(), held, fold, k_folds)
+}
+
+/// The held-out statistics of [`CrossValidated`] from the held-out residual of every row
+/// (`held`, NaN on rows not held out; rows as [`Target::row_recordings`], whose recordings
+/// `row_rec` and features `row_feat` give), `n` recordings dealt into `k_folds` folds by `fold`.
+pub(crate) fn summarise(
+    row_rec: &[usize],
+    row_feat: &[Feature],
+    n: usize,
+    held: Vec<f64>,
+    fold: &[usize],
+    k_folds: usize,
+) -> CrossValidated {
     let mut per_recording = vec![f64::NAN; n];
     let mut per_recording_n = vec![0; n];
     let mut feat_sum = [0.0; N_FEATURES];
@@ -178,16 +207,11 @@ pub(crate) fn cross_validate(
     let mut pooled = vec![];
     let mut fold_gaps = vec![];
     for k in 0..k_folds {
-        if !(0..n).any(|i| fold[i] == k && checked[i]) {
-            continue;
-        }
-        let keep: Vec<bool> = row_rec.iter().map(|&r| fold[r] != k).collect();
-        let z = refit_without(all, fr, start, &keep, 0);
-        // One pass over the held-out rows: each feature's and each recording's squares.
+        // One pass over the fold's held-out rows: each feature's and each recording's squares.
         let mut fz = vec![];
         let mut rec_z: Vec<Vec<f64>> = vec![vec![]; n];
-        for ((&r, &f), &v) in row_rec.iter().zip(&row_feat).zip(&z) {
-            if fold[r] == k && checked[r] {
+        for ((&r, &f), &v) in row_rec.iter().zip(row_feat).zip(&held) {
+            if fold[r] == k && !v.is_nan() {
                 let f = f as usize;
                 feat_sum[f] += v * v;
                 feat_lin[f] += v;
@@ -198,13 +222,18 @@ pub(crate) fn cross_validate(
                 rec_z[r].push(v);
             }
         }
-        for i in (0..n).filter(|&i| fold[i] == k && checked[i]) {
+        for i in 0..n {
+            if fold[i] != k || rec_z[i].is_empty() {
+                continue;
+            }
             per_recording[i] = fit::gap(&rec_z[i]);
             per_recording_n[i] = rec_z[i].len();
             fz.append(&mut rec_z[i]);
         }
-        fold_gaps.push(fit::gap(&fz));
-        pooled.extend(fz);
+        if !fz.is_empty() {
+            fold_gaps.push(fit::gap(&fz));
+            pooled.extend(fz);
+        }
     }
     let mean = fold_gaps.iter().sum::<f64>() / fold_gaps.len().max(1) as f64;
     let spread = if fold_gaps.len() > 1 {
@@ -222,6 +251,7 @@ pub(crate) fn cross_validate(
         spread,
         per_recording,
         per_recording_n,
+        held,
         per_feature: (0..N_FEATURES)
             .map(|f| {
                 if feat_n[f] == 0 {

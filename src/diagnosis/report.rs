@@ -75,6 +75,7 @@ pub fn json(c: &Campaign, d: &Diagnosis) -> serde_json::Value {
         "tie": d.tie.iter().map(|k| k.name()).collect::<Vec<_>>(),
         "warnings": d.warnings,
         "disagreements": d.disagreements,
+        "limits": d.limits,
         "bounds": d.bounds.bounds.iter().map(|b| json!({
             "effect": b.effect.name(), "param": b.param,
             "lo": num(b.lo), "hi": num(b.hi), "reason": b.reason,
@@ -479,11 +480,46 @@ pub fn summary(c: &Campaign, d: &Diagnosis) -> String {
     for w in &d.warnings {
         let _ = writeln!(s, "WARNING: {w}");
     }
+    s += &limits_table(&d.limits);
     let _ = writeln!(
         s,
         "wall time {:.1} s ({} simulations, {:.0} s of CPU in them; {} predictions from the cache)",
         d.wall_time, d.work.simulations, d.work.simulation_cpu, d.work.cache_hits
     );
+    s
+}
+
+/// The detection limits as a table for the summary (a sentence where none were computed).
+fn limits_table(l: &super::limits::Limits) -> String {
+    let mut s = String::new();
+    if let Some(why) = &l.not_computed {
+        let _ = writeln!(s, "detection limits: not computed ({why})");
+        return s;
+    }
+    let _ = writeln!(
+        s,
+        "what this campaign could not have seen (each effect added to {}; the weakest strength at which the test `{}` fires on {:.0} % of {} draws of the campaign's own held-out noise):",
+        l.against,
+        l.test,
+        100.0 * l.power,
+        l.draws
+    );
+    let _ = writeln!(
+        s,
+        "  {:<18} {:<8} {:>12} {:<6}  reading",
+        "effect", "param", "limit", "unit"
+    );
+    for e in &l.effects {
+        let limit = match e.limit {
+            Some(v) => format!("{} {v:.3e}", if e.stronger == "below" { "<" } else { ">" }),
+            None => "none".to_string(),
+        };
+        let _ = writeln!(
+            s,
+            "  {:<18} {:<8} {:>12} {:<6}  {}",
+            e.effect, e.param, limit, e.unit, e.statement
+        );
+    }
     s
 }
 

@@ -400,9 +400,7 @@ pub fn zscore(m: &FeatureSet, p: &FeatureSet, f: Feature) -> Option<f64> {
             1e3
         });
     }
-    let se = |s: f64| if s.is_finite() { s * s } else { 0.0 };
-    let fl = f.floor(mv);
-    let sigma = (se(m.stderr[i]) + se(p.stderr[i]) + fl * fl).sqrt();
+    let sigma = sigma(m, p, f);
     let d = if f.is_phase() {
         // Angles: the difference wrapped to (−π, π].
         let tau = std::f64::consts::TAU;
@@ -412,6 +410,15 @@ pub fn zscore(m: &FeatureSet, p: &FeatureSet, f: Feature) -> Option<f64> {
         pv - mv
     };
     Some(d / sigma)
+}
+
+/// The scale of a feature's standardised difference ([`zscore`]): the measurement's and the
+/// prediction's standard errors and the feature's floor at the measured value, in quadrature.
+pub fn sigma(m: &FeatureSet, p: &FeatureSet, f: Feature) -> f64 {
+    let i = f as usize;
+    let se = |s: f64| if s.is_finite() { s * s } else { 0.0 };
+    let fl = f.floor(m.value[i]);
+    (se(m.stderr[i]) + se(p.stderr[i]) + fl * fl).sqrt()
 }
 
 /// The simulation of recording `rec` under `model` on its sample grid, at the fits' tolerance

@@ -31,8 +31,9 @@ with h5py.File(path, "r") as f:
     r = f["ranking"]
     keys = sorted(r.keys())
     assert [k.split("_", 1)[1] for k in keys] == [x["effect"] for x in v["ranking"]], keys
-    top = r[keys[0]]
-    assert abs(top["gap_after"][0] - v["ranking"][0]["gap_after"]) < 1e-12
+    if keys:
+        top = r[keys[0]]
+        assert abs(top["gap_after"][0] - v["ranking"][0]["gap_after"]) < 1e-12
     assert f["calibration"]["F_s"].attrs["units"] == "N"
     # The forcing-frequency features are tabled with the others.
     for feat in ("F_amp_f", "F_phase_f", "F_amp_2f", "x_s_amp_f"):
@@ -62,6 +63,29 @@ for r in v["ranking"]:
 if v["verdict"] == "effect":
     assert v["evidence"]["clear"], v["evidence"]
     assert v["evidence"]["ln_odds"] == v["ranking"][0]["evidence"]["ln_odds"]
+# One story from evidence and gap: every disagreement names the two models and the gap's choice
+# has the lower gap; a named effect takes part in no disagreement with another candidate of its
+# stage (that pair would be a tie).
+cands = {r["effect"] for r in v["ranking"]}
+for d in v["disagreements"]:
+    assert d["by_evidence"] != d["by_gap"], d
+    assert d["gap_by_gap"] < d["gap_by_evidence"], d
+    assert d["evidence_carried_by"] or d["evidence_recordings"] == 0, d
+    if v["verdict"] == "effect" and {d["by_evidence"], d["by_gap"]} <= cands:
+        assert v["best_effect"] not in (d["by_evidence"], d["by_gap"]), (v["best_effect"], d)
+# What the campaign could not have seen: limits with every no_significant_gap, inside the scanned
+# range and at the stated power; elsewhere a reason where none were computed.
+lim = v["limits"]
+if v["verdict"] == "no_significant_gap" and lim["not_computed"] is None:
+    assert lim["against"] == "base" and lim["effects"], lim
+for e in lim["effects"]:
+    lo, hi = sorted((e["weak_end"], e["strong_end"]))
+    if e["limit"] is not None:
+        assert lo * (1 - 1e-9) <= e["limit"] <= hi * (1 + 1e-9), e
+        assert e["power"] >= lim["power"], e
+    assert e["param"] in e["statement"], e
+if v["verdict"] in ("tie", "unexplained"):
+    assert lim["not_computed"] and not lim["effects"], lim
 for b in v["bounds"]:
     assert b["lo"] < b["hi"] and b["reason"], b
 print("ok")

@@ -1,0 +1,816 @@
+//! What a campaign could not have seen: for every effect kind, the weakest strength at which the
+//! campaign, with its own conditions and noise, would have shown it.
+//!
+//! **The question.** A `no_significant_gap` says the base model matches the recordings within
+//! their noise. It does not say that no effect acts: a load cell far above the forcing
+//! frequencies, a faint ageing, a small screw error leave traces below the noise of a campaign
+//! not designed to see them. The *detection limit* of an effect is the weakest strength at
+//! which the same test that decided the verdict would have fired with probability
+//! [`POWER`] (95 %): an effect at least that strong would have shown; a weaker one cannot be
+//! excluded.
+//!
+//! **The test repeated.** Against the model in hand `M` (the calibrated base model for a
+//! `no_significant_gap`; the named model where an effect is named in full, the test then being
+//! the one that decides whether a second effect is tried):
+//! 1. the effect is added to `M` at strength `s` and every recording of the campaign is
+//!    simulated under its own conditions: the effect's signature is the change of the
+//!    standardised features, `δ_s = z(M + effect) − z(M)` (rows of failed runs count 0);
+//! 2. each fold's recalibration of `M` to data carrying the effect is the fold's own refit step
+//!    ([`fit::refit_delta`], the one-step damped Gauss–Newton refit the cross-validation makes,
+//!    on `M`'s Jacobian): it is linear in the residuals, so the held-out residuals under the
+//!    effect are `r = e − L δ_s`, with `L δ_s` the part of the signature the refit cannot absorb
+//!    and `e` the held-out residuals without the effect;
+//! 3. `e` is the campaign's own held-out residual vector of each recording with its sign drawn
+//!    at random ([`DRAWS`] draws, a fixed seed, the same draws at every strength): each
+//!    recording keeps its own noise, floors and misfit, feature by feature, and only its
+//!    alignment with the signature is random. The draws at `s = 0` reproduce the campaign's own
+//!    gap;
+//! 4. on each draw the verdict's test is run on `r` ([`Test`]), and the power at `s` is the
+//!    share of draws on which it fires.
+//!
+//! The strength is scanned from the effect's neutral end to the strong end of its plausible
+//! range ([`super::model::Plausible`]) on a log scale (linear for the presliding spread): up a
+//! ladder of [`LADDER`] rungs until the test fires (never: the effect cannot be excluded at any
+//! plausible strength), then [`BISECTIONS`] halvings of the bracket, the power being monotone
+//! in the strength. A strength at which more than [`MAX_FAILED`] of the runs fail ends the
+//! scan there. Each
+//! effect is scanned in one form, its other parameters fixed at stated values (`form`).
+//!
+//! **Approximation.** The refit of step 2 is the cross-validation's own, to first order in the
+//! signature: where an effect's signature is large enough for the base parameters to move far
+//! (a strength well above its limit) the linear refit overstates what they can absorb, which
+//! makes the limit conservative there. Near the limit the signature is a few standard errors
+//! and the linearisation holds; `tests/limits.rs` checks the limits by injecting effects at
+//! twice and half their stated limit and running the whole diagnosis.
+
+use super::evidence::SIGNIFICANT_GAP;
+use super::features::Feature;
+use super::features::{FEATURES, FeatureSet, N_FEATURES, noise_sd};
+use super::fit::{self, FitResult, Model, Target, fill_r, sigma, simulate, trace_features, zscore};
+use super::folds::{CrossValidated, concentrated, summarise};
+use super::model::neutral;
+use crate::campaign::Solvers;
+use crate::model::EffectKind;
+use rand::{RngExt, SeedableRng, rngs::StdRng};
+use rand_distr::{Distribution, Normal};
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+/// The power at which an effect counts as detectable.
+pub const POWER: f64 = 0.95;
+/// Random-sign draws of the held-out residuals per strength.
+pub const DRAWS: usize = 200;
+/// Rungs of the ladder of strengths, evenly spaced (in the logarithm where the scan is
+/// logarithmic) from the weak end to the strong end.
+pub const LADDER: usize = 4;
+/// Halvings of the bracket between the last rung that did not fire and the first that did.
+pub const BISECTIONS: usize = 4;
+/// Largest share of rows whose runs may fail at a strength for its power to count: beyond it,
+/// the effect at that strength is outside what the model can simulate, and the scan ends.
+pub const MAX_FAILED: f64 = 0.05;
+/// Seed of the draws (fixed: a diagnosis is deterministic).
+const SEED: u64 = 0x5eed_0f11;
+
+/// The test whose power is computed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Test {
+    /// The base model's gap is significant: held-out gap at least [`SIGNIFICANT_GAP`], or a
+    /// concentrated or systematic feature (the test that decides `no_significant_gap`).
+    Gap,
+    /// The named model leaves a held-out gap of at least [`SIGNIFICANT_GAP`] (the test that
+    /// decides whether a second effect is tried).
+    Second,
+}
+
+impl Test {
+    /// Name in the JSON.
+    pub fn name(self) -> &'static str {
+        match self {
+            Test::Gap => "significant_gap",
+            Test::Second => "gap_left_by_named_effect",
+        }
+    }
+
+    fn fires(self, cv: &CrossValidated) -> bool {
+        let g = cv.gap >= SIGNIFICANT_GAP;
+        match self {
+            Test::Gap => g || concentrated(cv).is_some(),
+            Test::Second => g,
+        }
+    }
+}
+
+/// One effect's scan: the parameter that sets its strength, in one form.
+struct Scan {
+    kind: EffectKind,
+    param: &'static str,
+    /// What the effect is, in a reader's words.
+    label: &'static str,
+    /// The other parameters and their values.
+    fixed: &'static [(&'static str, f64)],
+    /// The effect is stronger where the parameter is lower (a resonance).
+    stronger_below: bool,
+    /// The weak end, where the neutral value cannot serve (0 on a log scale; a scan of one
+    /// side of the Stribeck exponent's 2).
+    weak: Option<f64>,
+    /// The strong end, where it is not the plausible range's.
+    strong: Option<f64>,
+    log: bool,
+}
+
+const SCANS: [Scan; 10] = [
+    Scan {
+        kind: EffectKind::Aging,
+        param: "b",
+        label: "ageing of static friction",
+        fixed: &[("theta_0", 0.01), ("d_c", 1e-6)],
+        stronger_below: false,
+        weak: Some(5e-4),
+        strong: None,
+        log: true,
+    },
+    Scan {
+        kind: EffectKind::ActuatorResponse,
+        param: "f_r",
+        label: "an actuator resonance",
+        fixed: &[("zeta", 0.2)],
+        stronger_below: true,
+        weak: None,
+        strong: None,
+        log: true,
+    },
+    Scan {
+        kind: EffectKind::NormalCoupling,
+        param: "k_n",
+        label: "a normal-load modulation",
+        fixed: &[("phase", 90.0), ("delay", 0.0)],
+        stronger_below: false,
+        weak: None,
+        strong: None,
+        log: true,
+    },
+    Scan {
+        kind: EffectKind::SensorDynamics,
+        param: "f_n",
+        label: "a load cell",
+        fixed: &[("zeta", 0.35)],
+        stronger_below: true,
+        weak: None,
+        strong: None,
+        log: true,
+    },
+    Scan {
+        kind: EffectKind::DriveRipple,
+        param: "a",
+        label: "a periodic drive error",
+        fixed: &[],
+        stronger_below: false,
+        weak: Some(1e-8),
+        strong: None,
+        log: true,
+    },
+    Scan {
+        kind: EffectKind::Viscous,
+        param: "h_v",
+        label: "viscous friction",
+        fixed: &[("exponent", 1.0)],
+        stronger_below: false,
+        weak: Some(0.3),
+        strong: None,
+        log: true,
+    },
+    Scan {
+        kind: EffectKind::StribeckShape,
+        param: "delta",
+        label: "a Stribeck exponent below 2",
+        fixed: &[],
+        stronger_below: true,
+        weak: Some(2.0),
+        strong: None,
+        log: true,
+    },
+    Scan {
+        kind: EffectKind::StribeckShape,
+        param: "delta",
+        label: "a Stribeck exponent above 2",
+        fixed: &[],
+        stronger_below: false,
+        weak: Some(2.0),
+        strong: None,
+        log: true,
+    },
+    Scan {
+        kind: EffectKind::Presliding,
+        param: "spread",
+        label: "presliding in four elements",
+        fixed: &[("elements", 4.0)],
+        stronger_below: false,
+        weak: None,
+        strong: None,
+        log: false,
+    },
+    Scan {
+        kind: EffectKind::FrictionalLag,
+        param: "tau",
+        label: "a frictional lag",
+        fixed: &[],
+        stronger_below: false,
+        weak: None,
+        strong: None,
+        log: true,
+    },
+];
+
+/// The detection limit of one effect in one form.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Limit {
+    /// The effect.
+    pub effect: &'static str,
+    /// The parameter that sets its strength.
+    pub param: &'static str,
+    /// Its unit.
+    pub unit: &'static str,
+    /// The effect in words, with its form.
+    pub label: &'static str,
+    /// Its other parameters, fixed: `name = value`, comma separated (empty where none).
+    pub form: String,
+    /// `below` where the effect is stronger at lower values of the parameter (a resonance),
+    /// else `above`.
+    pub stronger: &'static str,
+    /// The weakest value detected with [`POWER`] (None: not detected anywhere in the scanned
+    /// range).
+    pub limit: Option<f64>,
+    /// Values stronger than `limit` at which the test did not fire (the rungs of the scan's
+    /// ladder): where the effect hides its own trace. Empty where every stronger rung fired.
+    pub holes: Vec<f64>,
+    /// The power there (at the strong end where `limit` is None).
+    pub power: f64,
+    /// The scan's weak end.
+    pub weak_end: f64,
+    /// The scan's strong end (the plausible range's).
+    pub strong_end: f64,
+    /// One sentence.
+    pub statement: String,
+}
+
+impl Limit {
+    /// The parameter's value for the effect `factor` times as strong as at its limit: a
+    /// resonance's frequency divided by it, the Stribeck exponent's departure from 2 (in its
+    /// logarithm) multiplied by it, any other strength multiplied by it. None without a limit.
+    pub fn scaled(&self, factor: f64) -> Option<f64> {
+        let l = self.limit?;
+        Some(match (self.effect, self.stronger) {
+            ("stribeck_shape", _) => 2.0 * (l / 2.0).powf(factor),
+            (_, "below") => l / factor,
+            _ => l * factor,
+        })
+    }
+
+    /// The effect's other parameters of the form scanned, as `(name, value)`.
+    pub fn form_values(&self) -> Vec<(String, f64)> {
+        self.form
+            .split(", ")
+            .filter_map(|kv| {
+                let (k, v) = kv.split_once(" = ")?;
+                Some((k.to_string(), v.parse().ok()?))
+            })
+            .collect()
+    }
+}
+
+/// What a campaign could not have seen (module docs).
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Limits {
+    /// The model the effects are added to: `base`, or the named effects.
+    pub against: String,
+    /// The test repeated ([`Test::name`]).
+    pub test: &'static str,
+    /// [`POWER`].
+    pub power: f64,
+    /// [`DRAWS`].
+    pub draws: usize,
+    /// One per effect scan.
+    pub effects: Vec<Limit>,
+    /// Simulations the scans ran.
+    pub simulations: usize,
+    /// Why no limit was computed, where none was.
+    pub not_computed: Option<String>,
+}
+
+impl Limits {
+    /// No limits, for the reason given.
+    pub fn none(reason: impl Into<String>) -> Limits {
+        Limits {
+            against: String::new(),
+            test: "",
+            power: POWER,
+            draws: DRAWS,
+            effects: vec![],
+            simulations: 0,
+            not_computed: Some(reason.into()),
+        }
+    }
+}
+
+/// The campaign as the limits measure it: each recording's noise, and the model in hand's
+/// traces recorded through the campaign's own pipeline with that noise, so that an effect's
+/// signature is what the campaign's measurement of it would show (a harmonic's phase that the
+/// effect's attenuation drowns in the noise is not measured; its error grows as its amplitude
+/// falls; cycles are found on a noisy force), not what a noise-free simulation shows.
+struct Pipeline<'t, 'a> {
+    all: &'t Target<'a>,
+    /// Per recording: the noise standard deviations of the force, body and drive channels
+    /// ([`noise_sd`]; 0 where a channel is absent).
+    noise: Vec<[f64; 3]>,
+    /// Per unit: the noisy recording of the model in hand through the pipeline (None: its run
+    /// failed).
+    f0: Vec<Option<FeatureSet>>,
+    /// Per unit: the model in hand's predictions, as the diagnosis makes them.
+    p0: Vec<FeatureSet>,
+    /// Runs made here (beside the target's cache).
+    simulations: AtomicUsize,
+}
+
+impl<'t, 'a> Pipeline<'t, 'a> {
+    fn new(all: &'t Target<'a>, model: &Model) -> Self {
+        let noise = all
+            .recs
+            .iter()
+            .map(|r| {
+                let sd = |x: Option<&[f64]>| x.map_or(0.0, noise_sd).max(0.0);
+                [sd(Some(&r.f_d)), sd(r.x_s.as_deref()), sd(r.x_d.as_deref())]
+            })
+            .map(|v| v.map(|x| if x.is_finite() { x } else { 0.0 }))
+            .collect();
+        let mut p = Pipeline {
+            all,
+            noise,
+            f0: vec![],
+            p0: all.predict(model),
+            simulations: AtomicUsize::new(0),
+        };
+        p.f0 = p.record(model).0;
+        p
+    }
+
+    /// The noisy recordings of `model` through the pipeline, per unit (None where a run
+    /// failed), with the noise-free features beside them.
+    fn record(&self, model: &Model) -> (Vec<Option<FeatureSet>>, Vec<FeatureSet>) {
+        let per: Vec<Vec<(Option<FeatureSet>, FeatureSet)>> = self
+            .all
+            .recs
+            .par_iter()
+            .enumerate()
+            .map_init(Solvers::default, |sol, (i, rec)| {
+                let stages = self.all.units.iter().filter(|u| u.0 == i).count();
+                self.simulations.fetch_add(1, Ordering::Relaxed);
+                let Some(tr) = simulate(model, rec, sol) else {
+                    return vec![(None, FeatureSet::nan()); stages];
+                };
+                // The same noise at every strength and under the model in hand: common random
+                // numbers, so the difference is the effect's.
+                let mut rng =
+                    StdRng::seed_from_u64(SEED ^ (i as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15));
+                let [sf, ss, sd] = self.noise[i];
+                let mut noisy = |x: &[f64], s: f64| -> Vec<f64> {
+                    let g = Normal::new(0.0, s.max(0.0))
+                        .unwrap_or(Normal::new(0.0, 0.0).expect("zero spread"));
+                    x.iter()
+                        .map(|v| v + if s > 0.0 { g.sample(&mut rng) } else { 0.0 })
+                        .collect()
+                };
+                let f_d = noisy(&tr.f_d, sf);
+                let x_s = rec.x_s.as_ref().map(|_| noisy(&tr.x_s, ss));
+                let x_d = rec.x_d.as_ref().map(|_| noisy(&tr.x_d, sd));
+                let with = trace_features(rec, &f_d, x_s.as_deref(), x_d.as_deref());
+                let clean = trace_features(
+                    rec,
+                    &tr.f_d,
+                    rec.x_s.as_ref().map(|_| &tr.x_s[..]),
+                    rec.x_d.as_ref().map(|_| &tr.x_d[..]),
+                );
+                with.into_iter().map(Some).zip(clean).collect()
+            })
+            .collect();
+        let (mut noisy, mut clean): (Vec<Option<FeatureSet>>, Vec<FeatureSet>) =
+            per.into_iter().flatten().unzip();
+        // `r` of each vibrated unit from its reference, in both.
+        let mut filled: Vec<FeatureSet> = noisy
+            .iter()
+            .map(|f| f.clone().unwrap_or_else(FeatureSet::nan))
+            .collect();
+        fill_r(&mut filled, &self.all.reference);
+        for (n, f) in noisy.iter_mut().zip(filled) {
+            if n.is_some() {
+                *n = Some(f);
+            }
+        }
+        fill_r(&mut clean, &self.all.reference);
+        (noisy, clean)
+    }
+
+    /// The signature of `model` (the model in hand with the effect) on every row, in the
+    /// campaign's standard errors under the effect: `d = z' − k z`, `z'` the row's residual of
+    /// the model in hand against the measurement shifted by the effect (as the pipeline records
+    /// it) and `k = σ/σ'` the ratio of the row's scale without and with the effect; with `k`
+    /// per row (NaN: the effect makes the row unmeasured, as a phase whose amplitude it
+    /// drowns) and the share of rows whose runs failed (their `d` is 0, `k` 1). None where the
+    /// rows do not match.
+    fn signature(&self, model: &Model) -> Option<(Vec<f64>, Vec<f64>, f64)> {
+        let (fs, clean) = self.record(model);
+        let all = self.all;
+        let mut d = vec![];
+        let mut k = vec![];
+        let mut failed = 0usize;
+        for (u, m) in all.measured.iter().enumerate() {
+            // The measurement shifted by the effect, feature by feature.
+            let mut shifted = m.clone();
+            let mut state = [0u8; N_FEATURES]; // 0 shifted, 1 unmeasured, 2 fallback, 3 failed
+            for f in FEATURES {
+                let i = f as usize;
+                if !m.value[i].is_finite() {
+                    continue;
+                }
+                let (Some(a), Some(b)) = (&self.f0[u], &fs[u]) else {
+                    state[i] = 3;
+                    continue;
+                };
+                // The shift is the prediction's, noise-free (a noisy record would add the
+                // jitter of its cycle detection to every row); the noisy records say whether
+                // a harmonic is still measured under the effect and how its error changes.
+                let (p0, ps) = (self.p0[u].value[i], clean[u].value[i]);
+                if !(p0.is_finite() && ps.is_finite()) {
+                    state[i] = 2;
+                    continue;
+                }
+                if f.is_harmonic() && a.value[i].is_finite() && !b.value[i].is_finite() {
+                    state[i] = 1;
+                    continue;
+                }
+                let shift = if f.is_phase() {
+                    let tau = std::f64::consts::TAU;
+                    let w = (ps - p0).rem_euclid(tau);
+                    if w > 0.5 * tau { w - tau } else { w }
+                } else {
+                    ps - p0
+                };
+                shifted.value[i] = m.value[i] + shift;
+                let (e0, es) = (a.stderr[i], b.stderr[i]);
+                if f.is_harmonic()
+                    && e0.is_finite()
+                    && es.is_finite()
+                    && e0 > 0.0
+                    && m.stderr[i].is_finite()
+                {
+                    shifted.stderr[i] = m.stderr[i] * es / e0;
+                }
+            }
+            for f in FEATURES {
+                let i = f as usize;
+                let Some(z) = zscore(m, &self.p0[u], f) else {
+                    continue;
+                };
+                match state[i] {
+                    0 => {
+                        let z1 = zscore(&shifted, &self.p0[u], f).unwrap_or(z);
+                        let (s0, s1) = (sigma(m, &self.p0[u], f), sigma(&shifted, &self.p0[u], f));
+                        let ratio = if s0 > 0.0 && s1 > 0.0 { s0 / s1 } else { 1.0 };
+                        let ok = z.abs() < 1e3 && z1.abs() < 1e3 && z1.is_finite();
+                        d.push(if ok { z1 - ratio * z } else { 0.0 });
+                        k.push(if ok { ratio } else { 1.0 });
+                    }
+                    1 => {
+                        d.push(f64::NAN);
+                        k.push(f64::NAN);
+                    }
+                    2 => {
+                        // The pipeline cannot record it without the effect either: the
+                        // noise-free change of the prediction stands in.
+                        let zs = zscore(m, &clean[u], f).unwrap_or(z);
+                        let ok = z.abs() < 1e3 && zs.abs() < 1e3;
+                        d.push(if ok { z - zs } else { 0.0 });
+                        k.push(1.0);
+                    }
+                    _ => {
+                        failed += 1;
+                        d.push(0.0);
+                        k.push(1.0);
+                    }
+                }
+            }
+        }
+        (d.len() == all.row_recordings().len()).then(|| {
+            let share = failed as f64 / d.len().max(1) as f64;
+            (d, k, share)
+        })
+    }
+}
+
+/// A scan's value at `u` in [0, 1] from its weak end to its strong end.
+fn value_at(weak: f64, strong: f64, log: bool, u: f64) -> f64 {
+    // The ends exactly (a logarithm and back would move them by a rounding).
+    if u <= 0.0 {
+        weak
+    } else if u >= 1.0 {
+        strong
+    } else if log {
+        (weak.ln() + u * (strong.ln() - weak.ln())).exp()
+    } else {
+        weak + u * (strong - weak)
+    }
+}
+
+/// The detection limits of every effect not already in `against` (fitted on every recording
+/// of `all`, with its Jacobian, and cross-validated as `cv` over `fold`, `k_folds`), by the
+/// module's procedure, for `test`.
+pub(crate) fn limits(
+    all: &Target,
+    against: &FitResult,
+    cv: &CrossValidated,
+    fold: &[usize],
+    k_folds: usize,
+    test: Test,
+) -> Limits {
+    let rows = all.row_recordings();
+    let feats: Vec<Feature> = all.row_features();
+    let name = if against.effects.is_empty() {
+        "base".to_string()
+    } else {
+        against
+            .effects
+            .iter()
+            .map(|k| k.name())
+            .collect::<Vec<_>>()
+            .join(" + ")
+    };
+    if against.z.len() != rows.len()
+        || against.jacobian.nrows() != rows.len()
+        || cv.held.len() != rows.len()
+    {
+        return Limits::none(format!(
+            "the residuals or the Jacobian of {name} do not match the campaign's rows"
+        ));
+    }
+    let before = all.work().simulations;
+    let n = all.recs.len();
+    // The fold's refit of a signature: held-out rows of `d − L d`... as the cross-validation.
+    let keeps: Vec<(usize, Vec<bool>)> = (0..k_folds)
+        .filter(|&k| (0..rows.len()).any(|r| fold[rows[r]] == k && !cv.held[r].is_nan()))
+        .map(|k| (k, rows.iter().map(|&r| fold[r] != k).collect()))
+        .collect();
+    let unabsorbed = |d: &[f64]| -> Vec<f64> {
+        let mut out = vec![f64::NAN; d.len()];
+        // Rows the effect leaves unmeasured take no part in the refit, and stay unmeasured.
+        let solve: Vec<f64> = d
+            .iter()
+            .map(|v| if v.is_nan() { 0.0 } else { *v })
+            .collect();
+        for (k, keep) in &keeps {
+            let keep: Vec<bool> = keep.iter().zip(d).map(|(k, v)| *k && !v.is_nan()).collect();
+            let Some(step) = fit::refit_delta(&against.jacobian, &solve, &keep, 0) else {
+                continue;
+            };
+            for r in 0..d.len() {
+                if fold[rows[r]] == *k && !cv.held[r].is_nan() {
+                    let j: f64 = (0..step.len())
+                        .map(|c| against.jacobian[(r, c)] * step[c])
+                        .sum();
+                    out[r] = d[r] + j;
+                }
+            }
+        }
+        out
+    };
+    // The random signs, one per recording per draw, the same at every strength.
+    let signs: Vec<Vec<f64>> = {
+        let mut rng = StdRng::seed_from_u64(SEED);
+        (0..DRAWS)
+            .map(|_| {
+                (0..n)
+                    .map(|_| if rng.random::<bool>() { 1.0 } else { -1.0 })
+                    .collect()
+            })
+            .collect()
+    };
+    // The power of a signature `sig` (held-out rows, after the fold refits), the campaign's
+    // own held-out residuals rescaled by `scale` (the alternative's noise against the
+    // campaign's, row by row; NaN: the row is not measured under the alternative).
+    let power_of = |sig: &[f64], scale: &[f64]| -> f64 {
+        let fired = signs
+            .par_iter()
+            .filter(|s| {
+                let r: Vec<f64> = (0..rows.len())
+                    .map(|i| scale[i] * s[rows[i]] * cv.held[i] + sig[i])
+                    .collect();
+                test.fires(&summarise(&rows, &feats, n, r, fold, k_folds))
+            })
+            .count();
+        fired as f64 / DRAWS as f64
+    };
+    let pipe = Pipeline::new(all, &against.model);
+    let effects: Vec<Limit> = SCANS
+        .par_iter()
+        .filter(|s| !against.effects.contains(&s.kind))
+        .map(|s| {
+            let info = s.kind.info();
+            let p = info
+                .params
+                .iter()
+                .find(|p| p.name == s.param)
+                .expect("a scan's parameter is the effect's");
+            let (lo, hi) = all.bounds.range(s.kind, s.param);
+            let (lo, hi) = (lo.max(p.min), hi.min(p.max));
+            let neutral = neutral(s.kind, s.param).unwrap_or(if s.stronger_below { hi } else { lo });
+            let weak = s.weak.unwrap_or(neutral).clamp(lo, hi);
+            let weak = if s.log && weak <= 0.0 { hi * 1e-4 } else { weak };
+            let strong = s.strong.unwrap_or(if s.stronger_below { lo } else { hi });
+            let mut model = against.model.clone();
+            for &(q, v) in s.fixed {
+                // The form's values are inside the library's bounds by construction.
+                let _ = model.effects.set(s.kind, q, v);
+            }
+            let (vmin, vmax) = (lo.min(hi), lo.max(hi));
+            // The power at `u` of the scan, and the share of rows whose runs failed there.
+            let power_at = |u: f64| -> (f64, f64) {
+                let mut m = model.clone();
+                let v = value_at(weak, strong, s.log, u).clamp(vmin, vmax);
+                if m.effects.set(s.kind, s.param, v).is_err() {
+                    return (0.0, 1.0);
+                }
+                let Some((d, scale, failed)) = pipe.signature(&m) else {
+                    return (0.0, 1.0);
+                };
+                let pw = power_of(&unabsorbed(&d), &scale);
+                (pw, failed)
+            };
+            let form = s
+                .fixed
+                .iter()
+                .map(|(q, v)| format!("{q} = {v}"))
+                .collect::<Vec<_>>()
+                .join(", ");
+            // Every rung of the ladder (a stronger effect can hide its own trace: a load cell
+            // slow enough drowns the ripple whose phase it shifts), then the bracket below the
+            // first rung that fires halved.
+            let mut rungs: Vec<(f64, f64)> = vec![];
+            let mut reached = 1.0;
+            for k in 1..=LADDER {
+                let u = k as f64 / LADDER as f64;
+                let (pw, failed) = power_at(u);
+                if failed > MAX_FAILED {
+                    // Runs fail from here on: the scan ends where they still ran.
+                    reached = rungs.last().map_or(0.0, |r| r.0);
+                    break;
+                }
+                rungs.push((u, pw));
+            }
+            let first = rungs.iter().position(|r| r.1 >= POWER);
+            // Stronger rungs than the first that fires on which the test does not fire.
+            let holes: Vec<f64> = first.map_or(vec![], |j| {
+                rungs[j..]
+                    .iter()
+                    .filter(|r| r.1 < POWER)
+                    .map(|r| value_at(weak, strong, s.log, r.0).clamp(vmin, vmax))
+                    .collect()
+            });
+            let (limit, power, everywhere) = match first {
+                None => (None, rungs.last().map_or(0.0, |r| r.1), false),
+                Some(j) => {
+                    let (mut b, mut pb) = rungs[j];
+                    let mut a = if j == 0 { 0.0 } else { rungs[j - 1].0 };
+                    for _ in 0..BISECTIONS {
+                        let mid = 0.5 * (a + b);
+                        let (pm, failed) = power_at(mid);
+                        if pm >= POWER && failed <= MAX_FAILED {
+                            (b, pb) = (mid, pm);
+                        } else {
+                            a = mid;
+                        }
+                    }
+                    // Detected down to the weak end: the limit lies below the scan.
+                    let everywhere = a == 0.0 && power_at(0.0).0 >= POWER;
+                    (Some(value_at(weak, strong, s.log, b).clamp(vmin, vmax)), pb, everywhere)
+                }
+            };
+            let strong = value_at(weak, strong, s.log, reached).clamp(vmin, vmax);
+            let (stronger, weaker) = if s.stronger_below {
+                ("below", "and above")
+            } else {
+                ("above", "and below")
+            };
+            let with = if form.is_empty() {
+                String::new()
+            } else {
+                format!(" ({form})")
+            };
+            let statement = match limit {
+                _ if everywhere => format!(
+                    "{}{with} would have shown at every strength scanned, down to {} = {} {}: only a weaker one cannot be excluded",
+                    s.label,
+                    s.param,
+                    fmt(weak),
+                    p.unit,
+                ),
+                Some(l) => format!(
+                    "{}{with} with {} {stronger} {} {} would have shown; {} {weaker} cannot be excluded",
+                    s.label,
+                    s.param,
+                    fmt(l),
+                    p.unit,
+                    fmt(l),
+                ),
+                None => format!(
+                    "{}{with} would not have shown anywhere in {} ({} from {} to {} {}, power {:.0} % at the strong end): it cannot be excluded",
+                    s.label,
+                    if reached < 1.0 {
+                        "the range in which its runs succeed"
+                    } else {
+                        "its plausible range"
+                    },
+                    s.param,
+                    fmt(weak),
+                    fmt(strong),
+                    p.unit,
+                    100.0 * power
+                ),
+            };
+            let statement = if holes.is_empty() {
+                statement
+            } else {
+                format!(
+                    "{statement}; but not at {} {} {}, stronger yet not detected: there the effect hides its own trace (a harmonic it attenuates into the noise), and a stronger effect is no surer to show",
+                    s.param,
+                    holes.iter().map(|h| fmt(*h)).collect::<Vec<_>>().join(", "),
+                    p.unit
+                )
+            };
+            Limit {
+                effect: info.name,
+                holes,
+                param: s.param,
+                unit: p.unit,
+                label: s.label,
+                form,
+                stronger,
+                limit,
+                power,
+                weak_end: weak,
+                strong_end: strong,
+                statement,
+            }
+        })
+        .collect();
+    Limits {
+        against: name,
+        test: test.name(),
+        power: POWER,
+        draws: DRAWS,
+        effects,
+        simulations: all.work().simulations - before + pipe.simulations.load(Ordering::Relaxed),
+        not_computed: None,
+    }
+}
+
+/// Three significant digits, without an exponent where a reader would not write one.
+fn fmt(x: f64) -> String {
+    let a = x.abs();
+    if a != 0.0 && !(1e-2..1e5).contains(&a) {
+        format!("{x:.2e}")
+    } else {
+        let digits = (2 - a.log10().floor() as i32).max(0) as usize;
+        format!("{x:.digits$}")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn scans_name_real_parameters_in_range() {
+        for s in &SCANS {
+            let info = s.kind.info();
+            assert!(info.params.iter().any(|p| p.name == s.param), "{}", s.label);
+            let mut fx = crate::model::Effects::none();
+            for &(q, v) in s.fixed {
+                fx.set(s.kind, q, v).unwrap();
+            }
+            assert!(info.candidate, "{}", s.label);
+        }
+        // Every candidate of the library has a scan.
+        for k in EffectKind::candidates() {
+            assert!(SCANS.iter().any(|s| s.kind == k), "{k}");
+        }
+    }
+
+    #[test]
+    fn values_run_from_the_weak_to_the_strong_end() {
+        assert_eq!(value_at(2e4, 50.0, true, 0.0), 2e4);
+        assert!((value_at(2e4, 50.0, true, 1.0) - 50.0).abs() < 1e-9);
+        assert!((value_at(100.0, 1.0, true, 0.5) - 10.0).abs() < 1e-9);
+        assert_eq!(value_at(0.0, 0.9, false, 0.5), 0.45);
+        assert_eq!(fmt(612.345), "612");
+        assert_eq!(fmt(0.0312), "0.0312");
+        assert_eq!(fmt(3.2e-6), "3.20e-6");
+    }
+}
