@@ -367,6 +367,11 @@ def test_diagnose_from_frames_gives_the_cli_verdict(small_campaign: Path, tmp_pa
     assert d.verdict == by_cli["verdict"]
     assert d.to_dict()["gap_before"] == by_cli["gap_before"]
     assert d.to_dict()["ranking"] == by_cli["ranking"]
+    # What the effect-free campaign could not have seen: the same limits through either door,
+    # one line per effect scan.
+    if d.verdict == "no_significant_gap":
+        assert d.limits == by_cli["limits"]
+        assert {e["effect"] for e in d.limits["effects"]} >= {"aging", "sensor_dynamics"}
     assert (tmp_path / "py" / "diagnosis.json").is_file()
     # Its work: every recording simulated at least once for the calibration, and more for its
     # iterations (threads that ask for one prediction at once may each run it, so the counts of
