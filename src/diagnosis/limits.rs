@@ -13,8 +13,13 @@
 //! `no_significant_gap`; the named model where an effect is named in full, the test then being
 //! the one that decides whether a second effect is tried):
 //! 1. the effect is added to `M` at strength `s` and every recording of the campaign is
-//!    simulated under its own conditions: the effect's signature is the change of the
-//!    standardised features, `δ_s = z(M + effect) − z(M)` (rows of failed runs count 0);
+//!    simulated under its own conditions: the effect's signature is the change of each
+//!    measured feature, `Δ = p(M + effect) − p(M)`, in the row's standard errors under the
+//!    effect (`Pipeline::signature`). Both traces are also recorded through the campaign's
+//!    own pipeline with the same noise (each channel's noise estimated from the recording): a
+//!    harmonic the effect attenuates below three of its errors has no measured phase under it
+//!    (the row drops out), and its errors scale as that record's do. Rows of failed runs
+//!    count 0;
 //! 2. each fold's recalibration of `M` to data carrying the effect is the fold's own refit step
 //!    ([`fit::refit_delta`], the one-step damped Gauss–Newton refit the cross-validation makes,
 //!    on `M`'s Jacobian): it is linear in the residuals, so the held-out residuals under the
@@ -29,11 +34,14 @@
 //!    share of draws on which it fires.
 //!
 //! The strength is scanned from the effect's neutral end to the strong end of its plausible
-//! range ([`super::model::Plausible`]) on a log scale (linear for the presliding spread): up a
-//! ladder of [`LADDER`] rungs until the test fires (never: the effect cannot be excluded at any
-//! plausible strength), then [`BISECTIONS`] halvings of the bracket, the power being monotone
-//! in the strength. A strength at which more than [`MAX_FAILED`] of the runs fail ends the
-//! scan there. Each
+//! range ([`super::model::Plausible`]) on a log scale (linear for the presliding spread): every
+//! rung of a ladder of [`LADDER`] (none fires: the effect cannot be excluded at any plausible
+//! strength), then [`BISECTIONS`] halvings of the bracket below the first rung that fires. The
+//! power need not grow with the strength: a load cell slower than the forcing shifts the
+//! ripple's phase, which shows; slower still it attenuates the ripple into the noise and shows
+//! nothing. A stronger rung that does not fire is a *hole*, and the edge of the detected band
+//! before it is bisected too. A strength at which more than [`MAX_FAILED`] of the runs fail
+//! ends the scan there. Each
 //! effect is scanned in one form, its other parameters fixed at stated values (`form`).
 //!
 //! **Approximation.** The refit of step 2 is the cross-validation's own, to first order in the
@@ -243,6 +251,9 @@ pub struct Limit {
     /// Values stronger than `limit` at which the test did not fire (the rungs of the scan's
     /// ladder): where the effect hides its own trace. Empty where every stronger rung fired.
     pub holes: Vec<f64>,
+    /// Where such holes exist: the strongest value of the band from `limit` on in which the
+    /// test fires (the edge before the first hole, bisected as `limit` is).
+    pub band_end: Option<f64>,
     /// The power there (at the strong end where `limit` is None).
     pub power: f64,
     /// The scan's weak end.
@@ -673,6 +684,22 @@ pub(crate) fn limits(
                     .map(|r| value_at(weak, strong, s.log, r.0).clamp(vmin, vmax))
                     .collect()
             });
+            // Where the detected band ends on the strong side: the bracket between the last
+            // rung that fires before the first hole and that hole, halved as the limit's.
+            let band_end = first.and_then(|j| {
+                let h = (j..rungs.len()).find(|&i| rungs[i].1 < POWER)?;
+                let (mut a, mut b) = (rungs[h - 1].0, rungs[h].0);
+                for _ in 0..BISECTIONS {
+                    let mid = 0.5 * (a + b);
+                    let (pm, failed) = power_at(mid);
+                    if pm >= POWER && failed <= MAX_FAILED {
+                        a = mid;
+                    } else {
+                        b = mid;
+                    }
+                }
+                Some(value_at(weak, strong, s.log, a).clamp(vmin, vmax))
+            });
             let (limit, power, everywhere) = match first {
                 None => (None, rungs.last().map_or(0.0, |r| r.1), false),
                 Some(j) => {
@@ -703,7 +730,24 @@ pub(crate) fn limits(
             } else {
                 format!(" ({form})")
             };
-            let statement = match limit {
+            let hidden = || {
+                format!(
+                    "(not detected at {} {}: the effect attenuates its own trace into the noise)",
+                    holes.iter().map(|h| fmt(*h)).collect::<Vec<_>>().join(", "),
+                    p.unit
+                )
+            };
+            let statement = match (limit, band_end) {
+                (Some(_), Some(e)) if everywhere => format!(
+                    "{}{with} would have shown from the weakest strength scanned, {} = {}, to {} {}; a weaker one, and one {stronger} {} {}, cannot be excluded",
+                    s.label,
+                    s.param,
+                    fmt(weak),
+                    fmt(e),
+                    p.unit,
+                    fmt(e),
+                    hidden(),
+                ),
                 _ if everywhere => format!(
                     "{}{with} would have shown at every strength scanned, down to {} = {} {}: only a weaker one cannot be excluded",
                     s.label,
@@ -711,7 +755,18 @@ pub(crate) fn limits(
                     fmt(weak),
                     p.unit,
                 ),
-                Some(l) => format!(
+                (Some(l), Some(e)) => format!(
+                    "{}{with} with {} from {} to {} {} would have shown; {} {weaker}, and {stronger} {} {}, cannot be excluded",
+                    s.label,
+                    s.param,
+                    fmt(l),
+                    fmt(e),
+                    p.unit,
+                    fmt(l),
+                    fmt(e),
+                    hidden(),
+                ),
+                (Some(l), None) => format!(
                     "{}{with} with {} {stronger} {} {} would have shown; {} {weaker} cannot be excluded",
                     s.label,
                     s.param,
@@ -719,7 +774,7 @@ pub(crate) fn limits(
                     p.unit,
                     fmt(l),
                 ),
-                None => format!(
+                (None, _) => format!(
                     "{}{with} would not have shown anywhere in {} ({} from {} to {} {}, power {:.0} % at the strong end): it cannot be excluded",
                     s.label,
                     if reached < 1.0 {
@@ -734,19 +789,10 @@ pub(crate) fn limits(
                     100.0 * power
                 ),
             };
-            let statement = if holes.is_empty() {
-                statement
-            } else {
-                format!(
-                    "{statement}; but not at {} {} {}, stronger yet not detected: there the effect hides its own trace (a harmonic it attenuates into the noise), and a stronger effect is no surer to show",
-                    s.param,
-                    holes.iter().map(|h| fmt(*h)).collect::<Vec<_>>().join(", "),
-                    p.unit
-                )
-            };
             Limit {
                 effect: info.name,
                 holes,
+                band_end,
                 param: s.param,
                 unit: p.unit,
                 label: s.label,
