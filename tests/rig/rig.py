@@ -306,8 +306,19 @@ PANEL = {
 }
 
 
-def write_campaign(out, name, seed, cycles=2):
-    spec = PANEL[name]
+# What each added effect of this rig stands for in the library (the verdict a right diagnosis
+# gives for it).
+LIBRARY = {"sensor": "sensor_dynamics", "actuator": "actuator_response",
+           "normal": "normal_coupling", "aging": "aging", "screw": "drive_ripple",
+           "track": "unexplained"}
+
+
+def write_campaign(out, name, seed, cycles=2, extra=None):
+    spec = dict(PANEL[name])
+    if extra:
+        spec["effects"] = {**spec["effects"], **extra}
+        names = [LIBRARY[k] for k in extra]
+        spec["expect"] = "unexplained" if "unexplained" in names else names
     os.makedirs(out, exist_ok=True)
     rng = np.random.default_rng(seed)
     rate = spec["rate"]
@@ -342,6 +353,9 @@ def main():
     ap.add_argument("--campaign", choices=sorted(PANEL))
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--list", action="store_true")
+    ap.add_argument("--effect", action="append", default=[], metavar="NAME:k=v,...",
+                    help="add an effect in this rig's own form to the campaign (repeatable), "
+                         "e.g. aging:b=0.02,theta_0=0.01,d_c=1e-6; the truth then expects it")
     a = ap.parse_args()
     if a.list:
         for k, v in PANEL.items():
@@ -349,7 +363,20 @@ def main():
         return
     if not a.dir or not a.campaign:
         ap.error("give DIR and --campaign (or --list)")
-    write_campaign(a.dir, a.campaign, a.seed)
+    extra = {}
+    for spec in a.effect:
+        name, _, kv = spec.partition(":")
+        if name not in ("sensor", "actuator", "normal", "aging", "screw", "track"):
+            ap.error(f"--effect {spec}: unknown effect {name!r}")
+        vals = {}
+        for item in filter(None, kv.split(",")):
+            k, _, v = item.partition("=")
+            try:
+                vals[k.strip()] = float(v)
+            except ValueError:
+                ap.error(f"--effect {spec}: {k.strip()} = {v!r} is not a number")
+        extra[name] = vals
+    write_campaign(a.dir, a.campaign, a.seed, extra=extra)
 
 
 if __name__ == "__main__":
