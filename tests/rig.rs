@@ -350,9 +350,13 @@ fn make_extra(name: &str, dir: &std::path::Path, seed: u64, effects: &[String]) 
 /// The detection limits of the first rig's effect-free small campaign, checked on the rig's own
 /// ageing (the slip law, where the library's is Dieterich's ageing law): injected at twice the
 /// stated `b` over `RIG_LIMIT_DRAWS` noise draws (default 3), the diagnosis sees a gap; at half,
-/// usually not. Prints the campaign's limits and the counts.
+/// usually not. Prints the campaign's limits and the counts. A known failure at this code: the
+/// limit is stated for the library's form (the ageing law, which heals while stuck), and the
+/// slip law, which does not, stays unseen at twice it (0 of 3 at the last run; the panel's
+/// `aging-slip-law`, ten times it, is found). Limits per form of an effect family are what the
+/// assertion waits for.
 #[test]
-#[ignore = "about 8 minutes on 2 cores with three draws; run with --ignored --nocapture"]
+#[ignore = "fails at this code: a limit holds for the form it states (docs/campaigns.md); about 2 minutes on 2 cores"]
 fn rig_limits_hold_for_its_own_ageing() {
     let draws: u64 = std::env::var("RIG_LIMIT_DRAWS")
         .ok()
