@@ -369,8 +369,15 @@ fn rig_limits_hold_for_its_own_ageing() {
     for e in &d.limits.effects {
         eprintln!("  {}", e.statement);
     }
-    let l = d.limits.effects.iter().find(|e| e.effect == "aging").unwrap();
-    let b = l.limit.expect("ageing is detectable in the rig's small campaign");
+    let l = d
+        .limits
+        .effects
+        .iter()
+        .find(|e| e.effect == "aging")
+        .unwrap();
+    let b = l
+        .limit
+        .expect("ageing is detectable in the rig's small campaign");
     let opts = DiagnoseOptions {
         limits: false,
         ..DiagnoseOptions::default()
@@ -387,7 +394,8 @@ fn rig_limits_hold_for_its_own_ageing() {
             named += usize::from(r.best_effect == Some(stickslip::model::EffectKind::Aging));
             // Never a confident wrong cause.
             assert!(
-                r.best_effect.is_none_or(|e| e == stickslip::model::EffectKind::Aging)
+                r.best_effect
+                    .is_none_or(|e| e == stickslip::model::EffectKind::Aging)
                     || r.partial,
                 "b = {}: named {:?}",
                 factor * b,
