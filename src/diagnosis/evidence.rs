@@ -83,6 +83,35 @@ impl Evidence {
     }
 }
 
+/// The recordings two models' per-recording gaps both define (finite, over residuals).
+fn paired(a: &[f64], a_n: &[usize], b: &[f64], b_n: &[usize]) -> Vec<usize> {
+    (0..a.len().min(b.len()))
+        .filter(|&i| {
+            a[i].is_finite()
+                && b[i].is_finite()
+                && a_n.get(i).is_some_and(|&k| k > 0)
+                && b_n.get(i).is_some_and(|&k| k > 0)
+        })
+        .collect()
+}
+
+/// The jackknife over the recordings `idx` of a statistic `stat(skip)` (`skip`: the recording
+/// left out): its standard error and the smallest value with one recording left out (both NaN
+/// with fewer than two recordings).
+fn jackknife(idx: &[usize], stat: impl Fn(Option<usize>) -> f64) -> (f64, f64) {
+    let n = idx.len();
+    if n < 2 {
+        return (f64::NAN, f64::NAN);
+    }
+    let jack: Vec<f64> = idx.iter().map(|&i| stat(Some(i))).collect();
+    let mean = jack.iter().sum::<f64>() / n as f64;
+    let var = (n - 1) as f64 / n as f64 * jack.iter().map(|j| (j - mean).powi(2)).sum::<f64>();
+    (
+        var.sqrt(),
+        jack.iter().copied().fold(f64::INFINITY, f64::min),
+    )
+}
+
 /// The held-out evidence for model A (per-recording held-out gaps `a`, each over `a_n`
 /// residuals) against model B (`b`, `b_n`), A having `extra` more parameters than B. The
 /// held-out residuals of a model in recording `i` are taken as Gaussian with the model's own
@@ -93,14 +122,7 @@ impl Evidence {
 /// independent: the standard error is therefore the jackknife over recordings (leave one
 /// recording out), and a preference that one recording carries has a large one.
 pub fn evidence(a: &[f64], a_n: &[usize], b: &[f64], b_n: &[usize], extra: f64) -> Evidence {
-    let idx: Vec<usize> = (0..a.len().min(b.len()))
-        .filter(|&i| {
-            a[i].is_finite()
-                && b[i].is_finite()
-                && a_n.get(i).is_some_and(|&k| k > 0)
-                && b_n.get(i).is_some_and(|&k| k > 0)
-        })
-        .collect();
+    let idx = paired(a, a_n, b, b_n);
     let n = idx.len();
     let penalty = PARAM_NATS * extra;
     // Each recording's term: its residuals' log-likelihood ratio, `n_i ln(E_B,i/E_A,i)`.
@@ -116,17 +138,7 @@ pub fn evidence(a: &[f64], a_n: &[usize], b: &[f64], b_n: &[usize], extra: f64) 
             - penalty
     };
     let full = ln_odds(None);
-    let (stderr, least_left_out) = if n < 2 {
-        (f64::NAN, f64::NAN)
-    } else {
-        let jack: Vec<f64> = idx.iter().map(|&i| ln_odds(Some(i))).collect();
-        let mean = jack.iter().sum::<f64>() / n as f64;
-        let var = (n - 1) as f64 / n as f64 * jack.iter().map(|j| (j - mean).powi(2)).sum::<f64>();
-        (
-            var.sqrt(),
-            jack.iter().copied().fold(f64::INFINITY, f64::min),
-        )
-    };
+    let (stderr, least_left_out) = jackknife(&idx, ln_odds);
     Evidence {
         ln_odds: full,
         stderr,
@@ -185,14 +197,7 @@ impl GapOrder {
 /// The held-out gaps of model A (per-recording gaps `a` over `a_n` residuals) and model B,
 /// pooled over the recordings both define, with the jackknife error of their difference.
 pub fn gap_order(a: &[f64], a_n: &[usize], b: &[f64], b_n: &[usize]) -> GapOrder {
-    let idx: Vec<usize> = (0..a.len().min(b.len()))
-        .filter(|&i| {
-            a[i].is_finite()
-                && b[i].is_finite()
-                && a_n.get(i).is_some_and(|&k| k > 0)
-                && b_n.get(i).is_some_and(|&k| k > 0)
-        })
-        .collect();
+    let idx = paired(a, a_n, b, b_n);
     let pooled = |x: &[f64], n: &[usize], skip: Option<usize>| {
         let (s, m) = idx
             .iter()
@@ -207,18 +212,10 @@ pub fn gap_order(a: &[f64], a_n: &[usize], b: &[f64], b_n: &[usize]) -> GapOrder
         }
     };
     let diff = |skip| pooled(b, b_n, skip) - pooled(a, a_n, skip);
-    let k = idx.len();
-    let stderr = if k < 2 {
-        f64::NAN
-    } else {
-        let jack: Vec<f64> = idx.iter().map(|&i| diff(Some(i))).collect();
-        let mean = jack.iter().sum::<f64>() / k as f64;
-        ((k - 1) as f64 / k as f64 * jack.iter().map(|j| (j - mean).powi(2)).sum::<f64>()).sqrt()
-    };
     GapOrder {
         gap_a: pooled(a, a_n, None),
         gap_b: pooled(b, b_n, None),
-        stderr,
-        recordings: k,
+        stderr: jackknife(&idx, diff).0,
+        recordings: idx.len(),
     }
 }

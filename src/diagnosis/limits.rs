@@ -54,7 +54,9 @@
 use super::evidence::SIGNIFICANT_GAP;
 use super::features::Feature;
 use super::features::{FEATURES, FeatureSet, N_FEATURES, noise_sd};
-use super::fit::{self, FitResult, Model, Target, fill_r, sigma, simulate, trace_features, zscore};
+use super::fit::{
+    self, FitResult, Model, Target, difference, fill_r, sigma, simulate, trace_features, zscore,
+};
 use super::folds::{CrossValidated, concentrated, summarise};
 use super::model::neutral;
 use crate::campaign::Solvers;
@@ -323,6 +325,19 @@ impl Limits {
     }
 }
 
+/// How one row of the signature is found (`Pipeline::signature`).
+#[derive(Clone, Copy)]
+enum Row {
+    /// The measurement shifted by the prediction's change.
+    Shifted,
+    /// A harmonic the effect attenuates into the noise: not measured under it.
+    Unmeasured,
+    /// The noise-free change alone (the pipeline does not record it without the effect).
+    Fallback,
+    /// A run failed: the row says nothing.
+    Failed,
+}
+
 /// The campaign as the limits measure it: each recording's noise, and the model in hand's
 /// traces recorded through the campaign's own pipeline with that noise, so that an effect's
 /// signature is what the campaign's measurement of it would show (a harmonic's phase that the
@@ -436,14 +451,14 @@ impl<'t, 'a> Pipeline<'t, 'a> {
         for (u, m) in all.measured.iter().enumerate() {
             // The measurement shifted by the effect, feature by feature.
             let mut shifted = m.clone();
-            let mut state = [0u8; N_FEATURES]; // 0 shifted, 1 unmeasured, 2 fallback, 3 failed
+            let mut state = [Row::Shifted; N_FEATURES];
             for f in FEATURES {
                 let i = f as usize;
                 if !m.value[i].is_finite() {
                     continue;
                 }
                 let (Some(a), Some(b)) = (&self.f0[u], &fs[u]) else {
-                    state[i] = 3;
+                    state[i] = Row::Failed;
                     continue;
                 };
                 // The shift is the prediction's, noise-free (a noisy record would add the
@@ -451,21 +466,14 @@ impl<'t, 'a> Pipeline<'t, 'a> {
                 // a harmonic is still measured under the effect and how its error changes.
                 let (p0, ps) = (self.p0[u].value[i], clean[u].value[i]);
                 if !(p0.is_finite() && ps.is_finite()) {
-                    state[i] = 2;
+                    state[i] = Row::Fallback;
                     continue;
                 }
                 if f.is_harmonic() && a.value[i].is_finite() && !b.value[i].is_finite() {
-                    state[i] = 1;
+                    state[i] = Row::Unmeasured;
                     continue;
                 }
-                let shift = if f.is_phase() {
-                    let tau = std::f64::consts::TAU;
-                    let w = (ps - p0).rem_euclid(tau);
-                    if w > 0.5 * tau { w - tau } else { w }
-                } else {
-                    ps - p0
-                };
-                shifted.value[i] = m.value[i] + shift;
+                shifted.value[i] = m.value[i] + difference(f, ps, p0);
                 let (e0, es) = (a.stderr[i], b.stderr[i]);
                 if f.is_harmonic()
                     && e0.is_finite()
@@ -482,7 +490,7 @@ impl<'t, 'a> Pipeline<'t, 'a> {
                     continue;
                 };
                 match state[i] {
-                    0 => {
+                    Row::Shifted => {
                         let z1 = zscore(&shifted, &self.p0[u], f).unwrap_or(z);
                         let (s0, s1) = (sigma(m, &self.p0[u], f), sigma(&shifted, &self.p0[u], f));
                         let ratio = if s0 > 0.0 && s1 > 0.0 { s0 / s1 } else { 1.0 };
@@ -490,11 +498,11 @@ impl<'t, 'a> Pipeline<'t, 'a> {
                         d.push(if ok { z1 - ratio * z } else { 0.0 });
                         k.push(if ok { ratio } else { 1.0 });
                     }
-                    1 => {
+                    Row::Unmeasured => {
                         d.push(f64::NAN);
                         k.push(f64::NAN);
                     }
-                    2 => {
+                    Row::Fallback => {
                         // The pipeline cannot record it without the effect either: the
                         // noise-free change of the prediction stands in.
                         let zs = zscore(m, &clean[u], f).unwrap_or(z);
@@ -502,7 +510,7 @@ impl<'t, 'a> Pipeline<'t, 'a> {
                         d.push(if ok { z - zs } else { 0.0 });
                         k.push(1.0);
                     }
-                    _ => {
+                    Row::Failed => {
                         failed += 1;
                         d.push(0.0);
                         k.push(1.0);

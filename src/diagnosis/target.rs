@@ -401,15 +401,18 @@ pub fn zscore(m: &FeatureSet, p: &FeatureSet, f: Feature) -> Option<f64> {
         });
     }
     let sigma = sigma(m, p, f);
-    let d = if f.is_phase() {
-        // Angles: the difference wrapped to (−π, π].
+    Some(difference(f, pv, mv) / sigma)
+}
+
+/// `a − b` of a feature, wrapped to (−π, π] where the feature is an angle.
+pub fn difference(f: Feature, a: f64, b: f64) -> f64 {
+    if f.is_phase() {
         let tau = std::f64::consts::TAU;
-        let w = (pv - mv).rem_euclid(tau);
+        let w = (a - b).rem_euclid(tau);
         if w > 0.5 * tau { w - tau } else { w }
     } else {
-        pv - mv
-    };
-    Some(d / sigma)
+        a - b
+    }
 }
 
 /// The scale of a feature's standardised difference ([`zscore`]): the measurement's and the
