@@ -187,7 +187,7 @@ pub fn calibrate(a: &CalibrateArgs) -> Result<Calibrated, AppError> {
         None => base,
         Some(k) => {
             // Fitted from each of the scan's starts; the lowest gap is kept (the first of equals).
-            diagnosis::fit::starts(&target, &base, k)
+            diagnosis::fit::starts(&target, &base, k, k.default_form())
                 .iter()
                 .map(|start| diagnosis::fit::fit(&target, start, &[k], opts))
                 .reduce(|a, b| if b.gap < a.gap { b } else { a })

@@ -427,6 +427,14 @@ pub fn apply_effects(doc: &Doc, table: &toml::Table, fx: &mut Effects) -> Result
         fx.enable(kind);
         let sec = format!("effects.{name}");
         for (k, v) in t {
+            // A form by name: `form = "velocity"`.
+            if let toml::Value::String(name) = v
+                && k == effects::form_param(kind)
+            {
+                fx.set_form(kind, name)
+                    .map_err(|e| doc.err(&sec, k, e.to_string()))?;
+                continue;
+            }
             let x = doc.number(&sec, k, v)?;
             fx.set(kind, k, x)
                 .map_err(|e| doc.err(&sec, k, e.to_string()))?;

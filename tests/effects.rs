@@ -534,3 +534,137 @@ fn effect_parameters_are_bounded() {
         "{err}"
     );
 }
+
+/// Each effect's forms against their defining equations: the load swing of each form of
+/// `normal_coupling`, the one-pole actuator's gain, the rational Stribeck curve, the lag over
+/// slip distance, Ruina's slip law and the fourth-order sensor's lag on a ramp.
+#[test]
+fn effect_forms_follow_their_equations() {
+    use stickslip::model::effects::{NORMAL_REFERENCE_AMPLITUDE, NORMAL_REFERENCE_FREQUENCY};
+    let p = Params {
+        f: 2000.0,
+        u0: 2e-7,
+        ..Params::default()
+    };
+    let k_n = 3e7;
+    let q = p.f / NORMAL_REFERENCE_FREQUENCY;
+    for (form, swing) in [
+        ("displacement", k_n * p.u0),
+        ("velocity", k_n * p.u0 * q),
+        ("acceleration", k_n * p.u0 * q * q),
+        ("fixed", k_n * NORMAL_REFERENCE_AMPLITUDE),
+    ] {
+        let rig = Rig::with_effects(
+            p,
+            &fx(&format!("normal_coupling:k_n={k_n},phase=90,form={form}")),
+        )
+        .unwrap();
+        let scaled = limits_scaled(p, 1.0 + swing / p.f_n);
+        for (v, s) in [(1e-3, 1.0e-7), (0.0, 1.2e-7)] {
+            let y = state(&rig, 0.0, v, s);
+            let (a, b) = (friction(&rig, 0.0, &y), friction(&scaled, 0.0, &y));
+            assert!((a - b).abs() < 1e-9 * b.abs().max(1.0), "{form}: {a} vs {b}");
+        }
+    }
+    // A fixed swing needs the vibration on.
+    let still = Params { u0: 0.0, ..p };
+    let rig = Rig::with_effects(still, &fx("normal_coupling:k_n=3e7,form=fixed")).unwrap();
+    let y = state(&rig, 0.0, 1e-3, 1e-7);
+    let base = Rig::new(still).unwrap();
+    assert!((friction(&rig, 0.0, &y) - friction(&base, 0.0, &y)).abs() < 1e-12);
+
+    // One pole: A = 1/√(1 + (f/f_r)²).
+    let f_r = 1500.0;
+    let rig =
+        Rig::with_effects(p, &fx(&format!("actuator_response:f_r={f_r},form=first_order"))).unwrap();
+    let gain = 1.0 / (1.0 + (p.f / f_r).powi(2)).sqrt();
+    assert!((rig.substrate_velocity(0.0) / (gain * p.v_a()) - 1.0).abs() < 1e-12);
+
+    // Rational Stribeck curve in steady sliding: F_c + (F_s − F_c)/(1 + |v/v_s|^δ).
+    let p0 = Params::default();
+    let delta = 2.0;
+    let rig = Rig::with_effects(p0, &fx("stribeck_shape:delta=2,form=rational")).unwrap();
+    for v in [0.5 * p0.v_s, p0.v_s, 3.0 * p0.v_s] {
+        let ss = p0.f_c + (p0.f_s - p0.f_c) / (1.0 + (v / p0.v_s).powf(delta));
+        let y = state(&rig, 0.0, v, ss / p0.k_t);
+        assert!((friction(&rig, 0.0, &y) - ss).abs() < 1e-9, "v = {v}");
+    }
+
+    // Lag over slip distance L: w' = |v_r| (v_r − w)/L, frozen where the contact sticks.
+    let l = 2e-6;
+    let rig = Rig::with_effects(p0, &fx(&format!("frictional_lag:length={l},form=distance"))).unwrap();
+    let mut dy = vec![0.0; rig.dim()];
+    let v = 2e-3;
+    let mut y = state(&rig, 0.0, v, 1e-7);
+    y[3] = 0.5e-3;
+    rig.rhs(0.0, &y, &mut dy);
+    assert!((dy[3] - v * (v - 0.5e-3) / l).abs() < 1e-9 * dy[3].abs());
+    let y = state(&rig, 0.0, 0.0, 1e-7);
+    let mut y = y;
+    y[3] = 0.5e-3;
+    rig.rhs(0.0, &y, &mut dy);
+    assert_eq!(dy[3], 0.0);
+
+    // Ruina's slip law: θ' = −x ln x, x = |v_r| θ/D_c; no change at rest.
+    let (theta, d_c) = (0.02, 1e-6);
+    let rig = Rig::with_effects(p0, &fx(&format!("aging:b=0.05,d_c={d_c},form=slip_law"))).unwrap();
+    for v in [1e-5, 1e-4, 1e-3] {
+        let mut y = state(&rig, 0.0, v, 1e-7);
+        y[3] = theta;
+        rig.rhs(0.0, &y, &mut dy);
+        let x = v * theta / d_c;
+        assert!((dy[3] + x * x.ln()).abs() < 1e-9 * (x * x.ln()).abs(), "v = {v}");
+    }
+    let mut y = state(&rig, 0.0, 0.0, 1e-7);
+    y[3] = theta;
+    rig.rhs(0.0, &y, &mut dy);
+    assert_eq!(dy[3], 0.0);
+}
+
+/// Two second-order sections in cascade lag a ramp by the sum of their lags, `2 ζ/ω_n` and
+/// `2 (1 + √2) ζ/ω_n`, once the transient has died.
+#[test]
+fn fourth_order_sensor_lags_a_ramp_by_both_sections() {
+    let p = Params {
+        k_d: 10_000.0,
+        v_d: 1e-3,
+        ..Params::default()
+    };
+    let (f_n, zeta) = (60.0, 0.383);
+    let e = fx(&format!("sensor_dynamics:f_n={f_n},zeta={zeta},form=order4"));
+    let o = RunOptions {
+        method: Method::Rodas4,
+        t_end: Some(0.6),
+        trace: true,
+        ..full_model()
+    };
+    let r = simulate_with(&p, &e, &o, &mut Solver::new(Method::Rodas4)).unwrap();
+    let tr = r.trace.unwrap();
+    let w = std::f64::consts::TAU * f_n;
+    let lag = 2.0 * zeta / w + 2.0 * (1.0 + std::f64::consts::SQRT_2) * zeta / w;
+    for i in 0..tr.t.len() {
+        let t = tr.t[i];
+        if t > 0.25 {
+            let true_force = p.k_d * (p.v_d * t - tr.x_s[i]);
+            let want = true_force - p.k_d * p.v_d * lag;
+            assert!((tr.f_d[i] - want).abs() < 2e-3, "t = {t}: {} vs {want}", tr.f_d[i]);
+        }
+    }
+}
+
+/// Forms are named in specs and files; a name the effect lacks, or a form value that is not
+/// one of its forms, is refused with the allowed ones.
+#[test]
+fn forms_are_set_by_name_and_checked() {
+    let e = fx("sensor_dynamics:form=order4,f_n=420");
+    assert_eq!(e.form(EffectKind::SensorDynamics).unwrap().name, "order4");
+    assert!(e.describe().contains("form=order4"), "{}", e.describe());
+    let mut e = Effects::none();
+    let err = e.apply_spec("normal_coupling:form=jerk").unwrap_err().to_string();
+    assert!(err.contains("jerk") && err.contains("acceleration (2)"), "{err}");
+    let err = e.apply_spec("aging:form=0.5").unwrap_err().to_string();
+    assert!(err.contains("aging.form = 0.5"), "{err}");
+    // A form's unused parameter is not described.
+    let e = fx("frictional_lag:form=distance,length=1e-6");
+    assert!(!e.describe().contains("tau"), "{}", e.describe());
+}

@@ -2,7 +2,7 @@
 //! sampling rate, over a design of conditions like the paper's tests.
 
 use super::{CampaignError, Recording, Solvers, simulate_grid, write_recording};
-use crate::model::effects::actuator_gain;
+use crate::model::effects::{amplitude_gain, load_swing};
 use crate::model::{EffectKind, Effects, Params};
 use crate::sim;
 use rand::{RngExt, SeedableRng, rngs::StdRng};
@@ -166,7 +166,8 @@ impl SynthSpec {
         if let Some(k_n) = self.effects.get(EffectKind::NormalCoupling, "k_n")
             && let Some((name, p, u)) = self.largest_amplitude()
         {
-            let cap = MAX_LOAD_SWING * p.f_n / u;
+            let per = self.swing_per_k_n(&p, u);
+            let cap = MAX_LOAD_SWING * p.f_n / per;
             if k_n > cap {
                 return Err(SynthError {
                     field: "effect",
@@ -174,7 +175,7 @@ impl SynthSpec {
                     allowed: format!(
                         "normal_coupling's k_n at most {cap:.3e} N/m with this design and load: at recording {name} (substrate amplitude {u:.3e} m, F_N = {} N) it swings the normal load by {:.0} % of F_N, more than {:.0} % (the body lifts off at 100 %, which the model does not describe)",
                         p.f_n,
-                        100.0 * k_n * u / p.f_n,
+                        100.0 * k_n * per / p.f_n,
                         100.0 * MAX_LOAD_SWING
                     ),
                 });
@@ -186,26 +187,35 @@ impl SynthSpec {
     /// The vibrated recording whose substrate amplitude is largest against its load, with its
     /// conditions and that amplitude \[m\]: `u0` times the injected actuator's gain at the
     /// recording's frequency, as the rig moves the substrate (1 without the actuator).
+    /// (The largest swing of the load against it, for the form of `normal_coupling` injected:
+    /// the displacement's, the velocity's or the acceleration's, or a fixed one.)
     fn largest_amplitude(&self) -> Option<(String, Params, f64)> {
-        let gain = |f: f64| match (
-            self.effects.get(EffectKind::ActuatorResponse, "f_r"),
-            self.effects.get(EffectKind::ActuatorResponse, "zeta"),
-        ) {
-            (Some(f_r), Some(zeta)) => actuator_gain(f, f_r, zeta),
-            _ => 1.0,
-        };
+        let gain = |f: f64| amplitude_gain(&self.effects, f);
         self.conditions()
             .into_iter()
             .filter(|(_, p)| p.u0 > 0.0)
             .map(|(name, p)| (name, p, p.u0 * gain(p.f)))
-            .max_by(|a, b| (a.2 / a.1.f_n).total_cmp(&(b.2 / b.1.f_n)))
+            .max_by(|a, b| {
+                (self.swing_per_k_n(&a.1, a.2) / a.1.f_n)
+                    .total_cmp(&(self.swing_per_k_n(&b.1, b.2) / b.1.f_n))
+            })
+    }
+
+    /// Normal-load swing \[N\] per N/m of `k_n` at substrate amplitude `u` \[m\] in the
+    /// conditions `p`, in the injected form of `normal_coupling` (the displacement's without it).
+    fn swing_per_k_n(&self, p: &Params, u: f64) -> f64 {
+        let form = self
+            .effects
+            .get(EffectKind::NormalCoupling, "form")
+            .unwrap_or(0.0);
+        load_swing(1.0, form, p.f, u)
     }
 
     /// The largest load modulation `k_n` \[N/m\] the design allows ([`MAX_LOAD_SWING`] at its
     /// largest amplitude); `None` without vibrated recordings.
     pub fn k_n_cap(&self) -> Option<f64> {
         self.largest_amplitude()
-            .map(|(_, p, u)| MAX_LOAD_SWING * p.f_n / u)
+            .map(|(_, p, u)| MAX_LOAD_SWING * p.f_n / self.swing_per_k_n(&p, u))
     }
 
     /// The conditions of every recording, with names.

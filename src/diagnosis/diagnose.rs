@@ -81,6 +81,7 @@ use super::folds::*;
 use super::limits::{self, Limits};
 use crate::campaign::{Campaign, CampaignError};
 use crate::model::EffectKind;
+use crate::model::effects::form_param;
 use faer::Mat;
 use rayon::prelude::*;
 
@@ -102,6 +103,7 @@ fn try_candidate(
     from_cv: &CrossValidated,
     with: &[EffectKind],
     k: EffectKind,
+    form: f64,
     e0: f64,
     fold: &[usize],
     k_folds: usize,
@@ -109,16 +111,24 @@ fn try_candidate(
     opts: FitOptions,
 ) -> Ranked {
     let clock = std::time::Instant::now();
-    let start = fit::starts(all, from, k);
+    let start = fit::starts(all, from, k, form);
     let mut effects = with.to_vec();
     effects.push(k);
-    let extra = fit::effect_params(&effects) - from.effect_params;
+    let extra = fit::effect_params(&effects, &start[0].effects) - from.effect_params;
+    let form = k.form_of(form);
+    let name = match form {
+        Some(f) if f.value != k.default_form() => format!("{k}[{}]", f.name),
+        _ => k.name().to_string(),
+    };
     // Never worse on the calibration data than the model it extends: at its neutral value the
     // candidate is that model, so a fit that ends worse reports that model's results; and a
     // fit that moves the gap by less than UNCHANGED is that model to within the held-out
     // check's resolution: its results too.
     let as_from = || Ranked {
         effect: k,
+        form,
+        name: name.clone(),
+        form_charge: 0.0,
         score: from_cv.gap * (1.0 + PARAM_PENALTY * extra as f64),
         reduction: (e0 - from_cv.gap) / e0,
         gap_after: from_cv.gap,
@@ -215,6 +225,9 @@ fn try_candidate(
     let cv = cross_validate(all, &f, &start[0], fold, k_folds, checked);
     Ranked {
         effect: k,
+        form,
+        name,
+        form_charge: 0.0,
         score: cv.gap * (1.0 + PARAM_PENALTY * extra as f64),
         reduction: (e0 - cv.gap) / e0,
         gap_after: cv.gap,
@@ -371,7 +384,11 @@ impl<'a> Screen<'a> {
                 Some((_, refit)) => &refit.model,
                 None => from,
             };
-            let neutral = fit::prepare(sub, &fit::neutral_start(base, k), effects);
+            let form = scanned
+                .effects
+                .get(k, form_param(k))
+                .unwrap_or(k.default_form());
+            let neutral = fit::prepare(sub, &fit::neutral_start(base, k, form), effects);
             (vec![first, neutral], 1)
         }
     }
@@ -486,11 +503,15 @@ fn vetted(
     };
     // Stable: the live candidates first, the named (or tied) ones at the head, the rejected
     // last (also where none is named: the ranking's head is the best candidate not rejected).
-    let named: Vec<EffectKind> = out.iter().flatten().map(|&j| ranked[j].effect).collect();
-    ranked.sort_by_key(|r| (r.rejected.is_some(), !named.contains(&r.effect)));
+    let named: Vec<String> = out
+        .iter()
+        .flatten()
+        .map(|&j| ranked[j].name.clone())
+        .collect();
+    ranked.sort_by_key(|r| (r.rejected.is_some(), !named.contains(&r.name)));
     let mut order: Vec<usize> = named
         .iter()
-        .map(|k| ranked.iter().position(|r| r.effect == *k).unwrap())
+        .map(|n| ranked.iter().position(|r| r.name == *n).unwrap())
         .collect();
     order.sort_unstable();
     out.map(|_| order)
@@ -600,6 +621,100 @@ fn held_out_absent(r: &Ranked) -> Option<String> {
     })
 }
 
+/// The candidates of a round to try in their other forms: every form of each effect with
+/// forms whose default form passed its screen (its fit holds the effect), or of every effect
+/// with forms where no candidate qualifies (clear evidence and at least `min_share` of the
+/// gap by `share`): an effect whose default form is out of reach may be within reach in
+/// another. `(effect, form value)`, in the library's order.
+fn other_forms(
+    ranked: &[Ranked],
+    share: impl Fn(f64) -> f64,
+    min_share: f64,
+) -> Vec<(EffectKind, f64)> {
+    let none_qualifies = !ranked
+        .iter()
+        .any(|r| r.evidence.clear() && share(r.gap_after) >= min_share);
+    ranked
+        .iter()
+        .filter(|r| {
+            r.effect.info().forms.len() > 1
+                && (none_qualifies || r.fit.effects.contains(&r.effect))
+        })
+        .flat_map(|r| {
+            let k = r.effect;
+            k.info()
+                .forms
+                .iter()
+                .filter(move |f| f.value != k.default_form())
+                .map(move |f| (k, f.value))
+        })
+        .collect()
+}
+
+/// Charges every candidate of an effect tried in several forms `ln m` nats for the choice
+/// among its `m` forms ([`Ranked::form_charge`]): a uniform prior over the forms.
+pub(super) fn charge_forms(ranked: &mut [Ranked]) {
+    let kinds: Vec<EffectKind> = ranked.iter().map(|r| r.effect).collect();
+    for r in ranked.iter_mut() {
+        if kinds.iter().filter(|&&k| k == r.effect).count() > 1 {
+            let charge = (r.effect.info().forms.len() as f64).ln();
+            r.evidence = r.evidence.charged(charge);
+            r.form_charge = charge;
+        }
+    }
+}
+
+/// Where a decision's tie `t` (indices into `ranked`) holds forms of one effect only, that
+/// effect is named: its qualifying form of best evidence is moved to the head of `ranked`,
+/// and `None` is returned; else the effects tied, each once, best first.
+pub(super) fn forms_of_one(
+    ranked: &mut Vec<Ranked>,
+    t: &[usize],
+    share: impl Fn(f64) -> f64,
+    min_share: f64,
+) -> Option<Vec<EffectKind>> {
+    let mut kinds: Vec<EffectKind> = vec![];
+    for &j in t {
+        if !kinds.contains(&ranked[j].effect) {
+            kinds.push(ranked[j].effect);
+        }
+    }
+    if kinds.len() > 1 {
+        return Some(kinds);
+    }
+    let lead = t
+        .iter()
+        .copied()
+        .find(|&j| ranked[j].evidence.clear() && share(ranked[j].gap_after) >= min_share)
+        .unwrap_or(t[0]);
+    let r = ranked.remove(lead);
+    ranked.insert(0, r);
+    None
+}
+
+/// The form chosen for the named candidate `ranked[0]` among the forms of its effect in
+/// `ranked`, where it has forms.
+pub(super) fn form_choice(ranked: &[Ranked]) -> Option<FormChoice> {
+    let named = ranked.first()?;
+    let form = named.form?;
+    let others: Vec<&Ranked> = ranked[1..]
+        .iter()
+        .filter(|r| r.effect == named.effect)
+        .collect();
+    Some(FormChoice {
+        effect: named.effect,
+        form: form.name,
+        tried: std::iter::once(form.name)
+            .chain(others.iter().filter_map(|r| r.form.map(|f| f.name)))
+            .collect(),
+        not_excluded: others
+            .iter()
+            .filter(|r| r.rejected.is_none() && !between(named, r).clear())
+            .filter_map(|r| r.form.map(|f| f.name))
+            .collect(),
+    })
+}
+
 /// Diagnoses a campaign. A campaign none of whose recordings can be checked on held-out data
 /// (no kind of condition recorded at two drives) is refused: it names what is missing.
 pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, CampaignError> {
@@ -631,30 +746,50 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
     } else {
         &opts.candidates
     };
+    // Where only a concentrated feature makes the gap significant, shares are of the gap
+    // beyond noise (1): a whole gap of 1.3 cannot fall by more than 23 % of itself.
+    let noise = if gap_before >= SIGNIFICANT_GAP {
+        0.0
+    } else {
+        NOISE_GAP
+    };
+    let share = |e1: f64| (gap_before - e1) / (gap_before - noise).max(0.1 * gap_before);
+    let first_share = share;
     // Candidates in parallel (each fit's simulations too): they are independent and
     // deterministic, so the ranking does not depend on the thread count.
     let mut ranking: Vec<Ranked> = if fitted.is_empty() {
         vec![]
     } else {
         let screen = Screen::of(&all, &base, fo);
-        fitted
-            .par_iter()
-            .map(|&k| {
-                try_candidate(
-                    &all,
-                    &screen,
-                    &base,
-                    &base_cv,
-                    &[],
-                    k,
-                    gap_before,
-                    &fold,
-                    k_folds,
-                    &checked,
-                    fo,
-                )
-            })
-            .collect()
+        let round = |cands: &[(EffectKind, f64)]| -> Vec<Ranked> {
+            cands
+                .par_iter()
+                .map(|&(k, form)| {
+                    try_candidate(
+                        &all,
+                        &screen,
+                        &base,
+                        &base_cv,
+                        &[],
+                        k,
+                        form,
+                        gap_before,
+                        &fold,
+                        k_folds,
+                        &checked,
+                        fo,
+                    )
+                })
+                .collect()
+        };
+        let defaults: Vec<(EffectKind, f64)> =
+            fitted.iter().map(|&k| (k, k.default_form())).collect();
+        let mut ranked = round(&defaults);
+        // How the effects in reach scale: their other forms, fitted as candidates of their own.
+        let others = other_forms(&ranked, first_share, MIN_PARTIAL);
+        ranked.extend(round(&others));
+        charge_forms(&mut ranked);
+        ranked
     };
     // Best evidence first (ties by the informative score, then the library's order).
     let by_evidence = |a: &Ranked, b: &Ranked| {
@@ -664,14 +799,6 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
             .then(a.score.total_cmp(&b.score))
     };
     ranking.sort_by(by_evidence);
-    // Where only a concentrated feature makes the gap significant, shares are of the gap
-    // beyond noise (1): a whole gap of 1.3 cannot fall by more than 23 % of itself.
-    let noise = if gap_before >= SIGNIFICANT_GAP {
-        0.0
-    } else {
-        NOISE_GAP
-    };
-    let share = |e1: f64| (gap_before - e1) / (gap_before - noise).max(0.1 * gap_before);
     let mut warnings: Vec<String> = fit::base_at_bounds(&base)
         .into_iter()
         .map(|b| format!("the base calibration ends on a bound of its range ({b}): the base model has not found this rig's values, and every comparison with it is weaker for it"))
@@ -697,13 +824,20 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
             &mut disagreements,
         ) {
             None => Verdict::Unexplained,
-            Some(t) if t.len() > 1 => {
-                tie = t.iter().map(|&j| ranking[j].effect).collect();
-                Verdict::Tie
-            }
+            Some(t) if t.len() > 1 => match forms_of_one(&mut ranking, &t, share, MIN_PARTIAL) {
+                Some(kinds) => {
+                    tie = kinds;
+                    Verdict::Tie
+                }
+                None => Verdict::Effect,
+            },
             Some(_) => Verdict::Effect,
         }
     };
+    let mut forms: Vec<FormChoice> = vec![];
+    if verdict == Verdict::Effect {
+        forms.extend(form_choice(&ranking));
+    }
     let breadth = ranking.first().map_or(0.0, |b| {
         breadth_of(&base_cv.per_recording, &b.per_recording)
     });
@@ -781,28 +915,39 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
         }
         if first_settled && first_cv.gap >= SIGNIFICANT_GAP {
             let second_screen = Screen::of(&all, &first_fit, fo);
-            second = opts
+            let round = |cands: &[(EffectKind, f64)]| -> Vec<Ranked> {
+                cands
+                    .par_iter()
+                    .map(|&(k, form)| {
+                        try_candidate(
+                            &all,
+                            &second_screen,
+                            &first_fit,
+                            &first_cv,
+                            &[first.effect],
+                            k,
+                            form,
+                            first_cv.gap,
+                            &fold,
+                            k_folds,
+                            &checked,
+                            fo,
+                        )
+                    })
+                    .collect()
+            };
+            let defaults: Vec<(EffectKind, f64)> = opts
                 .candidates
-                .par_iter()
+                .iter()
                 .filter(|&&k| k != first.effect)
-                .map(|&k| {
-                    try_candidate(
-                        &all,
-                        &second_screen,
-                        &first_fit,
-                        &first_cv,
-                        &[first.effect],
-                        k,
-                        first_cv.gap,
-                        &fold,
-                        k_folds,
-                        &checked,
-                        fo,
-                    )
-                })
+                .map(|&k| (k, k.default_form()))
                 .collect();
-            second.sort_by(by_evidence);
             let first_share = |e2: f64| (first_cv.gap - e2) / first_cv.gap;
+            second = round(&defaults);
+            let others = other_forms(&second, first_share, MIN_SECOND);
+            second.extend(round(&others));
+            charge_forms(&mut second);
+            second.sort_by(by_evidence);
             let first_side = Side {
                 name: first.effect.name(),
                 per_recording: &first_cv.per_recording,
@@ -822,12 +967,22 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
             // A second effect's disagreements are named as extensions of the first.
             disagreements.extend(found.into_iter().map(|mut d| {
                 for n in [&mut d.by_evidence, &mut d.by_gap] {
-                    if n != first.effect.name() {
-                        *n = format!("{} + {n}", first.effect.name());
+                    if *n != first.name {
+                        *n = format!("{} + {n}", first.name);
                     }
                 }
                 d
             }));
+            // Forms of one effect tied: that effect.
+            let decided = match decided {
+                Some(t) if t.len() > 1 => {
+                    match forms_of_one(&mut second, &t, first_share, MIN_SECOND) {
+                        None => Some(vec![0]),
+                        Some(_) => Some(t),
+                    }
+                }
+                d => d,
+            };
             match decided {
                 Some(t) if t.len() == 1 => {
                     let s2 = &second[0];
@@ -844,15 +999,16 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
                     }
                     named_concentrated = s2.concentrated.is_some();
                     named_fit = Some(s2.fit.clone());
+                    forms.extend(form_choice(&second));
                     effects.push(s2.effect);
                     gap_after = s2.gap_after;
                     gap_after_spread = s2.gap_spread;
                 }
                 Some(t) => warnings.push(format!(
                     "a second effect acts beside {}, but the data cannot tell which: {}",
-                    first.effect.name(),
+                    first.name,
                     t.iter()
-                        .map(|&j| second[j].effect.name())
+                        .map(|&j| second[j].name.as_str())
                         .collect::<Vec<_>>()
                         .join(", ")
                 )),
@@ -917,6 +1073,7 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
         evidence: evidence_best,
         evidence_runner_up,
         tie,
+        forms,
         warnings,
         bounds: all.bounds.clone(),
         base_per_feature: base_cv.per_feature.iter().map(|p| p.0).collect(),

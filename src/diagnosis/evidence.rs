@@ -112,6 +112,18 @@ fn jackknife(idx: &[usize], stat: impl Fn(Option<usize>) -> f64) -> (f64, f64) {
     )
 }
 
+impl Evidence {
+    /// The evidence with `nats` more charged against the first model (a choice it made that
+    /// the other did not: its form among `m`, `ln m` nats).
+    pub fn charged(self, nats: f64) -> Evidence {
+        Evidence {
+            ln_odds: self.ln_odds - nats,
+            least_left_out: self.least_left_out - nats,
+            ..self
+        }
+    }
+}
+
 /// The held-out evidence for model A (per-recording held-out gaps `a`, each over `a_n`
 /// residuals) against model B (`b`, `b_n`), A having `extra` more parameters than B. The
 /// held-out residuals of a model in recording `i` are taken as Gaussian with the model's own

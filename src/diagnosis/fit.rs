@@ -18,8 +18,8 @@
 
 use super::features::Feature;
 use crate::campaign::Recording;
-use crate::model::effects::actuator_gain;
-use crate::model::{EffectKind, Params};
+use crate::model::effects::{actuator_gain, first_order_gain, form_param};
+use crate::model::{EffectKind, Effects, Params};
 use crate::sweep::spec::logspace;
 use faer::Mat;
 use faer::linalg::solvers::{Solve, SolveLstsq};
@@ -32,7 +32,7 @@ pub use super::target::*;
 /// log scale, 0.1 % of the range on a linear one) other than the end where the effect vanishes
 /// ([`neutral`]): `"effect.param = value at the lower|upper bound lo|hi unit"`, one each.
 pub fn at_bounds(bounds: &Plausible, fr: &FitResult) -> Vec<String> {
-    let cs = coords(bounds, &fr.effects);
+    let cs = coords(bounds, &fr.effects, &fr.model.effects);
     let (cs, theta): (Vec<Coord>, Vec<f64>) = cs
         .iter()
         .zip(&fr.theta)
@@ -57,7 +57,7 @@ pub fn at_bounds(bounds: &Plausible, fr: &FitResult) -> Vec<String> {
 /// log scale; `h_d = 0`, no drive damping, is a value, not a bound): `"v_s = ... at the lower
 /// bound ..."`, one each. A calibration that ends there has not found the rig's values.
 pub fn base_at_bounds(fr: &FitResult) -> Vec<String> {
-    let cs = coords(&Plausible::default(), &[]);
+    let cs = coords(&Plausible::default(), &[], &Effects::none());
     on_bounds(&cs, &fr.theta, |c, end| !c.log && end == 0.0)
 }
 
@@ -186,11 +186,11 @@ impl Start {
 /// The start of a fit of `effects` from `start` (as [`fit`]), evaluated on `target`: one
 /// evaluation, counted in the fit [`fit_from`] makes from it.
 pub fn prepare(target: &Target, start: &Model, effects: &[EffectKind]) -> Start {
-    let cs = coords(&target.bounds, effects);
     let mut model = start.clone();
     for &k in effects {
         model.effects.enable(k);
     }
+    let cs = coords(&target.bounds, effects, &model.effects);
     let theta: Vec<f64> = cs.iter().map(|c| c.get(&model)).collect();
     let at = cost_of(target, &build_model(&model, &cs, &theta));
     Start {
@@ -274,7 +274,7 @@ pub fn refine(target: &Target, fr: &FitResult, opts: FitOptions) -> FitResult {
             ..fr.clone()
         };
     }
-    let cs = coords(&target.bounds, &fr.effects);
+    let cs = coords(&target.bounds, &fr.effects, &fr.model.effects);
     let cost = fr.z.iter().map(|v| v * v).sum();
     levenberg_marquardt(
         target,
@@ -408,11 +408,11 @@ fn levenberg_marquardt(
     let model = build(&theta);
     FitResult {
         estimates: estimates(&cs, &theta, cost, &jac),
+        effect_params: effect_params(effects, &model.effects),
         model,
         gap: gap(&z),
         residuals: z.len(),
         evaluations,
-        effect_params: effect_params(effects),
         iterations: iter,
         converged,
         stalled,
@@ -480,7 +480,7 @@ pub fn with_fresh_jacobian(target: &Target, mut fr: FitResult) -> FitResult {
     if fr.jacobian_fresh || fr.z.is_empty() || !fr.gap.is_finite() {
         return fr;
     }
-    let cs = coords(&target.bounds, &fr.effects);
+    let cs = coords(&target.bounds, &fr.effects, &fr.model.effects);
     // The fitted model holds every coordinate, and its effects enabled: the template.
     fr.jacobian = fd_jacobian(target, &fr.model, &cs, &fr.theta, &fr.z, 0..cs.len());
     fr.evaluations += cs.len();
@@ -491,8 +491,8 @@ pub fn with_fresh_jacobian(target: &Target, mut fr: FitResult) -> FitResult {
 }
 
 /// Number of fitted coordinates that belong to `effects` (beside the four base parameters).
-pub fn effect_params(effects: &[EffectKind]) -> usize {
-    coords(&Plausible::default(), effects)
+pub fn effect_params(effects: &[EffectKind], fx: &Effects) -> usize {
+    coords(&Plausible::default(), effects, fx)
         .iter()
         .filter(|c| c.target.is_ok())
         .count()
@@ -593,7 +593,7 @@ pub fn refit_rows(
     first_free: usize,
     step: f64,
 ) -> Model {
-    let cs = coords(bounds, &fr.effects);
+    let cs = coords(bounds, &fr.effects, &fr.model.effects);
     let p = cs.len();
     let mut model = start.clone();
     for &k in &fr.effects {
@@ -689,15 +689,18 @@ fn scan_values(kind: EffectKind, param: &str) -> Vec<f64> {
         (K::StribeckShape, "delta") => vec![0.5, 1.0, 1.5, 3.0],
         (K::Presliding, "spread") => vec![0.3, 0.6, 0.9],
         (K::FrictionalLag, "tau") => logspace(1e-4, 1e-2, 4),
+        // A memory of 0.1 to 10 µm of slip: 0.1 to 10 ms at 1 mm/s.
+        (K::FrictionalLag, "length") => logspace(1e-7, 1e-5, 4),
         _ => vec![],
     }
 }
 
 /// `base` with `kind` switched on at its neutral values ([`neutral`]): the base model, or
 /// nearly so.
-pub fn neutral_start(base: &Model, kind: EffectKind) -> Model {
+pub fn neutral_start(base: &Model, kind: EffectKind, form: f64) -> Model {
     let mut m0 = base.clone();
     m0.effects.enable(kind);
+    let _ = m0.effects.set(kind, form_param(kind), form);
     for p in kind.info().params {
         if let Some(v) = neutral(kind, p.name) {
             let _ = m0.effects.set(kind, p.name, v);
@@ -725,8 +728,8 @@ pub fn neutral_start(base: &Model, kind: EffectKind) -> Model {
 /// holds (the load path's delay), and a start that scores better on the scan's subset can
 /// still lead the fit to a worse optimum than the grid's fewer degrees of freedom do, so
 /// `diagnose` screens the candidate from both.
-pub fn starts(target: &Target, base: &FitResult, kind: EffectKind) -> Vec<Model> {
-    let m0 = neutral_start(&base.model, kind);
+pub fn starts(target: &Target, base: &FitResult, kind: EffectKind, form: f64) -> Vec<Model> {
+    let m0 = neutral_start(&base.model, kind, form);
     let mut candidates: Vec<Model> = vec![m0.clone()];
     if kind == EffectKind::DriveRipple
         && let Some((a, lambda)) = ripple_from_drive(&target.recs)
@@ -747,7 +750,12 @@ pub fn starts(target: &Target, base: &FitResult, kind: EffectKind) -> Vec<Model>
     let from_scan = scanned.is_some().then_some(candidates.len());
     candidates.extend(scanned);
     let mut grid: Vec<Vec<(&str, f64)>> = vec![vec![]];
-    for p in kind.info().params.iter().filter(|p| p.fitted) {
+    for p in kind
+        .info()
+        .params
+        .iter()
+        .filter(|p| p.fitted && m0.effects.uses(kind, p.name))
+    {
         // The scan's values within the campaign's plausible range, its ends added where the
         // range cuts some off.
         let (lo, hi) = target.bounds.range(kind, p.name);
@@ -1010,8 +1018,11 @@ pub fn actuator_scan(sub: &Target, m0: &Model) -> Option<Model> {
     // A resonance that gives gain `g` at `f`: below `f` for g < 1 (`(f/f_r)² = 1 + 1/g`), above
     // it for g > 1 (`(f/f_r)² = 1 − 1/g`), lightly damped; the neutral start `m0` for 1. The
     // gain tabulated is the one realised (the bounds of `f_r` may cut it).
+    // The table is of gains, whatever the form; it is realised by the resonance.
+    let first_order = m0.effects.get(kind, "form") == Some(1.0);
     let realise = |f: f64, g: f64| -> Model {
         let mut m = m0.clone();
+        let _ = m.effects.set(kind, "form", 0.0);
         if g != 1.0 {
             let q2 = if g < 1.0 {
                 1.0 + 1.0 / g
@@ -1074,12 +1085,21 @@ pub fn actuator_scan(sub: &Target, m0: &Model) -> Option<Model> {
     // `f_r` in steps of at most 1 %.
     let n_f = ((f_hi / f_lo).ln() / 1.01f64.ln()).ceil() as usize;
     let mut best = (f64::INFINITY, f_hi, 1.0);
+    // One pole: the corner alone.
+    let zetas: &[f64] = if first_order { &[1.0] } else { &ZETAS };
     for f_r in logspace(f_lo, f_hi, n_f + 1) {
-        for &zeta in &ZETAS {
+        for &zeta in zetas {
+            let gain = |f: f64| {
+                if first_order {
+                    first_order_gain(f, f_r)
+                } else {
+                    actuator_gain(f, f_r, zeta)
+                }
+            };
             let c: f64 = freqs
                 .iter()
                 .zip(&tables)
-                .map(|(&f, t)| at(t, actuator_gain(f, f_r, zeta).ln()))
+                .map(|(&f, t)| at(t, gain(f).ln()))
                 .sum();
             if c < best.0 {
                 best = (c, f_r, zeta);
@@ -1088,7 +1108,9 @@ pub fn actuator_scan(sub: &Target, m0: &Model) -> Option<Model> {
     }
     let mut m = m0.clone();
     let _ = m.effects.set(kind, "f_r", best.1);
-    let _ = m.effects.set(kind, "zeta", best.2);
+    if !first_order {
+        let _ = m.effects.set(kind, "zeta", best.2);
+    }
     Some(m)
 }
 

@@ -100,7 +100,8 @@ impl Coord {
 /// The fitted coordinates: `F_s`, `F_c`, `v_s` and `h_d`, and the effects' fitted parameters.
 /// The base parameters are refitted with every effect: an effect left out of the base model
 /// is partly absorbed by them (viscous friction by the drive damping `h_d`, ageing by `F_s`).
-pub(crate) fn coords(bounds: &Plausible, effects: &[EffectKind]) -> Vec<Coord> {
+/// A parameter the effect's form in `fx` leaves unused ([`Effects::uses`]) is not fitted.
+pub(crate) fn coords(bounds: &Plausible, effects: &[EffectKind], fx: &Effects) -> Vec<Coord> {
     let base = |i: usize, name: &str, unit, log, lo: f64, hi: f64, step| Coord {
         name: name.to_string(),
         unit,
@@ -119,7 +120,7 @@ pub(crate) fn coords(bounds: &Plausible, effects: &[EffectKind]) -> Vec<Coord> {
     debug_assert_eq!(c.len(), BASE_FITTED.len());
     for &k in effects {
         for (i, p) in k.info().params.iter().enumerate() {
-            if !p.fitted {
+            if !p.fitted || !fx.uses(k, p.name) {
                 continue;
             }
             let (min, max) = bounds.range(k, p.name);
@@ -263,6 +264,7 @@ pub fn neutral(kind: EffectKind, param: &str) -> Option<f64> {
         (K::StribeckShape, "delta") => 2.0,
         (K::Presliding, "spread") => 0.0,
         (K::FrictionalLag, "tau") => 3e-5,
+        (K::FrictionalLag, "length") => 1e-7,
         _ => return None,
     })
 }
@@ -282,6 +284,8 @@ pub(crate) fn circular(kind: EffectKind, param: &str) -> bool {
 pub(crate) fn fit_range(kind: EffectKind, param: &str) -> Option<(f64, f64)> {
     match (kind, param) {
         (EffectKind::FrictionalLag, "tau") => Some((3e-5, 1.0)),
+        // 0.1 µm of slip: 25 µs at the 4 mm/s of the fastest vibrated slips.
+        (EffectKind::FrictionalLag, "length") => Some((1e-7, 1e-3)),
         (EffectKind::SensorDynamics, "f_n") => Some((10.0, 2e4)),
         _ => None,
     }

@@ -73,6 +73,14 @@ pub fn json(c: &Campaign, d: &Diagnosis) -> serde_json::Value {
             v
         }),
         "tie": d.tie.iter().map(|k| k.name()).collect::<Vec<_>>(),
+        "forms": d.forms.iter().map(|f| json!({
+            "effect": f.effect.name(),
+            "form": f.form,
+            "tried": f.tried,
+            "not_excluded": f.not_excluded,
+            "settled": f.settled(),
+            "doc": f.effect.form_named(f.form).map(|x| x.doc),
+        })).collect::<Vec<_>>(),
         "warnings": d.warnings,
         "disagreements": d.disagreements,
         "limits": d.limits,
@@ -103,6 +111,8 @@ pub fn json(c: &Campaign, d: &Diagnosis) -> serde_json::Value {
         },
         "second": d.second.iter().map(|r| json!({
             "effect": r.effect.name(),
+            "form": r.form.map(|f| f.name),
+            "form_charge": r.form_charge,
             "evidence": evidence_json(&r.evidence),
             "at_bound": r.at_bound,
             "gap_after": num(r.gap_after),
@@ -114,10 +124,12 @@ pub fn json(c: &Campaign, d: &Diagnosis) -> serde_json::Value {
             "rejected": r.rejected,
         })).collect::<Vec<_>>(),
         "rejected": d.ranking.iter().chain(&d.second).filter_map(|r| r.rejected.as_ref().map(|why| json!({
-            "effect": r.effect.name(), "reason": why,
+            "effect": r.effect.name(), "form": r.form.map(|f| f.name), "reason": why,
         }))).collect::<Vec<_>>(),
         "ranking": d.ranking.iter().map(|r| json!({
             "effect": r.effect.name(),
+            "form": r.form.map(|f| f.name),
+            "form_charge": r.form_charge,
             "per_feature": per_feature_json(&d.base_per_feature, &r.per_feature),
             "evidence": evidence_json(&r.evidence),
             "at_bound": r.at_bound,
@@ -316,7 +328,7 @@ pub fn summary(c: &Campaign, d: &Diagnosis) -> String {
         let _ = writeln!(
             s,
             "  {:<18} gap {:>7.2}  reduction {:>6.1} %  ln odds {:>7.1} ± {:<5.1} {}{}",
-            r.effect.name(),
+            r.name,
             r.gap_after,
             100.0 * r.reduction,
             r.evidence.ln_odds,
@@ -334,7 +346,7 @@ pub fn summary(c: &Campaign, d: &Diagnosis) -> String {
             s,
             "  with {:<13} + {:<18} gap {:>7.2}  further reduction {:>6.1} %",
             d.best_effect.map_or("-", |k| k.name()),
-            r.effect.name(),
+            r.name,
             r.gap_after,
             100.0 * r.reduction
         );
@@ -350,7 +362,15 @@ pub fn summary(c: &Campaign, d: &Diagnosis) -> String {
             b.reason
         );
     }
-    let names: Vec<&str> = d.effects.iter().map(|k| k.name()).collect();
+    // The named effects, each with its form where it has forms.
+    let names: Vec<String> = d
+        .effects
+        .iter()
+        .map(|k| match d.forms.iter().find(|f| f.effect == *k) {
+            Some(f) => format!("{k} (form {})", f.form),
+            None => k.name().to_string(),
+        })
+        .collect();
     let strength = match (d.evidence, d.evidence_runner_up) {
         (Some(e), Some((k, r))) => format!(
             "\nevidence: against the base model {}; against the runner-up {} {}",
@@ -411,7 +431,7 @@ pub fn summary(c: &Campaign, d: &Diagnosis) -> String {
                 .map(|r| {
                     format!(
                         "{} (cuts it by {:.0} %)",
-                        r.effect.name(),
+                        r.name,
                         100.0 * r.reduction
                     )
                 })
@@ -419,7 +439,7 @@ pub fn summary(c: &Campaign, d: &Diagnosis) -> String {
             let live = d.ranking.iter().find(|r| r.rejected.is_none());
             format!(
                 "verdict: unexplained: no candidate explains the gap (best {} cuts it by {:.0} %){}",
-                live.map_or("-", |r| r.effect.name()),
+                live.map_or("-", |r| r.name.as_str()),
                 100.0 * live.map_or(0.0, |r| r.reduction),
                 if rejected.is_empty() {
                     String::new()
@@ -433,6 +453,9 @@ pub fn summary(c: &Campaign, d: &Diagnosis) -> String {
         }
     };
     let _ = writeln!(s, "{verdict}");
+    for f in &d.forms {
+        let _ = writeln!(s, "form: {}", f.line());
+    }
     if let Some(top) = d.ranking.first().filter(|_| d.best_effect.is_some()) {
         // Where the named effect acts: the features whose held-out gap it lowers most.
         let mut moved: Vec<(&str, f64, f64)> = super::features::FEATURES
@@ -454,7 +477,7 @@ pub fn summary(c: &Campaign, d: &Diagnosis) -> String {
         let _ = writeln!(
             s,
             "where {} acts (held-out gap per feature): {}",
-            top.effect.name(),
+            top.name,
             words.join(", ")
         );
     }
@@ -465,7 +488,7 @@ pub fn summary(c: &Campaign, d: &Diagnosis) -> String {
         let _ = writeln!(
             s,
             "fingerprints of {} (beyond the fitted features):",
-            r.effect.name()
+            r.name
         );
         for c in &r.fingerprints {
             let _ = writeln!(s, "  {}", c.line());
@@ -640,7 +663,7 @@ pub fn write_h5(
         let rg = root.create_group("ranking").map_err(h5err(&tmp))?;
         for (i, r) in d.ranking.iter().enumerate() {
             let eg = rg
-                .create_group(&format!("{i:02}_{}", r.effect.name()))
+                .create_group(&format!("{i:02}_{}", r.name))
                 .map_err(h5err(&tmp))?;
             write_vec(&eg, "gap_after", &[r.gap_after], "1", "held-out gap", &tmp)?;
             write_vec(

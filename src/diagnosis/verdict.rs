@@ -6,6 +6,7 @@ use super::features::{Feature, N_FEATURES};
 use super::fingerprint;
 use super::fit::{self, FitOptions, FitResult};
 use crate::model::EffectKind;
+use crate::model::effects::Form;
 
 /// Options of a diagnosis.
 #[derive(Clone, Debug)]
@@ -41,6 +42,14 @@ impl Default for DiagnoseOptions {
 pub struct Ranked {
     /// The effect.
     pub effect: EffectKind,
+    /// Its form, where the effect has forms ([`crate::model::effects::Form`]).
+    pub form: Option<&'static Form>,
+    /// Its name in reports: the effect's, with the form in brackets where it is not the
+    /// default one (`normal_coupling[velocity]`).
+    pub name: String,
+    /// Nats charged for the choice of its form where the diagnosis tried the effect's forms
+    /// (`ln m` for `m` forms; 0 otherwise), in [`Ranked::evidence`] already.
+    pub form_charge: f64,
     /// Its fit on all recordings.
     pub fit: FitResult,
     /// Held-out gap (pooled over the folds).
@@ -244,6 +253,9 @@ pub struct Diagnosis {
     /// The candidates the data cannot tell apart, best first, with verdict [`Verdict::Tie`]
     /// (empty otherwise).
     pub tie: Vec<EffectKind>,
+    /// The form the data chose for each named effect that has forms, in the order of
+    /// [`Diagnosis::effects`].
+    pub forms: Vec<FormChoice>,
     /// What the verdict's reader must know: a named effect's parameter on a bound of its
     /// plausible range, a first effect not converged, ...
     pub warnings: Vec<String>,
@@ -279,4 +291,48 @@ pub struct Diagnosis {
     pub wall_time: f64,
     /// The simulations behind the diagnosis, with their cost.
     pub work: fit::Work,
+}
+
+/// The form a named effect takes, as the data chose it among the forms tried.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FormChoice {
+    /// The effect.
+    pub effect: EffectKind,
+    /// The form named (the best evidence among those not rejected).
+    pub form: &'static str,
+    /// Every form tried, the named one first.
+    pub tried: Vec<&'static str>,
+    /// The forms tried that it does not clearly beat (by evidence): where any is, the data
+    /// cannot tell the form, and the effect is named without it being settled.
+    pub not_excluded: Vec<&'static str>,
+}
+
+impl FormChoice {
+    /// Whether the form is settled: it clearly beats every other form tried.
+    pub fn settled(&self) -> bool {
+        self.not_excluded.is_empty() && self.tried.len() > 1
+    }
+
+    /// One line: `sensor_dynamics: form order4 (against order2: settled)`.
+    pub fn line(&self) -> String {
+        let others: Vec<&str> = self.tried[1..].to_vec();
+        if others.is_empty() {
+            return format!("{}: form {} (the only one tried)", self.effect, self.form);
+        }
+        if self.settled() {
+            format!(
+                "{}: form {}, clearly more likely than {}",
+                self.effect,
+                self.form,
+                others.join(", ")
+            )
+        } else {
+            format!(
+                "{}: form {} by evidence, but the data cannot exclude {}",
+                self.effect,
+                self.form,
+                self.not_excluded.join(", ")
+            )
+        }
+    }
 }

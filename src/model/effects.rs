@@ -88,6 +88,66 @@ pub struct EffectInfo {
     pub params: &'static [EffectParam],
     /// Whether `diagnose` tries it as an explanation of a gap.
     pub candidate: bool,
+    /// Its forms: how its strength scales with the conditions, or its order where it is a
+    /// filter ([`Form`]); empty where the library has one form. The first is the default.
+    pub forms: &'static [Form],
+}
+
+/// One form of an effect: a value of its form parameter (`form`, or `exponent` for
+/// `viscous`), with the parameters that form leaves unused (neither fitted nor reported).
+#[derive(Clone, Copy, Debug)]
+pub struct Form {
+    /// Name in files, on the command line and in reports (`form = "velocity"`).
+    pub name: &'static str,
+    /// What it means.
+    pub doc: &'static str,
+    /// The form parameter's value.
+    pub value: f64,
+    /// Parameters this form does not use.
+    pub unused: &'static [&'static str],
+}
+
+const fn form(name: &'static str, doc: &'static str, value: f64) -> Form {
+    Form {
+        name,
+        doc,
+        value,
+        unused: &[],
+    }
+}
+
+/// The parameter whose value chooses an effect's form.
+pub fn form_param(kind: EffectKind) -> &'static str {
+    if kind == EffectKind::Viscous {
+        "exponent"
+    } else {
+        "form"
+    }
+}
+
+/// Displacement amplitude \[m\] at which the `fixed` form of `normal_coupling` swings the
+/// normal load by `k_n` times it: its `k_n` reads as for a 1 µm vibration, whatever the
+/// amplitude and frequency.
+pub const NORMAL_REFERENCE_AMPLITUDE: f64 = 1e-6;
+
+/// Frequency \[Hz\] at which the `velocity` and `acceleration` forms of `normal_coupling`
+/// swing the normal load as much as the `displacement` form of the same `k_n`.
+pub const NORMAL_REFERENCE_FREQUENCY: f64 = 1000.0;
+
+/// Amplitude of the normal-load swing `ΔF_N` \[N\] of `normal_coupling` with `k_n` \[N/m\] in
+/// the form of value `form`, at a substrate displacement amplitude `u` \[m\] and frequency `f`
+/// \[Hz\] (0 where `u = 0`): `k_n u`, `k_n u f/f_ref`, `k_n u (f/f_ref)²` or `k_n u_ref`.
+pub fn load_swing(k_n: f64, form: f64, f: f64, u: f64) -> f64 {
+    if u == 0.0 {
+        return 0.0;
+    }
+    let q = f / NORMAL_REFERENCE_FREQUENCY;
+    match form as usize {
+        1 => k_n * u * q,
+        2 => k_n * u * q * q,
+        3 => k_n * NORMAL_REFERENCE_AMPLITUDE,
+        _ => k_n * u,
+    }
 }
 
 const fn ep(
@@ -149,8 +209,22 @@ pub static EFFECTS: [EffectInfo; 10] = [
                 false,
                 true,
             ),
+            ep(
+                "form",
+                "-",
+                "form of the state law: 0 ageing_law, 1 slip_law",
+                0.0,
+                1.0,
+                0.0,
+                false,
+                false,
+            ),
         ],
         candidate: true,
+        forms: &[
+            form("ageing_law", "Dieterich's ageing law: the contact ages with stick time, θ' = 1 − |v_r| θ/D_c", 0.0),
+            form("slip_law", "Ruina's slip law: the contact state evolves only with slip, θ' = −(|v_r| θ/D_c) ln(|v_r| θ/D_c)", 1.0),
+        ],
     },
     EffectInfo {
         kind: EffectKind::ActuatorResponse,
@@ -177,8 +251,27 @@ pub static EFFECTS: [EffectInfo; 10] = [
                 true,
                 true,
             ),
+            ep(
+                "form",
+                "-",
+                "order of the response: 0 resonance (two poles), 1 first_order (one pole)",
+                0.0,
+                1.0,
+                0.0,
+                false,
+                false,
+            ),
         ],
         candidate: true,
+        forms: &[
+            form("resonance", "two poles: a resonance at f_r with damping ζ", 0.0),
+            Form {
+                name: "first_order",
+                doc: "one pole: a first-order lag of corner f_r, A = 1/√(1 + (f/f_r)²)",
+                value: 1.0,
+                unused: &["zeta"],
+            },
+        ],
     },
     EffectInfo {
         kind: EffectKind::NormalCoupling,
@@ -215,8 +308,24 @@ pub static EFFECTS: [EffectInfo; 10] = [
                 true,
                 false,
             ),
+            ep(
+                "form",
+                "-",
+                "how the load swing scales: 0 displacement, 1 velocity, 2 acceleration, 3 fixed",
+                0.0,
+                3.0,
+                0.0,
+                false,
+                false,
+            ),
         ],
         candidate: true,
+        forms: &[
+            form("displacement", "the load swing grows with the substrate's displacement amplitude: k_n A u0", 0.0),
+            form("velocity", "it grows with the substrate's velocity amplitude: k_n A u0 f/f_ref, f_ref = 1 kHz", 1.0),
+            form("acceleration", "it grows with the substrate's acceleration (a frame mode driven by the shaker's reaction): k_n A u0 (f/f_ref)²", 2.0),
+            form("fixed", "a fixed swing while the substrate vibrates, set by the loading arm: k_n × 1 µm, whatever the amplitude and frequency", 3.0),
+        ],
     },
     EffectInfo {
         kind: EffectKind::SensorDynamics,
@@ -243,8 +352,22 @@ pub static EFFECTS: [EffectInfo; 10] = [
                 true,
                 true,
             ),
+            ep(
+                "form",
+                "-",
+                "order of the sensor's filter: 0 order2, 1 order4",
+                0.0,
+                1.0,
+                0.0,
+                false,
+                false,
+            ),
         ],
         candidate: true,
+        forms: &[
+            form("order2", "one second-order section (a load cell's resonance)", 0.0),
+            form("order4", "two second-order sections at f_n, of damping ζ and (1 + √2) ζ (a sharp anti-alias filter: Butterworth at ζ = 0.383)", 1.0),
+        ],
     },
     EffectInfo {
         kind: EffectKind::DriveRipple,
@@ -273,6 +396,7 @@ pub static EFFECTS: [EffectInfo; 10] = [
             ),
         ],
         candidate: true,
+        forms: &[],
     },
     EffectInfo {
         kind: EffectKind::Viscous,
@@ -301,22 +425,33 @@ pub static EFFECTS: [EffectInfo; 10] = [
             ),
         ],
         candidate: true,
+        forms: &[
+            form("linear", "friction proportional to the slip velocity (a lubricant film)", 1.0),
+            form("quadratic", "friction growing with the square of the slip velocity (a drag)", 2.0),
+        ],
     },
     EffectInfo {
         kind: EffectKind::StribeckShape,
         name: "stribeck_shape",
         doc: "a Stribeck exponent other than 2",
-        params: &[ep(
-            "delta",
-            "-",
-            "Stribeck exponent",
-            0.2,
-            10.0,
-            1.0,
-            true,
-            true,
-        )],
+        params: &[
+            ep("delta", "-", "Stribeck exponent", 0.2, 10.0, 1.0, true, true),
+            ep(
+                "form",
+                "-",
+                "shape of the Stribeck curve: 0 exponential, 1 rational",
+                0.0,
+                1.0,
+                0.0,
+                false,
+                false,
+            ),
+        ],
         candidate: true,
+        forms: &[
+            form("exponential", "exp(−|v_r/v_s|^δ)", 0.0),
+            form("rational", "1/(1 + |v_r/v_s|^δ) (a Lorentzian curve at δ = 2)", 1.0),
+        ],
     },
     EffectInfo {
         kind: EffectKind::Presliding,
@@ -345,22 +480,50 @@ pub static EFFECTS: [EffectInfo; 10] = [
             ),
         ],
         candidate: true,
+        forms: &[],
     },
     EffectInfo {
         kind: EffectKind::FrictionalLag,
         name: "frictional_lag",
         doc: "the friction force lags behind changes of the slip velocity",
-        params: &[ep(
-            "tau",
-            "s",
-            "time constant of the lag",
-            1e-6,
-            1.0,
-            1e-3,
-            true,
-            true,
-        )],
+        params: &[
+            ep("tau", "s", "time constant of the lag (form time)", 1e-6, 1.0, 1e-3, true, true),
+            ep(
+                "length",
+                "m",
+                "memory slip distance of the lag (form distance)",
+                1e-9,
+                1e-3,
+                1e-6,
+                true,
+                true,
+            ),
+            ep(
+                "form",
+                "-",
+                "what the lag runs over: 0 time, 1 distance (slip)",
+                0.0,
+                1.0,
+                0.0,
+                false,
+                false,
+            ),
+        ],
         candidate: true,
+        forms: &[
+            Form {
+                name: "time",
+                doc: "the lag is a time: τ w' = v_r − w",
+                value: 0.0,
+                unused: &["length"],
+            },
+            Form {
+                name: "distance",
+                doc: "the memory fades over slip distance: L w' = |v_r| (v_r − w)",
+                value: 1.0,
+                unused: &["tau"],
+            },
+        ],
     },
     EffectInfo {
         kind: EffectKind::Track,
@@ -399,6 +562,7 @@ pub static EFFECTS: [EffectInfo; 10] = [
             ),
         ],
         candidate: false,
+        forms: &[],
     },
 ];
 
@@ -419,6 +583,26 @@ impl EffectKind {
     /// The effect of a name.
     pub fn from_name(name: &str) -> Option<EffectKind> {
         EFFECTS.iter().find(|e| e.name == name).map(|e| e.kind)
+    }
+
+    /// Its form of value `value` of its form parameter ([`form_param`]).
+    pub fn form_of(self, value: f64) -> Option<&'static Form> {
+        self.info().forms.iter().find(|f| f.value == value)
+    }
+
+    /// Its form named `name`.
+    pub fn form_named(self, name: &str) -> Option<&'static Form> {
+        self.info().forms.iter().find(|f| f.name == name)
+    }
+
+    /// The value of its form parameter in its default form (0 where it has no forms).
+    pub fn default_form(self) -> f64 {
+        let name = form_param(self);
+        self.info()
+            .params
+            .iter()
+            .find(|p| p.name == name)
+            .map_or(0.0, |p| p.default)
     }
 
     /// The effects `diagnose` tries.
@@ -462,6 +646,18 @@ pub enum EffectError {
         name: String,
         /// The text given.
         text: String,
+    },
+    /// A form the effect does not have.
+    #[error("{effect}.{name} = `{text}` is not a form of the effect; allowed: {allowed}")]
+    UnknownForm {
+        /// The effect.
+        effect: &'static str,
+        /// Its form parameter.
+        name: &'static str,
+        /// The text given.
+        text: String,
+        /// Its forms, `name (value)`.
+        allowed: String,
     },
     /// A value out of its physical range.
     #[error("{effect}.{name} = {value} {unit} is not allowed: must lie in [{min}, {max}]")]
@@ -536,6 +732,29 @@ impl Effects {
         Ok(())
     }
 
+    /// Sets an effect's form by name (switching the effect on): `form = "velocity"`.
+    pub fn set_form(&mut self, kind: EffectKind, name: &str) -> Result<(), EffectError> {
+        let info = kind.info();
+        let f = kind.form_named(name).ok_or_else(|| EffectError::UnknownForm {
+            effect: info.name,
+            name: form_param(kind),
+            text: name.to_string(),
+            allowed: forms_list(kind),
+        })?;
+        self.set(kind, form_param(kind), f.value)
+    }
+
+    /// The form of an effect that is on, where the effect has forms.
+    pub fn form(&self, kind: EffectKind) -> Option<&'static Form> {
+        kind.form_of(self.get(kind, form_param(kind))?)
+    }
+
+    /// Whether the form of `kind` uses its parameter `param` (every parameter of an effect
+    /// without forms, or not on).
+    pub fn uses(&self, kind: EffectKind, param: &str) -> bool {
+        self.form(kind).is_none_or(|f| !f.unused.contains(&param))
+    }
+
     /// The value of one parameter, if the effect is on.
     pub fn get(&self, kind: EffectKind, name: &str) -> Option<f64> {
         let (_, vals) = self.list.iter().find(|(k, _)| *k == kind)?;
@@ -567,6 +786,13 @@ impl Effects {
         self.enable(kind);
         for kv in rest.split(',').filter(|s| !s.trim().is_empty()) {
             let (k, v) = kv.split_once('=').unwrap_or((kv, ""));
+            if k.trim() == form_param(kind)
+                && !kind.info().forms.is_empty()
+                && v.trim().parse::<f64>().is_err()
+            {
+                self.set_form(kind, v.trim())?;
+                continue;
+            }
             let x: f64 = v.trim().parse().map_err(|_| EffectError::NotANumber {
                 effect: kind.name(),
                 name: k.trim().to_string(),
@@ -585,12 +811,17 @@ impl Effects {
         self.list
             .iter()
             .map(|(k, v)| {
+                let form = k.form_of(self.get(*k, form_param(*k)).unwrap_or(f64::NAN));
                 let ps: Vec<String> = k
                     .info()
                     .params
                     .iter()
                     .zip(v)
-                    .map(|(p, x)| format!("{}={x:.4e}", p.name))
+                    .filter(|(p, _)| self.uses(*k, p.name))
+                    .map(|(p, x)| match form {
+                        Some(f) if p.name == form_param(*k) => format!("{}={}", p.name, f.name),
+                        _ => format!("{}={x:.4e}", p.name),
+                    })
                     .collect();
                 format!("{}({})", k.name(), ps.join(", "))
             })
@@ -599,8 +830,18 @@ impl Effects {
     }
 }
 
+/// `name (value)` of each form of `kind`.
+fn forms_list(kind: EffectKind) -> String {
+    kind.info()
+        .forms
+        .iter()
+        .map(|f| format!("{} ({})", f.name, f.value))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
 fn check(info: &EffectInfo, p: &EffectParam, v: f64) -> Result<(), EffectError> {
-    let whole = p.name == "elements" && v.fract() != 0.0;
+    let whole = matches!(p.name, "elements" | "form") && v.fract() != 0.0;
     if !(v.is_finite() && v >= p.min && v <= p.max) || whole {
         return Err(EffectError::OutOfRange {
             effect: info.name,
@@ -621,6 +862,26 @@ pub fn actuator_gain(f: f64, f_r: f64, zeta: f64) -> f64 {
     1.0 / ((1.0 - q * q).powi(2) + (2.0 * zeta * q).powi(2)).sqrt()
 }
 
+/// Gain `A` of the substrate's amplitude at `f` \[Hz\] under `fx`'s `actuator_response` in its
+/// form (1 without it).
+pub fn amplitude_gain(fx: &Effects, f: f64) -> f64 {
+    match (
+        fx.get(EffectKind::ActuatorResponse, "f_r"),
+        fx.get(EffectKind::ActuatorResponse, "zeta"),
+        fx.get(EffectKind::ActuatorResponse, "form"),
+    ) {
+        (Some(f_r), _, Some(1.0)) => first_order_gain(f, f_r),
+        (Some(f_r), Some(zeta), _) => actuator_gain(f, f_r, zeta),
+        _ => 1.0,
+    }
+}
+
+/// Gain of the `first_order` form of `actuator_response` at `f` \[Hz\]: one pole at the corner
+/// `f_r`, `A = 1/√(1 + (f/f_r)²)`.
+pub fn first_order_gain(f: f64, f_r: f64) -> f64 {
+    1.0 / (1.0 + (f / f_r).powi(2)).sqrt()
+}
+
 /// The effects resolved into the numbers the right-hand side uses, with the positions of the
 /// extra state components.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -633,10 +894,17 @@ pub(crate) struct Resolved {
     pub gain: f64,
     /// Ageing: `(b, θ_0, D_c, index of θ)`.
     pub aging: Option<(f64, f64, f64, usize)>,
-    /// Normal coupling: `(k_n / F_N, φ − ω t_d [rad])`.
-    pub normal: Option<(f64, f64)>,
-    /// Sensor: `(ω_n, ζ, index of F_m)` (F_m' follows).
+    /// Ageing by the slip law (else the ageing law).
+    pub slip_law: bool,
+    /// Normal coupling: `(c, φ − ω t_d [rad], fixed)`: the relative load swing is `c` times the
+    /// substrate's displacement amplitude (`k_n/F_N` scaled by the form's frequency factor), or
+    /// `c` itself where `fixed`.
+    pub normal: Option<(f64, f64, bool)>,
+    /// Sensor: `(ω_n, ζ, index of its first section's output)` (its derivative follows; a
+    /// fourth-order sensor's second section follows that: [`Resolved::sensor4`]).
     pub sensor: Option<(f64, f64, usize)>,
+    /// The sensor's second section's damping, where it is of fourth order.
+    pub sensor4: Option<f64>,
     /// Drive ripple: `(a, 2π/λ)`.
     pub ripple: Option<(f64, f64)>,
     /// Extra viscous coefficient at `V_1` [N s/m].
@@ -645,12 +913,16 @@ pub(crate) struct Resolved {
     pub visc_n: f64,
     /// Stribeck exponent.
     pub delta: f64,
+    /// A rational Stribeck curve `1/(1 + q^δ)` (else `exp(−q^δ)`).
+    pub rational: bool,
     /// Presliding: number of elements, spread, index of the second element.
     pub elements: usize,
     pub spread: f64,
     pub first_extra: usize,
-    /// Frictional lag: `(τ, index of w)`.
+    /// Frictional lag: `(τ [s] or L [m], index of w)`.
     pub lag: Option<(f64, usize)>,
+    /// The lag runs over slip distance `L` (else over time `τ`).
+    pub lag_distance: bool,
     /// Track: `(a, 2π/λ, x_0)`.
     pub track: Option<(f64, f64, f64)>,
 }
@@ -662,16 +934,20 @@ impl Resolved {
             dim: crate::model::state::BASE_DIM,
             gain: 1.0,
             aging: None,
+            slip_law: false,
             normal: None,
             sensor: None,
+            sensor4: None,
             ripple: None,
             h_v: 0.0,
             visc_n: 1.0,
             delta: 2.0,
+            rational: false,
             elements: 1,
             spread: 0.0,
             first_extra: crate::model::state::BASE_DIM,
             lag: None,
+            lag_distance: false,
             track: None,
         };
         let tau = std::f64::consts::TAU;
@@ -685,25 +961,43 @@ impl Resolved {
             match k {
                 EffectKind::Aging => {
                     r.aging = Some((v[0], v[1], v[2], r.dim));
+                    r.slip_law = v[3] == 1.0;
                     r.dim += 1;
                 }
-                EffectKind::ActuatorResponse => r.gain = actuator_gain(f, v[0], v[1]),
+                EffectKind::ActuatorResponse => {
+                    r.gain = if v[2] == 1.0 {
+                        first_order_gain(f, v[0])
+                    } else {
+                        actuator_gain(f, v[0], v[1])
+                    }
+                }
                 EffectKind::NormalCoupling => {
-                    r.normal = Some((v[0] / f_n, v[1].to_radians() - tau * f * v[2]))
+                    let fixed = v[3] == 3.0;
+                    // Per metre of displacement amplitude; the fixed form's swing whatever it is.
+                    let c = load_swing(v[0], v[3], f, 1.0) / f_n;
+                    r.normal = Some((c, v[1].to_radians() - tau * f * v[2], fixed))
                 }
                 EffectKind::SensorDynamics => {
                     r.sensor = Some((tau * v[0], v[1], r.dim));
                     r.dim += 2;
+                    if v[2] == 1.0 {
+                        r.sensor4 = Some((v[1] * (1.0 + std::f64::consts::SQRT_2)).min(2.0));
+                        r.dim += 2;
+                    }
                 }
                 EffectKind::DriveRipple => r.ripple = Some((v[0], tau / v[1])),
                 EffectKind::Viscous => {
                     r.h_v = v[0];
                     r.visc_n = v[1];
                 }
-                EffectKind::StribeckShape => r.delta = v[0],
+                EffectKind::StribeckShape => {
+                    r.delta = v[0];
+                    r.rational = v[1] == 1.0;
+                }
                 EffectKind::Presliding => {}
                 EffectKind::FrictionalLag => {
-                    r.lag = Some((v[0], r.dim));
+                    r.lag_distance = v[2] == 1.0;
+                    r.lag = Some((if r.lag_distance { v[1] } else { v[0] }, r.dim));
                     r.dim += 1;
                 }
                 EffectKind::Track => r.track = Some((v[0], tau / v[1], v[2])),

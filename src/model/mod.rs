@@ -220,6 +220,7 @@ impl Rig {
     #[inline]
     pub fn measured_force(&self, t: f64, y: &[f64]) -> f64 {
         match self.fx.sensor {
+            Some((_, _, i)) if self.fx.sensor4.is_some() => y[i + 2],
             Some((_, _, i)) => y[i],
             None => self.drive_force(t, y),
         }
@@ -250,10 +251,12 @@ impl Rig {
         let a = v_r.abs();
         // Load factor: normal coupling and friction along the track scale F_c and F_s.
         let mut nu = 1.0;
-        if let Some((c, phi)) = fx.normal
+        if let Some((c, phi, fixed)) = fx.normal
             && t >= self.t_on
+            && self.u0 > 0.0
         {
-            nu = (1.0 + c * self.u0 * (self.vibration_phase(t) + phi).sin()).max(0.0);
+            let swing = if fixed { c } else { c * self.u0 };
+            nu = (1.0 + swing * (self.vibration_phase(t) + phi).sin()).max(0.0);
         }
         if let Some((amp, k, x0)) = fx.track {
             nu *= 1.0 + amp * (k * (y[X] + x0)).sin();
@@ -262,18 +265,32 @@ impl Rig {
         if let Some((b, theta0, dc, i)) = fx.aging {
             let theta = y[i].max(0.0);
             f_s *= 1.0 + b * (theta / theta0).ln_1p();
-            dy[i] = 1.0 - a * y[i] / dc;
+            dy[i] = if fx.slip_law {
+                // Ruina's slip law: the state moves only with slip; from a fresh contact's
+                // age of 1 ns (θ = 0 would stay there).
+                let q = a * theta.max(1e-9) / dc;
+                if q > 0.0 { -q * q.ln() } else { 0.0 }
+            } else {
+                1.0 - a * y[i] / dc
+            };
         }
         // Stribeck curve (4.7), evaluated at the lagged velocity with frictional lag.
         let w = match fx.lag {
             Some((tau, i)) => {
-                dy[i] = (v_r - y[i]) / tau;
+                dy[i] = if fx.lag_distance {
+                    // A memory distance L (in `tau`'s place): it fades only as the contact slips.
+                    a * (v_r - y[i]) / tau
+                } else {
+                    (v_r - y[i]) / tau
+                };
                 y[i]
             }
             None => v_r,
         };
         let q = (w / p.v_s).abs();
-        let e_s = if fx.delta == 2.0 {
+        let e_s = if fx.rational {
+            1.0 / (1.0 + q.powf(fx.delta))
+        } else if fx.delta == 2.0 {
             gauss(q * q)
         } else {
             (-q.powf(fx.delta)).exp()
@@ -314,6 +331,11 @@ impl Rig {
         if let Some((wn, zeta, i)) = fx.sensor {
             dy[i] = y[i + 1];
             dy[i + 1] = wn * wn * (f_d - y[i]) - 2.0 * zeta * wn * y[i + 1];
+            if let Some(zeta2) = fx.sensor4 {
+                // The second section filters the first's output.
+                dy[i + 2] = y[i + 3];
+                dy[i + 3] = wn * wn * (y[i] - y[i + 2]) - 2.0 * zeta2 * wn * y[i + 3];
+            }
         }
     }
 
@@ -414,8 +436,10 @@ impl OdeSystem for Rig {
             X => p.f_s / p.k_d,
             V => p.v_d + self.u0 * self.omega,
             _ if fx.aging.is_some_and(|a| a.3 == i) => fx.aging.unwrap().1,
-            _ if fx.sensor.is_some_and(|s| s.2 == i) => p.f_s,
-            _ if fx.sensor.is_some_and(|s| s.2 + 1 == i) => p.f_s * fx.sensor.unwrap().0,
+            _ if fx.sensor.is_some_and(|s| s.2 == i || s.2 + 2 == i) => p.f_s,
+            _ if fx.sensor.is_some_and(|s| s.2 + 1 == i || s.2 + 3 == i) => {
+                p.f_s * fx.sensor.unwrap().0
+            }
             _ if fx.lag.is_some_and(|l| l.1 == i) => p.v_d + self.u0 * self.omega,
             _ => p.f_s / p.k_t,
         }
