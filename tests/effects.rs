@@ -563,7 +563,10 @@ fn effect_forms_follow_their_equations() {
         for (v, s) in [(1e-3, 1.0e-7), (0.0, 1.2e-7)] {
             let y = state(&rig, 0.0, v, s);
             let (a, b) = (friction(&rig, 0.0, &y), friction(&scaled, 0.0, &y));
-            assert!((a - b).abs() < 1e-9 * b.abs().max(1.0), "{form}: {a} vs {b}");
+            assert!(
+                (a - b).abs() < 1e-9 * b.abs().max(1.0),
+                "{form}: {a} vs {b}"
+            );
         }
     }
     // A fixed swing needs the vibration on.
@@ -575,8 +578,11 @@ fn effect_forms_follow_their_equations() {
 
     // One pole: A = 1/√(1 + (f/f_r)²).
     let f_r = 1500.0;
-    let rig =
-        Rig::with_effects(p, &fx(&format!("actuator_response:f_r={f_r},form=first_order"))).unwrap();
+    let rig = Rig::with_effects(
+        p,
+        &fx(&format!("actuator_response:f_r={f_r},form=first_order")),
+    )
+    .unwrap();
     let gain = 1.0 / (1.0 + (p.f / f_r).powi(2)).sqrt();
     assert!((rig.substrate_velocity(0.0) / (gain * p.v_a()) - 1.0).abs() < 1e-12);
 
@@ -592,7 +598,8 @@ fn effect_forms_follow_their_equations() {
 
     // Lag over slip distance L: w' = |v_r| (v_r − w)/L, frozen where the contact sticks.
     let l = 2e-6;
-    let rig = Rig::with_effects(p0, &fx(&format!("frictional_lag:length={l},form=distance"))).unwrap();
+    let rig =
+        Rig::with_effects(p0, &fx(&format!("frictional_lag:length={l},form=distance"))).unwrap();
     let mut dy = vec![0.0; rig.dim()];
     let v = 2e-3;
     let mut y = state(&rig, 0.0, v, 1e-7);
@@ -613,7 +620,10 @@ fn effect_forms_follow_their_equations() {
         y[3] = theta;
         rig.rhs(0.0, &y, &mut dy);
         let x = v * theta / d_c;
-        assert!((dy[3] + x * x.ln()).abs() < 1e-9 * (x * x.ln()).abs(), "v = {v}");
+        assert!(
+            (dy[3] + x * x.ln()).abs() < 1e-9 * (x * x.ln()).abs(),
+            "v = {v}"
+        );
     }
     let mut y = state(&rig, 0.0, 0.0, 1e-7);
     y[3] = theta;
@@ -631,7 +641,9 @@ fn fourth_order_sensor_lags_a_ramp_by_both_sections() {
         ..Params::default()
     };
     let (f_n, zeta) = (60.0, 0.383);
-    let e = fx(&format!("sensor_dynamics:f_n={f_n},zeta={zeta},form=order4"));
+    let e = fx(&format!(
+        "sensor_dynamics:f_n={f_n},zeta={zeta},form=order4"
+    ));
     let o = RunOptions {
         method: Method::Rodas4,
         t_end: Some(0.6),
@@ -647,7 +659,11 @@ fn fourth_order_sensor_lags_a_ramp_by_both_sections() {
         if t > 0.25 {
             let true_force = p.k_d * (p.v_d * t - tr.x_s[i]);
             let want = true_force - p.k_d * p.v_d * lag;
-            assert!((tr.f_d[i] - want).abs() < 2e-3, "t = {t}: {} vs {want}", tr.f_d[i]);
+            assert!(
+                (tr.f_d[i] - want).abs() < 2e-3,
+                "t = {t}: {} vs {want}",
+                tr.f_d[i]
+            );
         }
     }
 }
@@ -660,8 +676,14 @@ fn forms_are_set_by_name_and_checked() {
     assert_eq!(e.form(EffectKind::SensorDynamics).unwrap().name, "order4");
     assert!(e.describe().contains("form=order4"), "{}", e.describe());
     let mut e = Effects::none();
-    let err = e.apply_spec("normal_coupling:form=jerk").unwrap_err().to_string();
-    assert!(err.contains("jerk") && err.contains("acceleration (2)"), "{err}");
+    let err = e
+        .apply_spec("normal_coupling:form=jerk")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("jerk") && err.contains("acceleration (2)"),
+        "{err}"
+    );
     let err = e.apply_spec("aging:form=0.5").unwrap_err().to_string();
     assert!(err.contains("aging.form = 0.5"), "{err}");
     // A form's unused parameter is not described.

@@ -29,7 +29,7 @@ use stickslip::campaign::Campaign;
 use stickslip::diagnosis::diagnose::{DiagnoseOptions, Diagnosis, Verdict, diagnose};
 
 /// The panel's campaigns, in the order of `PANEL` in `rig.py`.
-const PANEL: [&str; 12] = [
+const PANEL: [&str; 13] = [
     "free-paper",
     "free-factorial",
     "free-small",
@@ -41,11 +41,12 @@ const PANEL: [&str; 12] = [
     "screw-harmonics",
     "track",
     "sensor+aging",
+    "frame-acceleration",
     "actuator+screw",
 ];
 
 /// The second rig's panel, in the order of `PANEL` in `stand.py`.
-const PANEL2: [&str; 12] = [
+const PANEL2: [&str; 13] = [
     "free-random",
     "free-forceonly-lowrate",
     "sensor-lowpass",
@@ -57,6 +58,7 @@ const PANEL2: [&str; 12] = [
     "mimic-runin",
     "mimic-drive-noise",
     "mimic-gain",
+    "daq-bessel-delay",
     "sensor+viscous",
 ];
 
@@ -156,10 +158,28 @@ fn confident_wrong(d: &Diagnosis, expect: &serde_json::Value) -> bool {
     }
 }
 
-fn row(name: &str, expect: &serde_json::Value, d: &Diagnosis) -> String {
-    let effects: Vec<&str> = d.effects.iter().map(|k| k.name()).collect();
+/// A table row: the campaign, its truth (with the form the rig's effect scales like, where it
+/// says), the verdict, the effects named (each with its form, `settled` or not, where it has
+/// forms), the held-out gap, right or wrong, and the time.
+fn row(name: &str, truth: &serde_json::Value, d: &Diagnosis) -> String {
+    let expect = &truth["expect"];
+    let effects: Vec<String> = d
+        .effects
+        .iter()
+        .map(|k| match d.forms.iter().find(|f| f.effect == *k) {
+            Some(f) => format!(
+                "{k}[{}{}]",
+                f.form,
+                if f.settled() { "" } else { ", unsettled" }
+            ),
+            None => k.name().to_string(),
+        })
+        .collect();
+    let truth_form = truth["form"]
+        .as_str()
+        .map_or(String::new(), |f| format!(" ({f})"));
     format!(
-        "| {name} | {expect} | {}{} | {} | {:.2} → {:.2} ({:.0} %) | {} | {:.0} s |",
+        "| {name} | {expect}{truth_form} | {}{} | {} | {:.2} → {:.2} ({:.0} %) | {} | {:.0} s |",
         d.verdict.name(),
         if d.partial { " (partial)" } else { "" },
         if !d.tie.is_empty() {
@@ -198,12 +218,12 @@ fn run_with(rig: Rig, names: &[&str]) -> (usize, usize, Vec<String>) {
         let (c, truth) = make_with(rig, name, dir.path());
         let d = diagnose(&c, &DiagnoseOptions::default()).unwrap();
         let expect = &truth["expect"];
-        let r = row(name, expect, &d);
+        let r = row(name, &truth, &d);
         eprintln!("{r}");
         for k in d.ranking.iter().take(3) {
             eprintln!(
                 "      {} held-out gap {:.2} ({:.0} %), ln odds {:.1} ± {:.1}{}",
-                k.effect,
+                k.name,
                 k.gap_after,
                 100.0 * k.reduction,
                 k.evidence.ln_odds,
@@ -261,6 +281,34 @@ fn rig_load_modulation_of_fixed_depth() {
     right_on("normal-fixed-depth");
 }
 
+/// A load swing that follows the substrate's acceleration (a frame driven by the shaker's
+/// reaction): `normal_coupling`, and the form the data choose is the acceleration's.
+#[test]
+#[ignore = "in the rig's whole panel; left out of .ci/run for its time budget"]
+fn rig_load_swing_with_the_acceleration_names_its_form() {
+    right_in_form(RIG, "frame-acceleration");
+}
+
+/// An acquisition's fourth-order Bessel anti-alias filter with a delay on the force channel:
+/// `sensor_dynamics`, in its fourth-order form.
+#[test]
+#[ignore = "in the second rig's whole panel; left out of .ci/run for its time budget"]
+fn rig2_antialias_filter_with_delay_names_a_fourth_order_sensor() {
+    right_in_form(RIG2, "daq-bessel-delay");
+}
+
+/// One campaign of `rig`'s panel: its verdict right and the named effect in the form its truth
+/// gives.
+fn right_in_form(rig: Rig, name: &str) {
+    let dir = tempfile::tempdir().unwrap();
+    let (c, truth) = make_with(rig, name, dir.path());
+    let d = diagnose(&c, &DiagnoseOptions::default()).unwrap();
+    let r = row(name, &truth, &d);
+    assert!(right(&d, &truth["expect"]), "{r}");
+    let want = truth["form"].as_str().expect("the truth gives a form");
+    assert_eq!(d.forms.first().map(|f| f.form), Some(want), "{r}");
+}
+
 #[test]
 #[ignore = "in the rig's whole panel; left out of .ci/run for its time budget"]
 fn rig_screw_error_with_its_harmonic() {
@@ -284,7 +332,7 @@ fn rig_actuator_and_screw_error_are_both_named() {
     let dir = tempfile::tempdir().unwrap();
     let (c, truth) = make(name, dir.path());
     let d = diagnose(&c, &DiagnoseOptions::default()).unwrap();
-    let r = row(name, &truth["expect"], &d);
+    let r = row(name, &truth, &d);
     eprintln!("{r}");
     assert!(right(&d, &truth["expect"]), "{r}");
     let named: Vec<&str> = d.effects.iter().map(|k| k.name()).collect();
@@ -299,7 +347,7 @@ fn rig_sensor_and_slip_law_ageing() {
     right_on("sensor+aging");
 }
 
-/// A whole panel: at least 10 of 12 right and no confident wrong cause.
+/// A whole panel: all right but one at most, and no confident wrong cause.
 fn panel(rig: Rig, names: &[&str]) {
     let (ok, wrong, rows) = run_with(rig, names);
     eprintln!(
@@ -309,7 +357,7 @@ fn panel(rig: Rig, names: &[&str]) {
         rows.join("\n")
     );
     assert!(
-        ok + 2 >= names.len() && wrong == 0,
+        ok + 1 >= names.len() && wrong == 0,
         "{ok} of {} right, {wrong} confident wrong\n{}",
         names.len(),
         rows.join("\n")
@@ -467,7 +515,7 @@ fn rig_in_band_actuator_resonance_is_found_by_its_scan() {
     };
     let base = fit::fit(&all, &Model::default(), &[], opts);
     let k = EffectKind::ActuatorResponse;
-    let start = fit::starts(&all, &base, k).swap_remove(0);
+    let start = fit::starts(&all, &base, k, k.default_form()).swap_remove(0);
     let f_r = start.effects.get(k, "f_r").unwrap();
     let zeta = start.effects.get(k, "zeta").unwrap();
     let gap = fit::evaluate(&all, &start);

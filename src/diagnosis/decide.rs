@@ -226,52 +226,13 @@ pub(crate) fn decide(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::diagnosis::fit::{FitResult, Model};
     use crate::model::EffectKind;
 
     const N: usize = 17;
 
-    /// A candidate with held-out gaps `quiet` on the first `q` recordings and `loud` on the
-    /// `l` after them, its evidence against the base model `base` computed by the rule.
+    /// A candidate with held-out gaps `gaps` ([`Ranked::for_test`]).
     fn cand(k: EffectKind, p: usize, gaps: &[f64], base: &[f64]) -> Ranked {
-        let n = vec![N; gaps.len()];
-        let e = evidence(gaps, &n, base, &n, p as f64);
-        let pooled = (gaps.iter().map(|g| g * g).sum::<f64>() / gaps.len() as f64).sqrt();
-        Ranked {
-            effect: k,
-            form: None,
-            name: k.name().to_string(),
-            form_charge: 0.0,
-            fit: FitResult {
-                model: Model::default(),
-                estimates: vec![],
-                gap: pooled,
-                residuals: N * gaps.len(),
-                evaluations: 0,
-                effect_params: p,
-                iterations: 0,
-                converged: true,
-                stalled: false,
-                theta: vec![],
-                z: vec![],
-                jacobian: faer::Mat::zeros(0, 0),
-                jacobian_fresh: false,
-                effects: vec![k],
-            },
-            gap_after: pooled,
-            gap_spread: 0.0,
-            reduction: 0.0,
-            score: pooled,
-            per_recording: gaps.to_vec(),
-            per_recording_n: n,
-            evidence: e,
-            at_bound: vec![],
-            per_feature: vec![],
-            concentrated: None,
-            wall_time: 0.0,
-            fingerprints: vec![],
-            rejected: None,
-        }
+        Ranked::for_test(k, p, gaps, base, N)
     }
 
     /// Twenty quiet recordings (held-out gap `quiet`) and four informative ones (`loud`).
@@ -405,64 +366,5 @@ mod tests {
         let rival = cand(EffectKind::Aging, 1, &hair, &base);
         let (_, d) = run(&mut [lead, rival], &base);
         assert!(d.is_empty(), "{d:?}");
-    }
-
-    /// A candidate in a form of its effect: named `kind[form]` off the default form.
-    fn in_form(k: EffectKind, form: &str, p: usize, gaps: &[f64], base: &[f64]) -> Ranked {
-        let mut r = cand(k, p, gaps, base);
-        let f = k.form_named(form).unwrap();
-        r.form = Some(f);
-        if f.value != k.default_form() {
-            r.name = format!("{k}[{form}]");
-        }
-        r
-    }
-
-    /// Two forms of one effect are one explanation: where the data cannot tell them apart the
-    /// effect is named, its form with the other not excluded; where one form is clearly more
-    /// likely, the form is settled. Each form is charged `ln 2` nats for the choice.
-    #[test]
-    fn forms_of_one_effect_name_the_effect_and_say_whether_the_form_is_settled() {
-        use crate::diagnosis::diagnose::{charge_forms, form_choice, forms_of_one};
-        let base = gaps(1.0, 6.0);
-        let e0 = (base.iter().map(|g| g * g).sum::<f64>() / 24.0).sqrt();
-        let share = |e1: f64| (e0 - e1) / e0;
-        // Alike: 3.0 and 3.02 on the informative recordings.
-        let mut alike = vec![
-            in_form(EffectKind::SensorDynamics, "order2", 2, &gaps(1.0, 3.0), &base),
-            in_form(EffectKind::SensorDynamics, "order4", 2, &gaps(1.0, 3.02), &base),
-        ];
-        let before = alike[0].evidence.ln_odds;
-        charge_forms(&mut alike);
-        assert!((before - alike[0].evidence.ln_odds - 2f64.ln()).abs() < 1e-12);
-        let (t, _) = run(&mut alike, &base);
-        assert_eq!(t.as_ref().map(Vec::len), Some(2), "{t:?}");
-        let idx: Vec<usize> = vec![0, 1];
-        assert_eq!(forms_of_one(&mut alike, &idx, share, MIN_PARTIAL), None);
-        let c = form_choice(&alike).unwrap();
-        assert_eq!((c.form, c.not_excluded.clone()), ("order2", vec!["order4"]));
-        assert!(!c.settled(), "{c:?}");
-        // Clearly apart: the fourth-order form halves the informative recordings' gap again.
-        let mut apart = vec![
-            in_form(EffectKind::SensorDynamics, "order2", 2, &gaps(1.0, 3.0), &base),
-            in_form(EffectKind::SensorDynamics, "order4", 2, &gaps(1.0, 1.5), &base),
-        ];
-        charge_forms(&mut apart);
-        let (t, _) = run(&mut apart, &base);
-        assert_eq!(t.as_ref().map(Vec::len), Some(1), "{t:?}");
-        let c = form_choice(&apart).unwrap();
-        assert_eq!(c.form, "order4");
-        assert!(c.settled(), "{c:?}");
-        assert_eq!(apart[0].name, "sensor_dynamics[order4]");
-        // Forms of two effects tied stay a tie of the effects.
-        let mut two = vec![
-            in_form(EffectKind::SensorDynamics, "order2", 2, &gaps(1.0, 3.0), &base),
-            cand(EffectKind::FrictionalLag, 2, &gaps(1.0, 3.01), &base),
-        ];
-        let idx: Vec<usize> = vec![0, 1];
-        assert_eq!(
-            forms_of_one(&mut two, &idx, share, MIN_PARTIAL),
-            Some(vec![EffectKind::SensorDynamics, EffectKind::FrictionalLag])
-        );
     }
 }

@@ -78,6 +78,7 @@ use super::features::{FEATURES, Feature, N_FEATURES, PHASES};
 use super::fingerprint;
 use super::fit::{self, FitOptions, FitResult, Model, Target};
 use super::folds::*;
+use super::forms::{charge_forms, form_choice, forms_of_one, other_forms};
 use super::limits::{self, Limits};
 use crate::campaign::{Campaign, CampaignError};
 use crate::model::EffectKind;
@@ -104,6 +105,7 @@ fn try_candidate(
     with: &[EffectKind],
     k: EffectKind,
     form: f64,
+    warm: Option<&Model>,
     e0: f64,
     fold: &[usize],
     k_folds: usize,
@@ -111,7 +113,11 @@ fn try_candidate(
     opts: FitOptions,
 ) -> Ranked {
     let clock = std::time::Instant::now();
-    let start = fit::starts(all, from, k, form);
+    let mut start = fit::starts(all, from, k, form);
+    // Another form of an effect also starts from the default form's optimum, its form changed:
+    // a family's parameters mean the same in each form, and a coarse scan can miss a narrow
+    // valley the default form's fit has found.
+    start.extend(warm.cloned());
     let mut effects = with.to_vec();
     effects.push(k);
     let extra = fit::effect_params(&effects, &start[0].effects) - from.effect_params;
@@ -170,10 +176,18 @@ fn try_candidate(
         firsts.extend(f);
         checks += n;
     }
+    // Another form of an effect whose default form passed its screen is screened in full (no
+    // stop where its linearised residuals miss the bar at the start): the family is known to
+    // reach, and a form's scan start can lie far from its valley (a fourth-order sensor's
+    // resonance at twice the data's).
     let screen_opts = FitOptions {
         max_iter: opts.max_iter.min(SCREEN_ITERATIONS),
         rel_tol: SCREEN_REL_TOL,
-        reach: (1.0 - SCREEN_BAR) * from_gap,
+        reach: if warm.is_some() {
+            f64::INFINITY
+        } else {
+            (1.0 - SCREEN_BAR) * from_gap
+        },
         ..opts
     };
     let bar = (1.0 - SCREEN_BAR) * from_gap;
@@ -621,100 +635,6 @@ fn held_out_absent(r: &Ranked) -> Option<String> {
     })
 }
 
-/// The candidates of a round to try in their other forms: every form of each effect with
-/// forms whose default form passed its screen (its fit holds the effect), or of every effect
-/// with forms where no candidate qualifies (clear evidence and at least `min_share` of the
-/// gap by `share`): an effect whose default form is out of reach may be within reach in
-/// another. `(effect, form value)`, in the library's order.
-fn other_forms(
-    ranked: &[Ranked],
-    share: impl Fn(f64) -> f64,
-    min_share: f64,
-) -> Vec<(EffectKind, f64)> {
-    let none_qualifies = !ranked
-        .iter()
-        .any(|r| r.evidence.clear() && share(r.gap_after) >= min_share);
-    ranked
-        .iter()
-        .filter(|r| {
-            r.effect.info().forms.len() > 1
-                && (none_qualifies || r.fit.effects.contains(&r.effect))
-        })
-        .flat_map(|r| {
-            let k = r.effect;
-            k.info()
-                .forms
-                .iter()
-                .filter(move |f| f.value != k.default_form())
-                .map(move |f| (k, f.value))
-        })
-        .collect()
-}
-
-/// Charges every candidate of an effect tried in several forms `ln m` nats for the choice
-/// among its `m` forms ([`Ranked::form_charge`]): a uniform prior over the forms.
-pub(super) fn charge_forms(ranked: &mut [Ranked]) {
-    let kinds: Vec<EffectKind> = ranked.iter().map(|r| r.effect).collect();
-    for r in ranked.iter_mut() {
-        if kinds.iter().filter(|&&k| k == r.effect).count() > 1 {
-            let charge = (r.effect.info().forms.len() as f64).ln();
-            r.evidence = r.evidence.charged(charge);
-            r.form_charge = charge;
-        }
-    }
-}
-
-/// Where a decision's tie `t` (indices into `ranked`) holds forms of one effect only, that
-/// effect is named: its qualifying form of best evidence is moved to the head of `ranked`,
-/// and `None` is returned; else the effects tied, each once, best first.
-pub(super) fn forms_of_one(
-    ranked: &mut Vec<Ranked>,
-    t: &[usize],
-    share: impl Fn(f64) -> f64,
-    min_share: f64,
-) -> Option<Vec<EffectKind>> {
-    let mut kinds: Vec<EffectKind> = vec![];
-    for &j in t {
-        if !kinds.contains(&ranked[j].effect) {
-            kinds.push(ranked[j].effect);
-        }
-    }
-    if kinds.len() > 1 {
-        return Some(kinds);
-    }
-    let lead = t
-        .iter()
-        .copied()
-        .find(|&j| ranked[j].evidence.clear() && share(ranked[j].gap_after) >= min_share)
-        .unwrap_or(t[0]);
-    let r = ranked.remove(lead);
-    ranked.insert(0, r);
-    None
-}
-
-/// The form chosen for the named candidate `ranked[0]` among the forms of its effect in
-/// `ranked`, where it has forms.
-pub(super) fn form_choice(ranked: &[Ranked]) -> Option<FormChoice> {
-    let named = ranked.first()?;
-    let form = named.form?;
-    let others: Vec<&Ranked> = ranked[1..]
-        .iter()
-        .filter(|r| r.effect == named.effect)
-        .collect();
-    Some(FormChoice {
-        effect: named.effect,
-        form: form.name,
-        tried: std::iter::once(form.name)
-            .chain(others.iter().filter_map(|r| r.form.map(|f| f.name)))
-            .collect(),
-        not_excluded: others
-            .iter()
-            .filter(|r| r.rejected.is_none() && !between(named, r).clear())
-            .filter_map(|r| r.form.map(|f| f.name))
-            .collect(),
-    })
-}
-
 /// Diagnoses a campaign. A campaign none of whose recordings can be checked on held-out data
 /// (no kind of condition recorded at two drives) is refused: it names what is missing.
 pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, CampaignError> {
@@ -754,43 +674,39 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
         NOISE_GAP
     };
     let share = |e1: f64| (gap_before - e1) / (gap_before - noise).max(0.1 * gap_before);
-    let first_share = share;
     // Candidates in parallel (each fit's simulations too): they are independent and
     // deterministic, so the ranking does not depend on the thread count.
-    let mut ranking: Vec<Ranked> = if fitted.is_empty() {
-        vec![]
-    } else {
-        let screen = Screen::of(&all, &base, fo);
-        let round = |cands: &[(EffectKind, f64)]| -> Vec<Ranked> {
-            cands
-                .par_iter()
-                .map(|&(k, form)| {
-                    try_candidate(
-                        &all,
-                        &screen,
-                        &base,
-                        &base_cv,
-                        &[],
-                        k,
-                        form,
-                        gap_before,
-                        &fold,
-                        k_folds,
-                        &checked,
-                        fo,
-                    )
-                })
-                .collect()
+    let screen = (!fitted.is_empty()).then(|| Screen::of(&all, &base, fo));
+    let round = |cands: &[(EffectKind, f64, Option<Model>)]| -> Vec<Ranked> {
+        let Some(screen) = &screen else {
+            return vec![];
         };
-        let defaults: Vec<(EffectKind, f64)> =
-            fitted.iter().map(|&k| (k, k.default_form())).collect();
-        let mut ranked = round(&defaults);
-        // How the effects in reach scale: their other forms, fitted as candidates of their own.
-        let others = other_forms(&ranked, first_share, MIN_PARTIAL);
-        ranked.extend(round(&others));
-        charge_forms(&mut ranked);
-        ranked
+        cands
+            .par_iter()
+            .map(|(k, form, warm)| {
+                try_candidate(
+                    &all,
+                    screen,
+                    &base,
+                    &base_cv,
+                    &[],
+                    *k,
+                    *form,
+                    warm.as_ref(),
+                    gap_before,
+                    &fold,
+                    k_folds,
+                    &checked,
+                    fo,
+                )
+            })
+            .collect()
     };
+    let defaults: Vec<(EffectKind, f64, Option<Model>)> = fitted
+        .iter()
+        .map(|&k| (k, k.default_form(), None))
+        .collect();
+    let mut ranking = round(&defaults);
     // Best evidence first (ties by the informative score, then the library's order).
     let by_evidence = |a: &Ranked, b: &Ranked| {
         b.evidence
@@ -810,29 +726,44 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
         per_recording: &base_cv.per_recording,
         n: &base_cv.per_recording_n,
     };
-    let verdict = if no_gap {
-        Verdict::NoSignificantGap
-    } else {
-        match vetted(
-            &mut ranking,
+    let decide_first = |ranking: &mut Vec<Ranked>, found: &mut Vec<_>| {
+        vetted(
+            ranking,
             &all,
             &base,
             base_side,
             share,
             MIN_PARTIAL,
             false,
-            &mut disagreements,
-        ) {
-            None => Verdict::Unexplained,
-            Some(t) if t.len() > 1 => match forms_of_one(&mut ranking, &t, share, MIN_PARTIAL) {
-                Some(kinds) => {
-                    tie = kinds;
-                    Verdict::Tie
-                }
-                None => Verdict::Effect,
-            },
-            Some(_) => Verdict::Effect,
+            found,
+        )
+    };
+    let decided = (!no_gap).then(|| {
+        let first_try = decide_first(&mut ranking, &mut disagreements);
+        // How the effects scale: the other forms of the effects in reach, fitted as candidates
+        // of their own, and of every effect with forms where the default forms name none
+        // (or tie) (forms::other_forms); then the decision again over all.
+        let named = matches!(&first_try, Some(t) if t.len() == 1);
+        let others = other_forms(&ranking, !named);
+        if others.is_empty() {
+            return first_try;
         }
+        ranking.extend(round(&others));
+        charge_forms(&mut ranking);
+        ranking.sort_by(by_evidence);
+        decide_first(&mut ranking, &mut disagreements)
+    });
+    let verdict = match decided {
+        None => Verdict::NoSignificantGap,
+        Some(None) => Verdict::Unexplained,
+        Some(Some(t)) if t.len() > 1 => match forms_of_one(&mut ranking, &t, share, MIN_PARTIAL) {
+            Some(kinds) => {
+                tie = kinds;
+                Verdict::Tie
+            }
+            None => Verdict::Effect,
+        },
+        Some(Some(_)) => Verdict::Effect,
     };
     let mut forms: Vec<FormChoice> = vec![];
     if verdict == Verdict::Effect {
@@ -915,18 +846,19 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
         }
         if first_settled && first_cv.gap >= SIGNIFICANT_GAP {
             let second_screen = Screen::of(&all, &first_fit, fo);
-            let round = |cands: &[(EffectKind, f64)]| -> Vec<Ranked> {
+            let round = |cands: &[(EffectKind, f64, Option<Model>)]| -> Vec<Ranked> {
                 cands
                     .par_iter()
-                    .map(|&(k, form)| {
+                    .map(|(k, form, warm)| {
                         try_candidate(
                             &all,
                             &second_screen,
                             &first_fit,
                             &first_cv,
                             &[first.effect],
-                            k,
-                            form,
+                            *k,
+                            *form,
+                            warm.as_ref(),
                             first_cv.gap,
                             &fold,
                             k_folds,
@@ -936,15 +868,18 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
                     })
                     .collect()
             };
-            let defaults: Vec<(EffectKind, f64)> = opts
+            let defaults: Vec<(EffectKind, f64, Option<Model>)> = opts
                 .candidates
                 .iter()
                 .filter(|&&k| k != first.effect)
-                .map(|&k| (k, k.default_form()))
+                .map(|&k| (k, k.default_form(), None))
                 .collect();
             let first_share = |e2: f64| (first_cv.gap - e2) / first_cv.gap;
             second = round(&defaults);
-            let others = other_forms(&second, first_share, MIN_SECOND);
+            let qualifies = second
+                .iter()
+                .any(|r| r.evidence.clear() && first_share(r.gap_after) >= MIN_SECOND);
+            let others = other_forms(&second, !qualifies);
             second.extend(round(&others));
             charge_forms(&mut second);
             second.sort_by(by_evidence);

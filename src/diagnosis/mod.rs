@@ -16,6 +16,7 @@ pub mod features;
 pub mod fingerprint;
 pub mod fit;
 pub mod folds;
+pub mod forms;
 pub mod limits;
 pub mod model;
 pub mod report;

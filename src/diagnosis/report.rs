@@ -111,6 +111,7 @@ pub fn json(c: &Campaign, d: &Diagnosis) -> serde_json::Value {
         },
         "second": d.second.iter().map(|r| json!({
             "effect": r.effect.name(),
+            "name": r.name,
             "form": r.form.map(|f| f.name),
             "form_charge": r.form_charge,
             "evidence": evidence_json(&r.evidence),
@@ -128,6 +129,7 @@ pub fn json(c: &Campaign, d: &Diagnosis) -> serde_json::Value {
         }))).collect::<Vec<_>>(),
         "ranking": d.ranking.iter().map(|r| json!({
             "effect": r.effect.name(),
+            "name": r.name,
             "form": r.form.map(|f| f.name),
             "form_charge": r.form_charge,
             "per_feature": per_feature_json(&d.base_per_feature, &r.per_feature),
@@ -428,13 +430,7 @@ pub fn summary(c: &Campaign, d: &Diagnosis) -> String {
                 .ranking
                 .iter()
                 .filter(|r| r.rejected.is_some())
-                .map(|r| {
-                    format!(
-                        "{} (cuts it by {:.0} %)",
-                        r.name,
-                        100.0 * r.reduction
-                    )
-                })
+                .map(|r| format!("{} (cuts it by {:.0} %)", r.name, 100.0 * r.reduction))
                 .collect();
             let live = d.ranking.iter().find(|r| r.rejected.is_none());
             format!(

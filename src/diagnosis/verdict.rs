@@ -85,6 +85,58 @@ pub struct Ranked {
     pub rejected: Option<String>,
 }
 
+#[cfg(test)]
+impl Ranked {
+    /// A candidate of `p` parameters with held-out gaps `gaps` (`per` residuals each) and its
+    /// evidence against a base model of gaps `base` by the rule: for the decision's tests.
+    pub(crate) fn for_test(
+        k: EffectKind,
+        p: usize,
+        gaps: &[f64],
+        base: &[f64],
+        per: usize,
+    ) -> Ranked {
+        let n = vec![per; gaps.len()];
+        let e = evidence(gaps, &n, base, &n, p as f64);
+        let pooled = (gaps.iter().map(|g| g * g).sum::<f64>() / gaps.len() as f64).sqrt();
+        Ranked {
+            effect: k,
+            form: None,
+            name: k.name().to_string(),
+            form_charge: 0.0,
+            fit: FitResult {
+                model: crate::diagnosis::model::Model::default(),
+                estimates: vec![],
+                gap: pooled,
+                residuals: per * gaps.len(),
+                evaluations: 0,
+                effect_params: p,
+                iterations: 0,
+                converged: true,
+                stalled: false,
+                theta: vec![],
+                z: vec![],
+                jacobian: faer::Mat::zeros(0, 0),
+                jacobian_fresh: false,
+                effects: vec![k],
+            },
+            gap_after: pooled,
+            gap_spread: 0.0,
+            reduction: 0.0,
+            score: pooled,
+            per_recording: gaps.to_vec(),
+            per_recording_n: n,
+            evidence: e,
+            at_bound: vec![],
+            per_feature: vec![],
+            concentrated: None,
+            wall_time: 0.0,
+            fingerprints: vec![],
+            rejected: None,
+        }
+    }
+}
+
 /// Where the gap lies, from the calibrated base model over all recordings.
 #[derive(Clone, Debug)]
 pub struct Where {

@@ -222,8 +222,16 @@ pub static EFFECTS: [EffectInfo; 10] = [
         ],
         candidate: true,
         forms: &[
-            form("ageing_law", "Dieterich's ageing law: the contact ages with stick time, θ' = 1 − |v_r| θ/D_c", 0.0),
-            form("slip_law", "Ruina's slip law: the contact state evolves only with slip, θ' = −(|v_r| θ/D_c) ln(|v_r| θ/D_c)", 1.0),
+            form(
+                "ageing_law",
+                "Dieterich's ageing law: the contact ages with stick time, θ' = 1 − |v_r| θ/D_c",
+                0.0,
+            ),
+            form(
+                "slip_law",
+                "Ruina's slip law: the contact state evolves only with slip, θ' = −(|v_r| θ/D_c) ln(|v_r| θ/D_c)",
+                1.0,
+            ),
         ],
     },
     EffectInfo {
@@ -264,7 +272,11 @@ pub static EFFECTS: [EffectInfo; 10] = [
         ],
         candidate: true,
         forms: &[
-            form("resonance", "two poles: a resonance at f_r with damping ζ", 0.0),
+            form(
+                "resonance",
+                "two poles: a resonance at f_r with damping ζ",
+                0.0,
+            ),
             Form {
                 name: "first_order",
                 doc: "one pole: a first-order lag of corner f_r, A = 1/√(1 + (f/f_r)²)",
@@ -321,10 +333,26 @@ pub static EFFECTS: [EffectInfo; 10] = [
         ],
         candidate: true,
         forms: &[
-            form("displacement", "the load swing grows with the substrate's displacement amplitude: k_n A u0", 0.0),
-            form("velocity", "it grows with the substrate's velocity amplitude: k_n A u0 f/f_ref, f_ref = 1 kHz", 1.0),
-            form("acceleration", "it grows with the substrate's acceleration (a frame mode driven by the shaker's reaction): k_n A u0 (f/f_ref)²", 2.0),
-            form("fixed", "a fixed swing while the substrate vibrates, set by the loading arm: k_n × 1 µm, whatever the amplitude and frequency", 3.0),
+            form(
+                "displacement",
+                "the load swing grows with the substrate's displacement amplitude: k_n A u0",
+                0.0,
+            ),
+            form(
+                "velocity",
+                "it grows with the substrate's velocity amplitude: k_n A u0 f/f_ref, f_ref = 1 kHz",
+                1.0,
+            ),
+            form(
+                "acceleration",
+                "it grows with the substrate's acceleration (a frame mode driven by the shaker's reaction): k_n A u0 (f/f_ref)²",
+                2.0,
+            ),
+            form(
+                "fixed",
+                "a fixed swing while the substrate vibrates, set by the loading arm: k_n × 1 µm, whatever the amplitude and frequency",
+                3.0,
+            ),
         ],
     },
     EffectInfo {
@@ -365,8 +393,16 @@ pub static EFFECTS: [EffectInfo; 10] = [
         ],
         candidate: true,
         forms: &[
-            form("order2", "one second-order section (a load cell's resonance)", 0.0),
-            form("order4", "two second-order sections at f_n, of damping ζ and (1 + √2) ζ (a sharp anti-alias filter: Butterworth at ζ = 0.383)", 1.0),
+            form(
+                "order2",
+                "one second-order section (a load cell's resonance)",
+                0.0,
+            ),
+            form(
+                "order4",
+                "two second-order sections at f_n, of damping ζ and (1 + √2) ζ (a sharp anti-alias filter: Butterworth at ζ = 0.383)",
+                1.0,
+            ),
         ],
     },
     EffectInfo {
@@ -426,8 +462,16 @@ pub static EFFECTS: [EffectInfo; 10] = [
         ],
         candidate: true,
         forms: &[
-            form("linear", "friction proportional to the slip velocity (a lubricant film)", 1.0),
-            form("quadratic", "friction growing with the square of the slip velocity (a drag)", 2.0),
+            form(
+                "linear",
+                "friction proportional to the slip velocity (a lubricant film)",
+                1.0,
+            ),
+            form(
+                "quadratic",
+                "friction growing with the square of the slip velocity (a drag)",
+                2.0,
+            ),
         ],
     },
     EffectInfo {
@@ -435,7 +479,16 @@ pub static EFFECTS: [EffectInfo; 10] = [
         name: "stribeck_shape",
         doc: "a Stribeck exponent other than 2",
         params: &[
-            ep("delta", "-", "Stribeck exponent", 0.2, 10.0, 1.0, true, true),
+            ep(
+                "delta",
+                "-",
+                "Stribeck exponent",
+                0.2,
+                10.0,
+                1.0,
+                true,
+                true,
+            ),
             ep(
                 "form",
                 "-",
@@ -450,7 +503,11 @@ pub static EFFECTS: [EffectInfo; 10] = [
         candidate: true,
         forms: &[
             form("exponential", "exp(−|v_r/v_s|^δ)", 0.0),
-            form("rational", "1/(1 + |v_r/v_s|^δ) (a Lorentzian curve at δ = 2)", 1.0),
+            form(
+                "rational",
+                "1/(1 + |v_r/v_s|^δ) (a Lorentzian curve at δ = 2)",
+                1.0,
+            ),
         ],
     },
     EffectInfo {
@@ -487,7 +544,16 @@ pub static EFFECTS: [EffectInfo; 10] = [
         name: "frictional_lag",
         doc: "the friction force lags behind changes of the slip velocity",
         params: &[
-            ep("tau", "s", "time constant of the lag (form time)", 1e-6, 1.0, 1e-3, true, true),
+            ep(
+                "tau",
+                "s",
+                "time constant of the lag (form time)",
+                1e-6,
+                1.0,
+                1e-3,
+                true,
+                true,
+            ),
             ep(
                 "length",
                 "m",
@@ -735,12 +801,14 @@ impl Effects {
     /// Sets an effect's form by name (switching the effect on): `form = "velocity"`.
     pub fn set_form(&mut self, kind: EffectKind, name: &str) -> Result<(), EffectError> {
         let info = kind.info();
-        let f = kind.form_named(name).ok_or_else(|| EffectError::UnknownForm {
-            effect: info.name,
-            name: form_param(kind),
-            text: name.to_string(),
-            allowed: forms_list(kind),
-        })?;
+        let f = kind
+            .form_named(name)
+            .ok_or_else(|| EffectError::UnknownForm {
+                effect: info.name,
+                name: form_param(kind),
+                text: name.to_string(),
+                allowed: forms_list(kind),
+            })?;
         self.set(kind, form_param(kind), f.value)
     }
 

@@ -66,13 +66,24 @@ if v["verdict"] == "effect":
 # One story from evidence and gap: every disagreement names the two models and the gap's choice
 # has the lower gap; a named effect takes part in no disagreement with another candidate of its
 # stage (that pair would be a tie).
-cands = {r["effect"] for r in v["ranking"]}
+# Forms of one effect (`effect[form]`) are one explanation: a pair of them may disagree.
+cands = {r["name"] for r in v["ranking"]}
+def effect_of(name):
+    return name.split("[")[0]
 for d in v["disagreements"]:
     assert d["by_evidence"] != d["by_gap"], d
     assert d["gap_by_gap"] < d["gap_by_evidence"], d
     assert d["evidence_carried_by"] or d["evidence_recordings"] == 0, d
-    if v["verdict"] == "effect" and {d["by_evidence"], d["by_gap"]} <= cands:
-        assert v["best_effect"] not in (d["by_evidence"], d["by_gap"]), (v["best_effect"], d)
+    pair = (effect_of(d["by_evidence"]), effect_of(d["by_gap"]))
+    if v["verdict"] == "effect" and {d["by_evidence"], d["by_gap"]} <= cands and pair[0] != pair[1]:
+        assert v["best_effect"] not in pair, (v["best_effect"], d)
+# Each named effect with forms says which it takes, among the forms tried.
+for f in v["forms"]:
+    assert f["effect"] in v["effects"], f
+    assert f["form"] == f["tried"][0] and set(f["not_excluded"]) <= set(f["tried"][1:]), f
+    assert f["settled"] == (not f["not_excluded"] and len(f["tried"]) > 1), f
+for r in v["ranking"]:
+    assert r["name"] == r["effect"] or r["name"] == f'{r["effect"]}[{r["form"]}]', r
 # What the campaign could not have seen: limits with every no_significant_gap, inside the scanned
 # range and at the stated power; elsewhere a reason where none were computed.
 lim = v["limits"]

@@ -18,6 +18,9 @@ effect in a form of its own, unlike `src/model/effects.rs`:
   law.
 - ``screw``: lead-screw error with its second harmonic, ``a sin(k x) + a2 sin(2 k x + phi2)``.
 - ``track``: friction varying along the track as a sum of two sinusoids of the body position.
+- ``frame``: the normal load follows the substrate's *acceleration* through a frame driven by the
+  shaker's reaction, ``F_N - m_f u''(t - t_f)`` (mass ``m_f`` [kg], lag ``t_f`` [s]); the
+  library's default load swing follows the displacement.
 
 The design of a campaign, its sampling rate, noise and two-stage protocol are chosen per
 campaign (see ``PANEL``). Run ``python3 tests/rig/rig.py DIR --campaign NAME`` to write one,
@@ -39,11 +42,14 @@ from numba import njit
 BASE = dict(m=6.52 / 9.81, k_t=71.318e6, h_t=1.377e4, h_v=0.0, F_c=8.3, F_s=11.5, v_s=0.35e-3,
             h_d=0.0, F_N=36.52)
 
+# The normal load [N], a plain float for the compiled right-hand side.
+LOAD = BASE["F_N"]
+
 # Indices into the parameter vector of the integrator.
 (P_M, P_KT, P_HT, P_HV, P_FC, P_FS, P_VS, P_KD, P_HD, P_VD, P_W, P_U0, P_TON,
  P_SENS, P_SW, P_ACT, P_W1, P_Z1, P_W2, P_Z2, P_MU, P_NORM, P_EPS, P_PHI,
  P_AGE, P_B, P_TH0, P_DC, P_SCREW, P_A1, P_A2, P_KS, P_PHI2, P_TRACK, P_TA1, P_TK1,
- P_TA2, P_TK2, P_LEN) = range(39)
+ P_TA2, P_TK2, P_FRAME, P_MF, P_TF, P_LEN) = range(42)
 
 # State: x, v, s, sensor (4), actuator (4), theta.
 NSTATE = 12
@@ -87,6 +93,10 @@ def rhs(t, y, p, dy):
     nu = 1.0
     if p[P_NORM] > 0.0 and p[P_U0] > 0.0 and t >= p[P_TON]:
         nu += p[P_EPS] * math.sin(p[P_W] * (t - p[P_TON]) + p[P_PHI])
+    if p[P_FRAME] > 0.0 and p[P_U0] > 0.0 and t - p[P_TF] >= p[P_TON]:
+        # u'' = -u0 w^2 sin(w (t - t_on)), felt t_f later.
+        acc = -p[P_U0] * p[P_W] ** 2 * math.sin(p[P_W] * (t - p[P_TF] - p[P_TON]))
+        nu -= p[P_MF] * acc / LOAD
     if p[P_TRACK] > 0.0:
         nu *= 1.0 + p[P_TA1] * math.sin(p[P_TK1] * y[0]) + p[P_TA2] * math.sin(p[P_TK2] * y[0])
     fs = p[P_FS]
@@ -204,6 +214,8 @@ def param_vector(cond, effects):
         elif name == "screw":
             p[P_SCREW], p[P_A1], p[P_A2] = 1.0, e["a"], e["a2"]
             p[P_KS], p[P_PHI2] = 2.0 * math.pi / e["wavelength"], e["phi2"]
+        elif name == "frame":
+            p[P_FRAME], p[P_MF], p[P_TF] = 1.0, e["m_f"], e["t_f"]
         elif name == "track":
             p[P_TRACK] = 1.0
             p[P_TA1], p[P_TK1] = e["a1"], 2.0 * math.pi / e["l1"]
@@ -298,6 +310,9 @@ PANEL = {
                          effects={"sensor": dict(f_n=120.0),
                                   "aging": dict(b=0.08, theta_0=0.01, d_c=1e-6)},
                          expect=["sensor_dynamics", "aging"]),
+    "frame-acceleration": dict(design="factorial", two_stage=False, rate=10000.0, noise=0.02,
+                               effects={"frame": dict(m_f=0.15, t_f=40e-6)},
+                               expect=["normal_coupling"], form="acceleration"),
     "actuator+screw": dict(design="small", two_stage=False, rate=50000.0, noise=0.02,
                            effects={"actuator": dict(f_1=12000.0, zeta_1=0.2, f_2=2500.0,
                                                      zeta_2=0.1, mu=0.3),
@@ -309,7 +324,7 @@ PANEL = {
 # What each added effect of this rig stands for in the library (the verdict a right diagnosis
 # gives for it).
 LIBRARY = {"sensor": "sensor_dynamics", "actuator": "actuator_response",
-           "normal": "normal_coupling", "aging": "aging", "screw": "drive_ripple",
+           "normal": "normal_coupling", "frame": "normal_coupling", "aging": "aging", "screw": "drive_ripple",
            "track": "unexplained"}
 
 
@@ -339,7 +354,7 @@ def write_campaign(out, name, seed, cycles=2, extra=None):
             fh.write(f"va_ratio = {cond['va_ratio']!r}\n")
             if cond.get("t_on", 0.0) > 0:
                 fh.write(f"t_on = {cond['t_on']!r}\n")
-    truth = dict(name=name, effects=spec["effects"], expect=spec["expect"],
+    truth = dict(name=name, effects=spec["effects"], expect=spec["expect"], form=spec.get("form"),
                  design=spec["design"], two_stage=spec["two_stage"], rate=rate,
                  noise=spec["noise"], seed=seed)
     with open(os.path.join(os.path.dirname(os.path.abspath(out)), name + ".truth.json"),

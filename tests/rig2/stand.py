@@ -20,6 +20,11 @@ every effect in a form that is neither the library's (`src/model/effects.rs`) no
   ``phi' = |v_r|/D (exp(-(v_r/v_s)^2) - phi)``; the library's lag is a time, its ageing a
   contact age.
 
+- ``daq``: the data acquisition's anti-alias filter, a fourth-order *Bessel* low-pass at ``f_aa``
+  [Hz] (two sections: 1.4192 and 1.5912 ``f_aa``, damping 0.958 and 0.621), and a pure delay
+  ``delay`` [s] on the force channel; the library's fourth-order sensor is two sections at one
+  frequency and has no delay.
+
 and three *mimics*, effects outside the library that resemble one inside it (the right verdict
 is `unexplained`, a tie, or the analogue named as partial; never the analogue alone):
 
@@ -66,10 +71,15 @@ STEP = 2.5e-6
  Q_MEM, Q_DMEM,
  Q_RUNIN, Q_RA, Q_RL,
  Q_GAIN,
- Q_LEN) = range(26)
+ Q_DAQ, Q_DAW1, Q_DAW2, Q_DDELAY,
+ Q_LEN) = range(30)
 
-# State: x, v, s (contact), sensor y, y', low-pass z, actuator u, memory phi, drive offset e.
-NS = 9
+# State: x, v, s (contact), sensor y, y', low-pass z, actuator u, memory phi, drive offset e,
+# anti-alias sections (y1, y1', y2, y2').
+NS = 13
+
+# Fourth-order Bessel low-pass, normalised to -3 dB at 1: the sections' frequencies and damping.
+BESSEL = ((1.4192, 0.9580), (1.5912, 0.6207))
 
 
 @njit(cache=True)
@@ -142,6 +152,14 @@ def deriv(t, y, q, noise_rate, dy):
     else:
         dy[7] = 0.0
     dy[8] = noise_rate
+    if q[Q_DAQ] > 0.0:
+        w1, w2 = q[Q_DAW1], q[Q_DAW2]
+        dy[9] = y[10]
+        dy[10] = w1 * w1 * (fd - y[9]) - 2.0 * 0.9580 * w1 * y[10]
+        dy[11] = y[12]
+        dy[12] = w2 * w2 * (y[9] - y[11]) - 2.0 * 0.6207 * w2 * y[12]
+    else:
+        dy[9] = dy[10] = dy[11] = dy[12] = 0.0
 
 
 @njit(cache=True)
@@ -157,9 +175,17 @@ def run(q, n_samples, per_sample, noise_v):
     X = np.zeros(n_samples)
     XD = np.zeros(n_samples)
     h = STEP
+    # The delay of the acquisition in whole steps, and the filter's output over that many.
+    nd = int(round(q[Q_DDELAY] / h)) if q[Q_DAQ] > 0.0 else 0
+    ring = np.zeros(nd + 1)
     for i in range(n_samples):
         t_i = i * per_sample * h
-        F[i] = y[5] if q[Q_SENS] > 0.0 else drive_force(t_i, y, q)
+        if q[Q_DAQ] > 0.0:
+            step = i * per_sample
+            ring[step % (nd + 1)] = y[11]
+            F[i] = ring[(step - nd) % (nd + 1)] if step >= nd else 0.0
+        else:
+            F[i] = y[5] if q[Q_SENS] > 0.0 else drive_force(t_i, y, q)
         X[i] = y[0]
         XD[i] = q[Q_VD] * t_i + y[8]
         if i == n_samples - 1:
@@ -167,6 +193,9 @@ def run(q, n_samples, per_sample, noise_v):
         nv = noise_v[i]
         for j in range(per_sample):
             t = (i * per_sample + j) * h
+            if q[Q_DAQ] > 0.0 and j > 0:
+                step = i * per_sample + j
+                ring[step % (nd + 1)] = y[11]
             deriv(t, y, q, nv, k)
             for m in range(NS):
                 a[m] = y[m] + h * k[m]
@@ -206,6 +235,11 @@ def params(cond, effects):
             q[Q_RUNIN], q[Q_RA], q[Q_RL] = 1.0, e["a"], e["L"]
         elif name == "gain":
             q[Q_GAIN] = e["g"]
+        elif name == "daq":
+            q[Q_DAQ] = 1.0
+            q[Q_DAW1] = 2.0 * math.pi * BESSEL[0][0] * e["f_aa"]
+            q[Q_DAW2] = 2.0 * math.pi * BESSEL[1][0] * e["f_aa"]
+            q[Q_DDELAY] = e["delay"]
         elif name == "drive_noise":
             pass
         else:
@@ -285,6 +319,10 @@ PANEL = {
     "mimic-gain": dict(drives=4, per_drive=[3, 3, 3, 3], f=(500.0, 3000.0),
                        ratio=(0.4, 2.5), rate=15000.0, noise=0.02, quantum=1e-7,
                        effects={"gain": dict(g=0.55)}, expect={"mimic": ["actuator_response"]}),
+    "daq-bessel-delay": dict(drives=4, per_drive=[3, 3, 2, 3], f=(500.0, 2500.0),
+                             ratio=(0.3, 1.6), rate=10000.0, noise=0.02, quantum=1e-7,
+                             effects={"daq": dict(f_aa=300.0, delay=0.3e-3)},
+                             expect=["sensor_dynamics"], form="order4"),
     "sensor+viscous": dict(drives=3, per_drive=[4, 2, 3], f=(500.0, 2000.0),
                            ratio=(0.5, 2.5), rate=10000.0, noise=0.05, quantum=None,
                            effects={"sensor": dict(f_n=120.0, zeta=0.2, f_lp=500.0),
@@ -345,7 +383,8 @@ def write_campaign(out, name, seed, cycles=2):
                     fh.write(f"t_on = {cond['t_on']!r}\n")
             else:
                 fh.write("f = 0.0\nu0 = 0.0\n")
-    truth = dict(name=name, effects=spec["effects"], expect=spec["expect"], rate=rate,
+    truth = dict(name=name, effects=spec["effects"], expect=spec["expect"], form=spec.get("form"),
+                 rate=rate,
                  noise=spec["noise"], quantum=spec["quantum"], seed=seed,
                  recordings=len(conds))
     with open(os.path.join(os.path.dirname(os.path.abspath(out)), name + ".truth.json"),

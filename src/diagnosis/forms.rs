@@ -1,0 +1,234 @@
+//! Effect families in the decision: which other forms of the effects a round tries, the nats
+//! charged for choosing a form, and how forms of one effect tied name that effect with its form
+//! settled or not (docs/campaigns.md, "Effect families").
+
+use super::decide::between;
+use super::fit::Model;
+use super::verdict::{FormChoice, Ranked};
+use crate::model::EffectKind;
+use crate::model::effects::form_param;
+
+/// The candidates of a round to try in their other forms: every form of each effect with
+/// forms whose default form passed its screen (its fit holds the effect), and, with `all`
+/// (where the default forms name no effect, or tie), of every effect with forms: an effect out
+/// of reach in one form, or rejected by a fingerprint that form predicts, may be within reach,
+/// or carry its fingerprint, in another. `(effect, form value, warm start)`, in the order of
+/// `ranked`; the warm start, where the default form passed its screen, is its fit in the other
+/// form.
+pub(crate) fn other_forms(ranked: &[Ranked], all: bool) -> Vec<(EffectKind, f64, Option<Model>)> {
+    ranked
+        .iter()
+        .filter(|r| {
+            r.effect.info().forms.len() > 1
+                && r.form.is_none_or(|f| f.value == r.effect.default_form())
+                && (all || r.fit.effects.contains(&r.effect))
+        })
+        .flat_map(|r| {
+            let k = r.effect;
+            let passed = r.fit.effects.contains(&k);
+            k.info()
+                .forms
+                .iter()
+                .filter(move |f| f.value != k.default_form())
+                .map(move |f| {
+                    let warm = passed.then(|| {
+                        let mut m = r.fit.model.clone();
+                        let _ = m.effects.set(k, form_param(k), f.value);
+                        m
+                    });
+                    (k, f.value, warm)
+                })
+        })
+        .collect()
+}
+
+/// Charges every candidate of an effect tried in several forms `ln m` nats for the choice
+/// among its `m` forms ([`Ranked::form_charge`]): a uniform prior over the forms.
+pub(crate) fn charge_forms(ranked: &mut [Ranked]) {
+    let kinds: Vec<EffectKind> = ranked.iter().map(|r| r.effect).collect();
+    for r in ranked.iter_mut() {
+        if kinds.iter().filter(|&&k| k == r.effect).count() > 1 {
+            let charge = (r.effect.info().forms.len() as f64).ln();
+            r.evidence = r.evidence.charged(charge);
+            r.form_charge = charge;
+        }
+    }
+}
+
+/// Where a decision's tie `t` (indices into `ranked`) holds forms of one effect only, that
+/// effect is named: its qualifying form of best evidence is moved to the head of `ranked`,
+/// and `None` is returned; else the effects tied, each once, best first.
+pub(crate) fn forms_of_one(
+    ranked: &mut Vec<Ranked>,
+    t: &[usize],
+    share: impl Fn(f64) -> f64,
+    min_share: f64,
+) -> Option<Vec<EffectKind>> {
+    let mut kinds: Vec<EffectKind> = vec![];
+    for &j in t {
+        if !kinds.contains(&ranked[j].effect) {
+            kinds.push(ranked[j].effect);
+        }
+    }
+    if kinds.len() > 1 {
+        return Some(kinds);
+    }
+    let lead = t
+        .iter()
+        .copied()
+        .find(|&j| ranked[j].evidence.clear() && share(ranked[j].gap_after) >= min_share)
+        .unwrap_or(t[0]);
+    let r = ranked.remove(lead);
+    ranked.insert(0, r);
+    None
+}
+
+/// The form chosen for the named candidate `ranked[0]` among the forms of its effect in
+/// `ranked`, where it has forms.
+pub(crate) fn form_choice(ranked: &[Ranked]) -> Option<FormChoice> {
+    let named = ranked.first()?;
+    let form = named.form?;
+    let others: Vec<&Ranked> = ranked[1..]
+        .iter()
+        .filter(|r| r.effect == named.effect)
+        .collect();
+    Some(FormChoice {
+        effect: named.effect,
+        form: form.name,
+        tried: std::iter::once(form.name)
+            .chain(others.iter().filter_map(|r| r.form.map(|f| f.name)))
+            .collect(),
+        not_excluded: others
+            .iter()
+            .filter(|r| r.rejected.is_none() && !between(named, r).clear())
+            .filter_map(|r| r.form.map(|f| f.name))
+            .collect(),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::diagnosis::decide::{Side, decide};
+    use crate::diagnosis::evidence::MIN_PARTIAL;
+
+    const N: usize = 17;
+
+    /// Twenty quiet recordings (held-out gap `quiet`) and four informative ones (`loud`).
+    fn gaps(quiet: f64, loud: f64) -> Vec<f64> {
+        let mut g = vec![quiet; 20];
+        g.extend([loud; 4]);
+        g
+    }
+
+    fn cand(k: EffectKind, p: usize, gaps: &[f64], base: &[f64]) -> Ranked {
+        Ranked::for_test(k, p, gaps, base, N)
+    }
+
+    /// The decision over `ranked` (sorted by evidence first) against a base model of gaps
+    /// `base`: the effects named or tied.
+    fn run(ranked: &mut [Ranked], base: &[f64]) -> (Option<Vec<EffectKind>>, usize) {
+        ranked.sort_by(|a, b| b.evidence.ln_odds.total_cmp(&a.evidence.ln_odds));
+        let n = vec![N; base.len()];
+        let from = Side {
+            name: "base",
+            per_recording: base,
+            n: &n,
+        };
+        let names: Vec<String> = (0..base.len()).map(|i| format!("r{i:02}")).collect();
+        let e0 = (base.iter().map(|g| g * g).sum::<f64>() / base.len() as f64).sqrt();
+        let (t, d) = decide(ranked, from, &names, |e1| (e0 - e1) / e0, MIN_PARTIAL);
+        (
+            t.map(|t| t.iter().map(|&j| ranked[j].effect).collect()),
+            d.len(),
+        )
+    }
+
+    /// A candidate in a form of its effect: named `kind[form]` off the default form.
+    fn in_form(k: EffectKind, form: &str, p: usize, gaps: &[f64], base: &[f64]) -> Ranked {
+        let mut r = cand(k, p, gaps, base);
+        let f = k.form_named(form).unwrap();
+        r.form = Some(f);
+        if f.value != k.default_form() {
+            r.name = format!("{k}[{form}]");
+        }
+        r
+    }
+
+    /// Two forms of one effect are one explanation: where the data cannot tell them apart the
+    /// effect is named, its form with the other not excluded; where one form is clearly more
+    /// likely, the form is settled. Each form is charged `ln 2` nats for the choice.
+    #[test]
+    fn forms_of_one_effect_name_the_effect_and_say_whether_the_form_is_settled() {
+        let base = gaps(1.0, 6.0);
+        let e0 = (base.iter().map(|g| g * g).sum::<f64>() / 24.0).sqrt();
+        let share = |e1: f64| (e0 - e1) / e0;
+        // Alike: 3.0 and 3.02 on the informative recordings.
+        let mut alike = vec![
+            in_form(
+                EffectKind::SensorDynamics,
+                "order2",
+                2,
+                &gaps(1.0, 3.0),
+                &base,
+            ),
+            in_form(
+                EffectKind::SensorDynamics,
+                "order4",
+                2,
+                &gaps(1.0, 3.02),
+                &base,
+            ),
+        ];
+        let before = alike[0].evidence.ln_odds;
+        charge_forms(&mut alike);
+        assert!((before - alike[0].evidence.ln_odds - 2f64.ln()).abs() < 1e-12);
+        let (t, _) = run(&mut alike, &base);
+        assert_eq!(t.as_ref().map(Vec::len), Some(2), "{t:?}");
+        let idx: Vec<usize> = vec![0, 1];
+        assert_eq!(forms_of_one(&mut alike, &idx, share, MIN_PARTIAL), None);
+        let c = form_choice(&alike).unwrap();
+        assert_eq!((c.form, c.not_excluded.clone()), ("order2", vec!["order4"]));
+        assert!(!c.settled(), "{c:?}");
+        // Clearly apart: the fourth-order form halves the informative recordings' gap again.
+        let mut apart = vec![
+            in_form(
+                EffectKind::SensorDynamics,
+                "order2",
+                2,
+                &gaps(1.0, 3.0),
+                &base,
+            ),
+            in_form(
+                EffectKind::SensorDynamics,
+                "order4",
+                2,
+                &gaps(1.0, 1.5),
+                &base,
+            ),
+        ];
+        charge_forms(&mut apart);
+        let (t, _) = run(&mut apart, &base);
+        assert_eq!(t.as_ref().map(Vec::len), Some(1), "{t:?}");
+        let c = form_choice(&apart).unwrap();
+        assert_eq!(c.form, "order4");
+        assert!(c.settled(), "{c:?}");
+        assert_eq!(apart[0].name, "sensor_dynamics[order4]");
+        // Forms of two effects tied stay a tie of the effects.
+        let mut two = vec![
+            in_form(
+                EffectKind::SensorDynamics,
+                "order2",
+                2,
+                &gaps(1.0, 3.0),
+                &base,
+            ),
+            cand(EffectKind::FrictionalLag, 2, &gaps(1.0, 3.01), &base),
+        ];
+        let idx: Vec<usize> = vec![0, 1];
+        assert_eq!(
+            forms_of_one(&mut two, &idx, share, MIN_PARTIAL),
+            Some(vec![EffectKind::SensorDynamics, EffectKind::FrictionalLag])
+        );
+    }
+}
