@@ -105,8 +105,8 @@ macro_rules! identification_tests {
 }
 
 // `.ci/run` keeps to 30 minutes: here it checks the effect-free and the unexplained verdicts and
-// one identification, the sensor's (its narrow valley along `f_n`, `fit::line_search`, under
-// 2 min), and leaves the other eight to `cargo test --release --test campaign --
+// one identification, a fourth-order sensor among the sensor's forms (below), and leaves the
+// nine to `cargo test --release --test campaign --
 // --include-ignored` (docs/campaigns.md); the independent rig (`tests/rig.rs`) names effects in CI on data
 // this crate did not make.
 identification_tests! {
@@ -116,6 +116,7 @@ identification_tests! {
     names_actuator_response: EffectKind::ActuatorResponse, 12;
     #[ignore = "1 to 3 min each on 2 cores (10 min for the nine); run with --include-ignored"]
     names_normal_coupling: EffectKind::NormalCoupling, 13;
+    #[ignore = "1 to 3 min each on 2 cores (10 min for the nine); run with --include-ignored (.ci/run names the fourth-order sensor among the sensor's forms)"]
     names_sensor_dynamics: EffectKind::SensorDynamics, 14;
     #[ignore = "1 to 3 min each on 2 cores (10 min for the nine); run with --include-ignored"]
     names_drive_ripple: EffectKind::DriveRipple, 15;

@@ -256,7 +256,14 @@ fn synth_then_diagnose_writes_the_verdict_json_hdf5_and_plots() {
         "{text}{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    assert!(text.contains("verdict: viscous explains the gap"), "{text}");
+    assert!(
+        text.contains("verdict: viscous (form linear) explains the gap"),
+        "{text}"
+    );
+    assert!(
+        text.contains("form: viscous: form linear, clearly more likely than quadratic"),
+        "{text}"
+    );
     let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
     assert_eq!(v["verdict"], "effect");
     assert_eq!(v["best_effect"], "viscous");

@@ -364,6 +364,28 @@ fn panel(rig: Rig, names: &[&str]) {
     );
 }
 
+/// Some campaigns of either panel, named in `RIG_CAMPAIGNS` (`rig:NAME` or `rig2:NAME`,
+/// comma-separated): their table, and the same assertion as a whole panel's on them.
+#[test]
+#[ignore = "as long as the campaigns named; for checks of part of a panel"]
+fn some_panel_campaigns() {
+    let names = std::env::var("RIG_CAMPAIGNS").unwrap_or_default();
+    for rig in [RIG, RIG2] {
+        let tag = if rig.script == RIG.script {
+            "rig"
+        } else {
+            "rig2"
+        };
+        let picked: Vec<&str> = names
+            .split(',')
+            .filter_map(|n| n.trim().strip_prefix(tag)?.strip_prefix(':'))
+            .collect();
+        if !picked.is_empty() {
+            panel(rig, &picked);
+        }
+    }
+}
+
 /// The first rig's whole panel.
 #[test]
 #[ignore = "the whole panel takes about 15 minutes on 2 cores (18 with the build); .ci/run runs two of its campaigns"]

@@ -773,10 +773,12 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
         breadth_of(&base_cv.per_recording, &b.per_recording)
     });
     let evidence_best = ranking.first().map(|b| b.evidence);
-    let evidence_runner_up = match ranking.as_slice() {
-        [b, r, ..] => Some((r.effect, between(b, r))),
-        _ => None,
-    };
+    // The runner-up: the best candidate of another effect (another form of the leader's is in
+    // `forms`).
+    let evidence_runner_up = ranking.first().and_then(|b| {
+        let r = ranking[1..].iter().find(|r| r.effect != b.effect)?;
+        Some((r.effect, between(b, r)))
+    });
     // Forward selection: a second effect with the first, where a clear gap remains.
     let mut second: Vec<Ranked> = vec![];
     let mut effects = vec![];

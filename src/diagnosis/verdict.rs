@@ -300,7 +300,8 @@ pub struct Diagnosis {
     pub breadth: f64,
     /// The top candidate's held-out evidence against the base model.
     pub evidence: Option<Evidence>,
-    /// The top candidate's held-out evidence against the runner-up, with the runner-up.
+    /// The top candidate's held-out evidence against the runner-up (the best candidate of
+    /// another effect), with the runner-up.
     pub evidence_runner_up: Option<(EffectKind, Evidence)>,
     /// The candidates the data cannot tell apart, best first, with verdict [`Verdict::Tie`]
     /// (empty otherwise).

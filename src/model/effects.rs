@@ -23,6 +23,21 @@
 //!                    track; a test effect, not a diagnosis candidate)
 //! ```
 //!
+//! Most effects come in a **family of forms** ([`EffectInfo::forms`]), chosen by a whole-numbered
+//! parameter (`form`; for `viscous`, its `exponent`), set by name in files and specs:
+//!
+//! ```text
+//! aging              ageing_law (above) | slip_law: θ' = −x ln x, x = |v_r| θ/D_c (θ from 1 ns)
+//! actuator_response  resonance (above) | first_order: A = 1/√(1 + (f/f_r)²)  (ζ unused)
+//! normal_coupling    swing k_n A u0 × 1 | f/f_ref | (f/f_ref)²  (displacement, velocity,
+//!                    acceleration; f_ref = 1 kHz) | fixed: k_n × 1 µm while vibrating
+//! sensor_dynamics    order2 (above) | order4: a second section at ω_n, damping (1 + √2) ζ,
+//!                    filters the first's output (Butterworth at ζ = 0.383)
+//! viscous            linear (n = 1) | quadratic (n = 2)
+//! stribeck_shape     exponential (above) | rational: 1/(1 + |v_r/v_s|^δ)
+//! frictional_lag     time (above) | distance: L w' = |v_r| (v_r − w)  (τ unused, L = `length`)
+//! ```
+//!
 //! Bounds are physical: a resonance between 100 Hz and 100 kHz, a Stribeck exponent from 0.2 to
 //! 10, a presliding spread below 0.95 (no element may break away at zero force), and so on; see
 //! [`EFFECTS`].
