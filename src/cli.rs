@@ -74,6 +74,10 @@ pub struct SynthArgs {
     /// Inject an effect with magnitudes drawn from its realistic range (with --seed).
     #[arg(long, value_name = "NAME")]
     pub draw: Option<String>,
+    /// The form of the drawn effect (`--draw normal_coupling --form velocity`; its forms:
+    /// docs/running.md, "Effects"). Default: the effect's first form.
+    #[arg(long, value_name = "FORM", requires = "draw")]
+    pub form: Option<String>,
     /// Conditions: full (30 recordings: 5 drives x 6 vibrations) or small (16: 4 x 4).
     #[arg(long, default_value = "full")]
     pub design: String,
@@ -226,6 +230,16 @@ impl SynthArgs {
             let kind = effect_flag("draw", name)?;
             use rand::SeedableRng;
             let mut rng = rand::rngs::StdRng::seed_from_u64(self.seed ^ 0x5eed);
+            // The form first: the load modulation's cap depends on how its swing scales.
+            if let Some(form) = &self.form {
+                spec.effects
+                    .set_form(kind, form)
+                    .map_err(|err| CliError::Flag {
+                        flag: "form".into(),
+                        value: form.clone(),
+                        msg: err.to_string(),
+                    })?;
+            }
             spec.effects = draw(kind, &mut rng, &spec);
         }
         once_each(&self.effects)?;

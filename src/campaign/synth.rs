@@ -2,7 +2,7 @@
 //! sampling rate, over a design of conditions like the paper's tests.
 
 use super::{CampaignError, Recording, Solvers, simulate_grid, write_recording};
-use crate::model::effects::{amplitude_gain, load_swing};
+use crate::model::effects::{amplitude_gain, form_param, load_swing};
 use crate::model::{EffectKind, Effects, Params};
 use crate::sim;
 use rand::{RngExt, SeedableRng, rngs::StdRng};
@@ -14,7 +14,7 @@ use std::path::Path;
 /// They span what test stands show (a 40 to 80 Hz load cell carrying a heavy frame, a 2.5 to
 /// 5 kHz piezo-saddle resonance, a few micrometres of screw error, a normal load that swings by
 /// a few to twenty per cent with the tangential vibration, ...).
-pub const REALISTIC: [(EffectKind, &str, f64, f64); 15] = [
+pub const REALISTIC: [(EffectKind, &str, f64, f64); 16] = [
     (EffectKind::Aging, "b", 0.03, 0.06),
     (EffectKind::ActuatorResponse, "f_r", 2500.0, 5000.0),
     (EffectKind::ActuatorResponse, "zeta", 0.05, 0.2),
@@ -27,6 +27,7 @@ pub const REALISTIC: [(EffectKind, &str, f64, f64); 15] = [
     (EffectKind::StribeckShape, "delta", 0.5, 1.0),
     (EffectKind::Presliding, "spread", 0.5, 0.9),
     (EffectKind::FrictionalLag, "tau", 0.5e-3, 2e-3),
+    (EffectKind::FrictionalLag, "length", 0.5e-6, 2e-6),
     (EffectKind::Track, "a", 0.08, 0.15),
     (EffectKind::Track, "wavelength", 0.5e-3, 1e-3),
     (EffectKind::Track, "offset", 0.0, 0.0),
@@ -250,9 +251,17 @@ pub const MAX_LOAD_SWING: f64 = 0.5;
 /// Draws every parameter of `kind` listed in [`REALISTIC`] with `rng`, within what `spec`'s
 /// design allows: the load modulation's `k_n` at most [`SynthSpec::k_n_cap`] (its realistic
 /// range is then that cap and down to a third of it, where the cap lies below the range).
+///
+/// The effect takes the form it has in `spec.effects` where it is there (its first form
+/// otherwise), and the magnitudes of that form.
 pub fn draw(kind: EffectKind, rng: &mut StdRng, spec: &SynthSpec) -> Effects {
     let mut fx = Effects::none();
+    let form = form_param(kind);
     fx.enable(kind);
+    if let Some(v) = spec.effects.get(kind, form) {
+        fx.set(kind, form, v)
+            .expect("a form the spec holds is valid");
+    }
     for &(k, name, lo, hi) in &REALISTIC {
         if k != kind || hi <= lo {
             continue;
@@ -354,6 +363,27 @@ mod tests {
             design: Design::Small,
             ..SynthSpec::default()
         };
+        // In the acceleration's form the swing grows with f²: the worst recording is another,
+        // the cap follows it, and a drawn k_n stays under it in that form.
+        let mut accel = SynthSpec::default();
+        accel
+            .effects
+            .set_form(EffectKind::NormalCoupling, "acceleration")
+            .unwrap();
+        let (worst_a, p_a, u_a) = accel.largest_amplitude().unwrap();
+        let cap_a = accel.k_n_cap().unwrap();
+        let swing = crate::model::effects::load_swing(cap_a, 2.0, p_a.f, u_a);
+        assert!((swing - MAX_LOAD_SWING * p_a.f_n).abs() < 1e-9, "{worst_a}");
+        for seed in 0..10 {
+            let mut rng = StdRng::seed_from_u64(seed);
+            let fx = draw(EffectKind::NormalCoupling, &mut rng, &accel);
+            assert_eq!(
+                fx.form(EffectKind::NormalCoupling).unwrap().name,
+                "acceleration"
+            );
+            let k_n = fx.get(EffectKind::NormalCoupling, "k_n").unwrap();
+            assert!(k_n <= cap_a, "seed {seed}: {k_n} for cap {cap_a}");
+        }
         let cap = full.k_n_cap().unwrap();
         // The largest amplitude: 2 mm/s at 500 Hz and v_a/v_d = 2, u0 = 1.27 µm.
         let (name, worst, _) = full.largest_amplitude().unwrap();
