@@ -261,7 +261,7 @@ fn synth_then_diagnose_writes_the_verdict_json_hdf5_and_plots() {
         "{text}"
     );
     assert!(
-        text.contains("form: viscous: form linear, clearly more likely than quadratic"),
+        text.contains("form: viscous: form linear (its default), the others tried (quadratic) fit worse but are not excluded"),
         "{text}"
     );
     let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();

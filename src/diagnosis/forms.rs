@@ -214,6 +214,34 @@ mod tests {
         assert_eq!(c.form, "order4");
         assert!(c.settled(), "{c:?}");
         assert_eq!(apart[0].name, "sensor_dynamics[order4]");
+        // The default form clearly ahead is not settled: the others' fits start next to its
+        // own, so a worse one of theirs may be an optimum missed.
+        let mut ahead = vec![
+            in_form(
+                EffectKind::SensorDynamics,
+                "order2",
+                2,
+                &gaps(1.0, 1.5),
+                &base,
+            ),
+            in_form(
+                EffectKind::SensorDynamics,
+                "order4",
+                2,
+                &gaps(1.0, 3.0),
+                &base,
+            ),
+        ];
+        charge_forms(&mut ahead);
+        let (t, _) = run(&mut ahead, &base);
+        assert_eq!(t.as_ref().map(Vec::len), Some(1), "{t:?}");
+        let c = form_choice(&ahead).unwrap();
+        assert_eq!(c.form, "order2");
+        assert!(
+            c.not_excluded.is_empty() && c.is_default() && !c.settled(),
+            "{c:?}"
+        );
+        assert!(c.line().contains("not excluded"), "{}", c.line());
         // Forms of two effects tied stay a tie of the effects.
         let mut two = vec![
             in_form(

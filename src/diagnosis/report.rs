@@ -79,6 +79,7 @@ pub fn json(c: &Campaign, d: &Diagnosis) -> serde_json::Value {
             "tried": f.tried,
             "not_excluded": f.not_excluded,
             "settled": f.settled(),
+            "default": f.is_default(),
             "doc": f.effect.form_named(f.form).map(|x| x.doc),
         })).collect::<Vec<_>>(),
         "warnings": d.warnings,

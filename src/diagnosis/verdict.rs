@@ -361,9 +361,17 @@ pub struct FormChoice {
 }
 
 impl FormChoice {
-    /// Whether the form is settled: it clearly beats every other form tried.
+    /// Whether the named form is the effect's default (first) one.
+    pub fn is_default(&self) -> bool {
+        self.effect.info().forms.first().map(|f| f.name) == Some(self.form)
+    }
+
+    /// Whether the form is settled: another than the default, clearly more likely than every
+    /// other form tried. The default form is never settled against the others: they are
+    /// fitted from starts next to its own fit (and their scans), with less search than it
+    /// gets, so a worse fit of theirs may be an optimum missed rather than a worse form.
     pub fn settled(&self) -> bool {
-        self.not_excluded.is_empty() && self.tried.len() > 1
+        self.not_excluded.is_empty() && self.tried.len() > 1 && !self.is_default()
     }
 
     /// One line: `sensor_dynamics: form order4 (against order2: settled)`.
@@ -372,7 +380,14 @@ impl FormChoice {
         if others.is_empty() {
             return format!("{}: form {} (the only one tried)", self.effect, self.form);
         }
-        if self.settled() {
+        if self.is_default() && self.not_excluded.is_empty() {
+            format!(
+                "{}: form {} (its default), the others tried ({}) fit worse but are not excluded: their fits start next to this one's",
+                self.effect,
+                self.form,
+                others.join(", ")
+            )
+        } else if self.settled() {
             format!(
                 "{}: form {}, clearly more likely than {}",
                 self.effect,

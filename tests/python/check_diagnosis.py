@@ -81,7 +81,7 @@ for d in v["disagreements"]:
 for f in v["forms"]:
     assert f["effect"] in v["effects"], f
     assert f["form"] == f["tried"][0] and set(f["not_excluded"]) <= set(f["tried"][1:]), f
-    assert f["settled"] == (not f["not_excluded"] and len(f["tried"]) > 1), f
+    assert f["settled"] == (not f["not_excluded"] and len(f["tried"]) > 1 and not f["default"]), f
 for r in v["ranking"]:
     assert r["name"] == r["effect"] or r["name"] == f'{r["effect"]}[{r["form"]}]', r
 # What the campaign could not have seen: limits with every no_significant_gap, inside the scanned
