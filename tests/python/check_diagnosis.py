@@ -30,7 +30,7 @@ with h5py.File(path, "r") as f:
         assert g["z_base"][feat].shape == (n,), feat
     r = f["ranking"]
     keys = sorted(r.keys())
-    assert [k.split("_", 1)[1] for k in keys] == [x["effect"] for x in v["ranking"]], keys
+    assert [k.split("_", 1)[1] for k in keys] == [x["name"] for x in v["ranking"]], keys
     if keys:
         top = r[keys[0]]
         assert abs(top["gap_after"][0] - v["ranking"][0]["gap_after"]) < 1e-12
