@@ -235,12 +235,7 @@ mod tests {
         Ranked::for_test(k, p, gaps, base, N)
     }
 
-    /// Twenty quiet recordings (held-out gap `quiet`) and four informative ones (`loud`).
-    fn gaps(quiet: f64, loud: f64) -> Vec<f64> {
-        let mut g = vec![quiet; 20];
-        g.extend([loud; 4]);
-        g
-    }
+    use crate::diagnosis::verdict::quiet_and_loud as gaps;
 
     fn names() -> Vec<String> {
         (0..24)

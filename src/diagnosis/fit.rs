@@ -18,7 +18,7 @@
 
 use super::features::Feature;
 use crate::campaign::Recording;
-use crate::model::effects::{actuator_gain, first_order_gain, form_param};
+use crate::model::effects::{actuator_gain, form_param, response_gain};
 use crate::model::{EffectKind, Effects, Params};
 use crate::sweep::spec::logspace;
 use faer::Mat;
@@ -1089,13 +1089,8 @@ pub fn actuator_scan(sub: &Target, m0: &Model) -> Option<Model> {
     let zetas: &[f64] = if first_order { &[1.0] } else { &ZETAS };
     for f_r in logspace(f_lo, f_hi, n_f + 1) {
         for &zeta in zetas {
-            let gain = |f: f64| {
-                if first_order {
-                    first_order_gain(f, f_r)
-                } else {
-                    actuator_gain(f, f_r, zeta)
-                }
-            };
+            let form = if first_order { 1.0 } else { 0.0 };
+            let gain = |f: f64| response_gain(form, f, f_r, zeta);
             let c: f64 = freqs
                 .iter()
                 .zip(&tables)

@@ -114,12 +114,7 @@ mod tests {
 
     const N: usize = 17;
 
-    /// Twenty quiet recordings (held-out gap `quiet`) and four informative ones (`loud`).
-    fn gaps(quiet: f64, loud: f64) -> Vec<f64> {
-        let mut g = vec![quiet; 20];
-        g.extend([loud; 4]);
-        g
-    }
+    use crate::diagnosis::verdict::quiet_and_loud as gaps;
 
     fn cand(k: EffectKind, p: usize, gaps: &[f64], base: &[f64]) -> Ranked {
         Ranked::for_test(k, p, gaps, base, N)

@@ -85,6 +85,15 @@ pub struct Ranked {
     pub rejected: Option<String>,
 }
 
+/// Twenty quiet recordings (held-out gap `quiet`) and four informative ones (`loud`): the
+/// decision's tests' campaign.
+#[cfg(test)]
+pub(crate) fn quiet_and_loud(quiet: f64, loud: f64) -> Vec<f64> {
+    let mut g = vec![quiet; 20];
+    g.extend([loud; 4]);
+    g
+}
+
 #[cfg(test)]
 impl Ranked {
     /// A candidate of `p` parameters with held-out gaps `gaps` (`per` residuals each) and its

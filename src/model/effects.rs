@@ -948,14 +948,20 @@ pub fn actuator_gain(f: f64, f_r: f64, zeta: f64) -> f64 {
 /// Gain `A` of the substrate's amplitude at `f` \[Hz\] under `fx`'s `actuator_response` in its
 /// form (1 without it).
 pub fn amplitude_gain(fx: &Effects, f: f64) -> f64 {
-    match (
-        fx.get(EffectKind::ActuatorResponse, "f_r"),
-        fx.get(EffectKind::ActuatorResponse, "zeta"),
-        fx.get(EffectKind::ActuatorResponse, "form"),
-    ) {
-        (Some(f_r), _, Some(1.0)) => first_order_gain(f, f_r),
-        (Some(f_r), Some(zeta), _) => actuator_gain(f, f_r, zeta),
+    let k = EffectKind::ActuatorResponse;
+    match (fx.get(k, "f_r"), fx.get(k, "zeta"), fx.get(k, "form")) {
+        (Some(f_r), Some(zeta), Some(form)) => response_gain(form, f, f_r, zeta),
         _ => 1.0,
+    }
+}
+
+/// Gain of `actuator_response` in the form of value `form` at `f` \[Hz\]: [`first_order_gain`]
+/// for `first_order` (`zeta` unused), else [`actuator_gain`].
+pub fn response_gain(form: f64, f: f64, f_r: f64, zeta: f64) -> f64 {
+    if form == 1.0 {
+        first_order_gain(f, f_r)
+    } else {
+        actuator_gain(f, f_r, zeta)
     }
 }
 
@@ -1047,13 +1053,7 @@ impl Resolved {
                     r.slip_law = v[3] == 1.0;
                     r.dim += 1;
                 }
-                EffectKind::ActuatorResponse => {
-                    r.gain = if v[2] == 1.0 {
-                        first_order_gain(f, v[0])
-                    } else {
-                        actuator_gain(f, v[0], v[1])
-                    }
-                }
+                EffectKind::ActuatorResponse => r.gain = response_gain(v[2], f, v[0], v[1]),
                 EffectKind::NormalCoupling => {
                     let fixed = v[3] == 3.0;
                     // Per metre of displacement amplitude; the fixed form's swing whatever it is.
