@@ -302,13 +302,26 @@ fn work_counts_each_simulation_once() {
     let _ = sub.predict(&other);
     assert_eq!(sub.work().simulations, n + 4);
     assert_eq!(all.work().simulations, n + 4);
-    // And the diagnosis reports it: its calibration alone simulates every recording.
+    // And the diagnosis reports it: its calibration alone simulates every recording, and its
+    // steps, each counted while it ran, add up to the whole.
     let d = diagnose(&c, &no_limits()).unwrap();
     assert!(
         d.work.simulations >= n && d.work.simulation_cpu > 0.0,
         "{:?}",
         d.work
     );
+    let names: Vec<&str> = d.steps.iter().map(|s| s.step).collect();
+    assert_eq!(names[..2], ["calibration", "cross-validation"], "{names:?}");
+    assert!(d.steps[0].work.simulations >= n, "{:?}", d.steps);
+    let sum = |f: fn(&stickslip::diagnosis::fit::StepWork) -> usize| -> usize {
+        d.steps.iter().map(f).sum()
+    };
+    assert_eq!(sum(|s| s.work.simulations), d.work.simulations);
+    assert_eq!(sum(|s| s.work.cache_hits), d.work.cache_hits);
+    let cpu: f64 = d.steps.iter().map(|s| s.work.simulation_cpu).sum();
+    assert!((cpu - d.work.simulation_cpu).abs() <= 1e-6 * d.work.simulation_cpu);
+    let wall: f64 = d.steps.iter().map(|s| s.wall).sum();
+    assert!(wall <= d.wall_time && wall >= 0.8 * d.wall_time, "{wall} of {}", d.wall_time);
 }
 
 /// A fit asked to reach a gap its linearised residuals cannot reach stops at its start after

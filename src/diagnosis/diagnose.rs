@@ -76,7 +76,7 @@
 use super::decide::{Side, between, decide};
 use super::features::{FEATURES, Feature, N_FEATURES, PHASES};
 use super::fingerprint;
-use super::fit::{self, FitOptions, FitResult, Model, Target};
+use super::fit::{self, FitOptions, FitResult, Model, StepLog, Target};
 use super::folds::*;
 use super::forms::{charge_forms, form_choice, forms_of_one, other_forms};
 use super::limits::{self, Limits};
@@ -651,12 +651,15 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
         });
     }
     let all = Target::new(c.recordings.iter().collect());
+    let mut steps = StepLog::new(&all);
     let fo = FitOptions {
         final_jacobian: true,
         ..opts.fit
     };
     let base = fit::fit(&all, &Model::default(), &[], fo);
+    steps.end("calibration", &all);
     let base_cv = cross_validate(&all, &base, &Model::default(), &fold, k_folds, &checked);
+    steps.end("cross-validation", &all);
     let gap_before = base_cv.gap;
     let concentrated = concentrated(&base_cv);
     // The verdict `no_significant_gap` needs no candidate: fit them only on request.
@@ -707,6 +710,7 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
         .map(|&k| (k, k.default_form(), None))
         .collect();
     let mut ranking = round(&defaults);
+    steps.end("candidates", &all);
     // Best evidence first (ties by the informative score, then the library's order).
     let by_evidence = |a: &Ranked, b: &Ranked| {
         b.evidence
@@ -740,6 +744,7 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
     };
     let decided = (!no_gap).then(|| {
         let first_try = decide_first(&mut ranking, &mut disagreements);
+        steps.end("fingerprints", &all);
         // How the effects scale: the other forms of the effects in reach, fitted as candidates
         // of their own, and of every effect with forms where the default forms name none
         // (or tie) (forms::other_forms); then the decision again over all.
@@ -749,9 +754,12 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
             return first_try;
         }
         ranking.extend(round(&others));
+        steps.end("forms", &all);
         charge_forms(&mut ranking);
         ranking.sort_by(by_evidence);
-        decide_first(&mut ranking, &mut disagreements)
+        let decided = decide_first(&mut ranking, &mut disagreements);
+        steps.end("fingerprints", &all);
+        decided
     });
     let verdict = match decided {
         None => Verdict::NoSignificantGap,
@@ -960,6 +968,7 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
             || gap_after >= SIGNIFICANT_GAP
             || (noise > 0.0 && named_concentrated);
     }
+    steps.end("second effect", &all);
     // Where the gap lies: the base model over all recordings; the gap left by the named effects.
     let top_model = ranking.first().map(|b| b.fit.model.clone());
     let location = locate(c, &all, &fold, &checked, &base.model, top_model.as_ref());
@@ -973,6 +982,7 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
         };
         locate(c, &all, &fold, &checked, m, None).summary
     };
+    steps.end("location", &all);
     warnings.extend(disagreements.iter().map(|d| d.line()));
     // What the campaign could not have seen, where the model in hand leaves no gap.
     let limits = match (verdict, &named_fit) {
@@ -990,6 +1000,7 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
             if partial { ", partial" } else { "" }
         )),
     };
+    steps.end("limits", &all);
     Ok(Diagnosis {
         verdict,
         disagreements,
@@ -1030,6 +1041,7 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
         not_checked,
         wall_time: start.elapsed().as_secs_f64(),
         work: all.work(),
+        steps: steps.steps,
     })
 }
 

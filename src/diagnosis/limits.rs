@@ -64,7 +64,6 @@ use crate::model::EffectKind;
 use rand::{RngExt, SeedableRng, rngs::StdRng};
 use rand_distr::{Distribution, Normal};
 use rayon::prelude::*;
-use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// The power at which an effect counts as detectable.
 pub const POWER: f64 = 0.95;
@@ -353,8 +352,6 @@ struct Pipeline<'t, 'a> {
     f0: Vec<Option<FeatureSet>>,
     /// Per unit: the model in hand's predictions, as the diagnosis makes them.
     p0: Vec<FeatureSet>,
-    /// Runs made here (beside the target's cache).
-    simulations: AtomicUsize,
 }
 
 impl<'t, 'a> Pipeline<'t, 'a> {
@@ -373,7 +370,6 @@ impl<'t, 'a> Pipeline<'t, 'a> {
             noise,
             f0: vec![],
             p0: all.predict(model),
-            simulations: AtomicUsize::new(0),
         };
         p.f0 = p.record(model).0;
         p
@@ -389,35 +385,58 @@ impl<'t, 'a> Pipeline<'t, 'a> {
             .enumerate()
             .map_init(Solvers::default, |sol, (i, rec)| {
                 let stages = self.all.units.iter().filter(|u| u.0 == i).count();
-                self.simulations.fetch_add(1, Ordering::Relaxed);
-                let Some(tr) = simulate(model, rec, sol) else {
-                    return vec![(None, FeatureSet::nan()); stages];
-                };
-                // The same noise at every strength and under the model in hand: common random
-                // numbers, so the difference is the effect's.
-                let mut rng =
-                    StdRng::seed_from_u64(SEED ^ (i as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15));
-                let [sf, ss, sd] = self.noise[i];
-                let mut noisy = |x: &[f64], s: f64| -> Vec<f64> {
-                    let g = Normal::new(0.0, s.max(0.0))
-                        .unwrap_or(Normal::new(0.0, 0.0).expect("zero spread"));
-                    x.iter()
-                        .map(|v| v + if s > 0.0 { g.sample(&mut rng) } else { 0.0 })
-                        .collect()
-                };
-                let f_d = noisy(&tr.f_d, sf);
-                let x_s = rec.x_s.as_ref().map(|_| noisy(&tr.x_s, ss));
-                let x_d = rec.x_d.as_ref().map(|_| noisy(&tr.x_d, sd));
-                let with = trace_features(rec, &f_d, x_s.as_deref(), x_d.as_deref());
-                let clean = trace_features(
-                    rec,
-                    &tr.f_d,
-                    rec.x_s.as_ref().map(|_| &tr.x_s[..]),
-                    rec.x_d.as_ref().map(|_| &tr.x_d[..]),
-                );
-                with.into_iter().map(Some).zip(clean).collect()
+                // Counted and timed in the target's work, as a run through its cache is.
+                let clock = std::time::Instant::now();
+                let out = self.record_one(model, i, rec, sol, stages);
+                self.all
+                    .count_run(u64::try_from(clock.elapsed().as_nanos()).unwrap_or(u64::MAX));
+                out
             })
             .collect();
+        self.finish(per)
+    }
+
+    /// One recording's noisy and noise-free features under `model` (per unit).
+    fn record_one(
+        &self,
+        model: &Model,
+        i: usize,
+        rec: &crate::campaign::Recording,
+        sol: &mut Solvers,
+        stages: usize,
+    ) -> Vec<(Option<FeatureSet>, FeatureSet)> {
+        let Some(tr) = simulate(model, rec, sol) else {
+            return vec![(None, FeatureSet::nan()); stages];
+        };
+        // The same noise at every strength and under the model in hand: common random
+        // numbers, so the difference is the effect's.
+        let mut rng = StdRng::seed_from_u64(SEED ^ (i as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15));
+        let [sf, ss, sd] = self.noise[i];
+        let mut noisy = |x: &[f64], s: f64| -> Vec<f64> {
+            let g =
+                Normal::new(0.0, s.max(0.0)).unwrap_or(Normal::new(0.0, 0.0).expect("zero spread"));
+            x.iter()
+                .map(|v| v + if s > 0.0 { g.sample(&mut rng) } else { 0.0 })
+                .collect()
+        };
+        let f_d = noisy(&tr.f_d, sf);
+        let x_s = rec.x_s.as_ref().map(|_| noisy(&tr.x_s, ss));
+        let x_d = rec.x_d.as_ref().map(|_| noisy(&tr.x_d, sd));
+        let with = trace_features(rec, &f_d, x_s.as_deref(), x_d.as_deref());
+        let clean = trace_features(
+            rec,
+            &tr.f_d,
+            rec.x_s.as_ref().map(|_| &tr.x_s[..]),
+            rec.x_d.as_ref().map(|_| &tr.x_d[..]),
+        );
+        with.into_iter().map(Some).zip(clean).collect()
+    }
+
+    /// The per-recording records joined into units, with `r` filled.
+    fn finish(
+        &self,
+        per: Vec<Vec<(Option<FeatureSet>, FeatureSet)>>,
+    ) -> (Vec<Option<FeatureSet>>, Vec<FeatureSet>) {
         let (mut noisy, mut clean): (Vec<Option<FeatureSet>>, Vec<FeatureSet>) =
             per.into_iter().flatten().unzip();
         // `r` of each vibrated unit from its reference, in both.
@@ -820,7 +839,7 @@ pub(crate) fn limits(
         power: POWER,
         draws: DRAWS,
         effects,
-        simulations: all.work().simulations - before + pipe.simulations.load(Ordering::Relaxed),
+        simulations: all.work().simulations - before,
         not_computed: None,
     }
 }

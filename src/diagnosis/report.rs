@@ -173,6 +173,11 @@ pub fn json(c: &Campaign, d: &Diagnosis) -> serde_json::Value {
             "simulations": d.work.simulations,
             "cache_hits": d.work.cache_hits,
             "simulation_cpu": num(d.work.simulation_cpu),
+            "steps": d.steps.iter().map(|st| json!({
+                "step": st.step, "simulations": st.work.simulations,
+                "cache_hits": st.work.cache_hits,
+                "simulation_cpu": num(st.work.simulation_cpu), "wall": num(st.wall),
+            })).collect::<Vec<_>>(),
         },
     })
 }
@@ -501,12 +506,24 @@ pub fn summary(c: &Campaign, d: &Diagnosis) -> String {
         let _ = writeln!(s, "WARNING: {w}");
     }
     s += &limits_table(&d.limits);
+    let _ = writeln!(s, "{}", steps_line(d));
     let _ = writeln!(
         s,
         "wall time {:.1} s ({} simulations, {:.0} s of CPU in them; {} predictions from the cache)",
         d.wall_time, d.work.simulations, d.work.simulation_cpu, d.work.cache_hits
     );
     s
+}
+
+/// Where the time went: each step's wall time and simulations, the largest first.
+fn steps_line(d: &Diagnosis) -> String {
+    let mut st: Vec<_> = d.steps.iter().filter(|s| s.wall >= 0.05).collect();
+    st.sort_by(|a, b| b.wall.total_cmp(&a.wall));
+    let parts: Vec<String> = st
+        .iter()
+        .map(|s| format!("{} {:.0} s ({})", s.step, s.wall, s.work.simulations))
+        .collect();
+    format!("time by step (wall, simulations): {}", parts.join(", "))
 }
 
 /// The detection limits as a table for the summary (a sentence where none were computed).

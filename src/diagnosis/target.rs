@@ -59,7 +59,7 @@ pub(crate) struct SimCache {
 /// prediction at the same moment may both run it, so two runs' counts can differ by a few).
 /// Every other step (features of the recordings, linear algebra, the decision) costs a few
 /// percent beside the simulations.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
 pub struct Work {
     /// Simulations run: recordings simulated under a model, each over its whole sample grid.
     pub simulations: usize,
@@ -69,6 +69,68 @@ pub struct Work {
     /// CPU time on an otherwise idle machine (more where other work takes the cores), and on
     /// `n` cores about `n` times the wall time they take.
     pub simulation_cpu: f64,
+}
+
+impl Work {
+    /// The work done since `earlier` (a snapshot of the same counters).
+    pub fn since(self, earlier: Work) -> Work {
+        Work {
+            simulations: self.simulations.saturating_sub(earlier.simulations),
+            cache_hits: self.cache_hits.saturating_sub(earlier.cache_hits),
+            simulation_cpu: (self.simulation_cpu - earlier.simulation_cpu).max(0.0),
+        }
+    }
+}
+
+/// The work of one step of a diagnosis (calibration, candidates, limits, ...): what
+/// [`Target::work`] counted while it ran, and its wall time.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct StepWork {
+    /// The step.
+    pub step: &'static str,
+    /// Its simulations, cache hits and their CPU time.
+    #[serde(flatten)]
+    pub work: Work,
+    /// Its wall time \[s\].
+    pub wall: f64,
+}
+
+/// Marks the steps of a diagnosis as they end: each [`StepLog::end`] records the work and wall
+/// time since the previous one.
+pub struct StepLog {
+    last: Work,
+    clock: Instant,
+    /// The steps ended so far, in order.
+    pub steps: Vec<StepWork>,
+}
+
+impl StepLog {
+    /// A log starting now, from the work `target` has counted so far.
+    pub fn new(target: &Target) -> StepLog {
+        StepLog {
+            last: target.work(),
+            clock: Instant::now(),
+            steps: vec![],
+        }
+    }
+
+    /// Ends step `step` (added to the one of that name where one has ended before).
+    pub fn end(&mut self, step: &'static str, target: &Target) {
+        let now = target.work();
+        let work = now.since(self.last);
+        let wall = self.clock.elapsed().as_secs_f64();
+        self.last = now;
+        self.clock = Instant::now();
+        match self.steps.iter_mut().find(|s| s.step == step) {
+            Some(s) => {
+                s.work.simulations += work.simulations;
+                s.work.cache_hits += work.cache_hits;
+                s.work.simulation_cpu += work.simulation_cpu;
+                s.wall += wall;
+            }
+            None => self.steps.push(StepWork { step, work, wall }),
+        }
+    }
 }
 
 impl SimCache {
@@ -283,6 +345,13 @@ impl<'a> Target<'a> {
             cache_hits: self.cache.hits.load(Ordering::Relaxed),
             simulation_cpu: self.cache.nanos.load(Ordering::Relaxed) as f64 * 1e-9,
         }
+    }
+
+    /// Counts a simulation run outside the cache (the detection limits' noisy recordings), with
+    /// its time \[ns\], in [`Target::work`].
+    pub(crate) fn count_run(&self, nanos: u64) {
+        self.cache.simulations.fetch_add(1, Ordering::Relaxed);
+        self.cache.nanos.fetch_add(nanos, Ordering::Relaxed);
     }
 
     /// The units of recording `i`.

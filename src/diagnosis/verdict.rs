@@ -353,6 +353,9 @@ pub struct Diagnosis {
     pub wall_time: f64,
     /// The simulations behind the diagnosis, with their cost.
     pub work: fit::Work,
+    /// The same, step by step (calibration, cross-validation, candidates, fingerprints, forms,
+    /// second effect, location, limits; a step that did not run is absent).
+    pub steps: Vec<fit::StepWork>,
 }
 
 /// The form a named effect takes, as the data chose it among the forms tried.
