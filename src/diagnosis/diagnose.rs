@@ -74,11 +74,13 @@
 //! is tried beside it. A second effect needs the ringing present where it can test it.
 
 use super::decide::{Side, between, decide};
+pub use super::evidence::GAPPED;
+use super::evidence::breadth_of;
 use super::features::{FEATURES, Feature, N_FEATURES, PHASES};
 use super::fingerprint;
 use super::fit::{self, FitOptions, FitResult, Model, StepLog, Target};
 use super::folds::*;
-use super::forms::{charge_forms, form_choice, forms_of_one, other_forms};
+use super::forms::{Try, charge_forms, form_choice, form_reach, forms_of_one, other_forms};
 use super::limits::{self, Limits};
 use crate::campaign::{Campaign, CampaignError};
 use crate::model::EffectKind;
@@ -95,7 +97,9 @@ pub use super::verdict::*;
 /// from the scan's parameters of the candidate on `from` as fitted to the screen's recordings
 /// ([`Screen::start`]): from `from` fitted to every recording, the screen's few iterations
 /// would go to moving `from`'s own parameters to the subset's optimum, which the screen's
-/// refit of `from` has already found.
+/// refit of `from` has already found. With `reach` (another form of an effect that is not
+/// the leading one: [`form_reach`]), a screen that passes is fitted further only where its gap
+/// is at most `reach` times the extended model's on the screen's recordings.
 #[allow(clippy::too_many_arguments)]
 fn try_candidate(
     all: &Target,
@@ -106,6 +110,7 @@ fn try_candidate(
     k: EffectKind,
     form: f64,
     warm: Option<&Model>,
+    reach: Option<f64>,
     e0: f64,
     fold: &[usize],
     k_folds: usize,
@@ -155,6 +160,7 @@ fn try_candidate(
         wall_time: clock.elapsed().as_secs_f64(),
         fingerprints: vec![],
         rejected: None,
+        short_of_leader: None,
     };
     // The fresh Jacobian at the optimum (p more evaluations) only for a fit that passes the
     // bar: it gives the uncertainties and the folds' refits, which a candidate ranked with the
@@ -179,19 +185,22 @@ fn try_candidate(
     // Another form of an effect whose default form passed its screen is screened in full (no
     // stop where its linearised residuals miss the bar at the start): the family is known to
     // reach, and a form's scan start can lie far from its valley (a fourth-order sensor's
-    // resonance at twice the data's).
+    // resonance at twice the data's). That of a trailing effect stops where it cannot come
+    // near the leader (`reach`): then it can neither be named nor tie.
     let screen_opts = FitOptions {
         max_iter: opts.max_iter.min(SCREEN_ITERATIONS),
         rel_tol: SCREEN_REL_TOL,
-        reach: if warm.is_some() {
-            f64::INFINITY
-        } else {
-            (1.0 - SCREEN_BAR) * from_gap
+        reach: match (reach, warm) {
+            // Short of the leader's reach, it is not fitted further whatever its start.
+            (Some(r), _) => (r * from_gap).min((1.0 - SCREEN_BAR) * from_gap),
+            (None, Some(_)) => f64::INFINITY,
+            (None, None) => (1.0 - SCREEN_BAR) * from_gap,
         },
         ..opts
     };
     let bar = (1.0 - SCREEN_BAR) * from_gap;
     let mut passed: Option<FitResult> = None;
+    let mut lowest = f64::INFINITY;
     for first in firsts {
         // The bar checked first on the extended model's Jacobian columns from its own fit on
         // these recordings and the candidate's differenced: a candidate out of reach costs
@@ -202,6 +211,7 @@ fn try_candidate(
         };
         // The lowest screen that passes goes on (the first of equals); the others' evaluations
         // count with the fit's where its recordings are the fit's.
+        lowest = lowest.min(s.gap);
         let better = s.gap <= bar && passed.as_ref().is_none_or(|p| s.gap < p.gap);
         if better {
             if let Some(p) = passed.replace(s) {
@@ -212,8 +222,25 @@ fn try_candidate(
         }
     }
     let Some(s) = passed else {
-        return as_from();
+        // A trailing effect's form stopped short of the leader's reach says so.
+        return match (reach, lowest) {
+            (Some(r), g) if g.is_finite() => Ranked {
+                short_of_leader: Some((g, r * from_gap)),
+                ..as_from()
+            },
+            _ => as_from(),
+        };
     };
+    // Another form that cannot come near the leading candidate is not fitted further: it
+    // could neither be named nor tie.
+    if let Some(r) = reach
+        && s.gap > r * from_gap
+    {
+        return Ranked {
+            short_of_leader: Some((s.gap, r * from_gap)),
+            ..as_from()
+        };
+    }
     // A resonance's narrow valley next to the screen's optimum (fit::line_search).
     let (line, n) = fit::line_search(sub, &s, k);
     let rank_opts = FitOptions {
@@ -262,6 +289,7 @@ fn try_candidate(
         wall_time: clock.elapsed().as_secs_f64(),
         fingerprints: vec![],
         rejected: None,
+        short_of_leader: None,
     }
 }
 
@@ -411,29 +439,6 @@ impl<'a> Screen<'a> {
     fn recordings<'s>(&'s self, all: &'s Target<'a>) -> &'s Target<'a> {
         self.subset.as_ref().map_or(all, |(sub, _)| sub)
     }
-}
-
-/// Held-out gap of a recording from which it counts as carrying a gap for the breadth rule.
-pub const GAPPED: f64 = 1.5;
-
-/// Share of the checked recordings that carry a gap (held-out gap `before` at least
-/// [`GAPPED`]) whose gap `after` lowers; 0 when fewer than two of them are lowered. Recordings
-/// already within noise do not vote: whether a candidate moves them up or down is a coin flip,
-/// and where a second effect or the vibrated runs leave them within noise they would outvote
-/// the ones the effect explains. Two lowered at least: one recording (on the edge of
-/// elimination, say) is not an effect.
-fn breadth_of(before: &[f64], after: &[f64]) -> f64 {
-    let pairs: Vec<(f64, f64)> = before
-        .iter()
-        .zip(after)
-        .filter(|(a, b)| a.is_finite() && b.is_finite() && **a >= GAPPED)
-        .map(|(a, b)| (*a, *b))
-        .collect();
-    let lowered = pairs.iter().filter(|(a, b)| b < a).count();
-    if lowered < 2 {
-        return 0.0;
-    }
-    lowered as f64 / pairs.len() as f64
 }
 
 /// [`decide`] (with its disagreements between evidence and gap in `disagreements`), with
@@ -680,13 +685,13 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
     // Candidates in parallel (each fit's simulations too): they are independent and
     // deterministic, so the ranking does not depend on the thread count.
     let screen = (!fitted.is_empty()).then(|| Screen::of(&all, &base, fo));
-    let round = |cands: &[(EffectKind, f64, Option<Model>)]| -> Vec<Ranked> {
+    let round = |cands: &[Try]| -> Vec<Ranked> {
         let Some(screen) = &screen else {
             return vec![];
         };
         cands
             .par_iter()
-            .map(|(k, form, warm)| {
+            .map(|(k, form, warm, reach)| {
                 try_candidate(
                     &all,
                     screen,
@@ -696,6 +701,7 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
                     *k,
                     *form,
                     warm.as_ref(),
+                    *reach,
                     gap_before,
                     &fold,
                     k_folds,
@@ -705,9 +711,9 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
             })
             .collect()
     };
-    let defaults: Vec<(EffectKind, f64, Option<Model>)> = fitted
+    let defaults: Vec<Try> = fitted
         .iter()
-        .map(|&k| (k, k.default_form(), None))
+        .map(|&k| (k, k.default_form(), None, None))
         .collect();
     let mut ranking = round(&defaults);
     steps.end("candidates", &all);
@@ -749,7 +755,12 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
         // of their own, and of every effect with forms where the default forms name none
         // (or tie) (forms::other_forms); then the decision again over all.
         let named = matches!(&first_try, Some(t) if t.len() == 1);
-        let others = other_forms(&ranking, !named);
+        let decided: Vec<EffectKind> = first_try
+            .iter()
+            .flatten()
+            .map(|&j| ranking[j].effect)
+            .collect();
+        let others = form_reach(&ranking, &base, &decided, other_forms(&ranking, !named));
         if others.is_empty() {
             return first_try;
         }
@@ -856,10 +867,10 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
         }
         if first_settled && first_cv.gap >= SIGNIFICANT_GAP {
             let second_screen = Screen::of(&all, &first_fit, fo);
-            let round = |cands: &[(EffectKind, f64, Option<Model>)]| -> Vec<Ranked> {
+            let round = |cands: &[Try]| -> Vec<Ranked> {
                 cands
                     .par_iter()
-                    .map(|(k, form, warm)| {
+                    .map(|(k, form, warm, reach)| {
                         try_candidate(
                             &all,
                             &second_screen,
@@ -869,6 +880,7 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
                             *k,
                             *form,
                             warm.as_ref(),
+                            *reach,
                             first_cv.gap,
                             &fold,
                             k_folds,
@@ -878,18 +890,20 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
                     })
                     .collect()
             };
-            let defaults: Vec<(EffectKind, f64, Option<Model>)> = opts
+            let defaults: Vec<Try> = opts
                 .candidates
                 .iter()
                 .filter(|&&k| k != first.effect)
-                .map(|&k| (k, k.default_form(), None))
+                .map(|&k| (k, k.default_form(), None, None))
                 .collect();
             let first_share = |e2: f64| (first_cv.gap - e2) / first_cv.gap;
             second = round(&defaults);
             let qualifies = second
                 .iter()
                 .any(|r| r.evidence.clear() && first_share(r.gap_after) >= MIN_SECOND);
-            let others = other_forms(&second, !qualifies);
+            let mut by_ev: Vec<Ranked> = second.clone();
+            by_ev.sort_by(by_evidence);
+            let others = form_reach(&by_ev, &first_fit, &[], other_forms(&second, !qualifies));
             second.extend(round(&others));
             charge_forms(&mut second);
             second.sort_by(by_evidence);

@@ -231,3 +231,25 @@ pub fn gap_order(a: &[f64], a_n: &[usize], b: &[f64], b_n: &[usize]) -> GapOrder
         recordings: idx.len(),
     }
 }
+/// Held-out gap of a recording from which it counts as carrying a gap for the breadth rule.
+pub const GAPPED: f64 = 1.5;
+
+/// Share of the checked recordings that carry a gap (held-out gap `before` at least
+/// [`GAPPED`]) whose gap `after` lowers; 0 when fewer than two of them are lowered. Recordings
+/// already within noise do not vote: whether a candidate moves them up or down is a coin flip,
+/// and where a second effect or the vibrated runs leave them within noise they would outvote
+/// the ones the effect explains. Two lowered at least: one recording (on the edge of
+/// elimination, say) is not an effect.
+pub(crate) fn breadth_of(before: &[f64], after: &[f64]) -> f64 {
+    let pairs: Vec<(f64, f64)> = before
+        .iter()
+        .zip(after)
+        .filter(|(a, b)| a.is_finite() && b.is_finite() && **a >= GAPPED)
+        .map(|(a, b)| (*a, *b))
+        .collect();
+    let lowered = pairs.iter().filter(|(a, b)| b < a).count();
+    if lowered < 2 {
+        return 0.0;
+    }
+    lowered as f64 / pairs.len() as f64
+}

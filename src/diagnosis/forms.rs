@@ -3,7 +3,7 @@
 //! settled or not (docs/campaigns.md, "Effect families").
 
 use super::decide::between;
-use super::fit::Model;
+use super::fit::{FitResult, Model};
 use super::verdict::{FormChoice, Ranked};
 use crate::model::EffectKind;
 use crate::model::effects::form_param;
@@ -38,6 +38,46 @@ pub(crate) fn other_forms(ranked: &[Ranked], all: bool) -> Vec<(EffectKind, f64,
                     });
                     (k, f.value, warm)
                 })
+        })
+        .collect()
+}
+
+/// A candidate to try: the effect, its form's value, a warm start (another form, from the
+/// default form's fit), and the reach asked of its screen (another form of an effect that is
+/// not the leading one: [`form_reach`]).
+pub(crate) type Try = (EffectKind, f64, Option<Model>, Option<f64>);
+
+/// How far above the leading candidate's gap another form of a trailing effect may screen and
+/// still be fitted further: its screen's gap at most `FORM_REACH` times the leader's, both as
+/// shares of the extended model's gap (the leader's on every recording, the form's on the
+/// screen's). Why 1.5: a fit 1.5 times the leader's gap over the few hundred residuals of a
+/// campaign is worse by `n/2 · ln 2.25` nats, 40 nats at 100 residuals, far past any tie; and
+/// a screen's few iterations end above the optimum its further fit would reach by a few
+/// percent, not by half. The leader's own forms, and those of the effects a decision named or
+/// tied, are fitted in full: the form the data choose depends on them.
+pub const FORM_REACH: f64 = 1.5;
+
+/// `others` (from [`other_forms`]) with the reach of each: `None` (fitted in full) for the
+/// forms of the leading candidate's effect (the first of `ranked`, sorted by evidence, whose
+/// fit holds its effect and that no fingerprint rejected) and of `exempt`; for the others
+/// [`FORM_REACH`] times the leader's gap as a share of `from`'s. Without a leader, every form
+/// is fitted in full.
+pub(crate) fn form_reach(
+    ranked: &[Ranked],
+    from: &FitResult,
+    exempt: &[EffectKind],
+    others: Vec<(EffectKind, f64, Option<Model>)>,
+) -> Vec<Try> {
+    let leader = ranked
+        .iter()
+        .find(|r| r.rejected.is_none() && r.fit.effects.contains(&r.effect));
+    others
+        .into_iter()
+        .map(|(k, f, warm)| {
+            let reach = leader
+                .filter(|l| l.effect != k && !exempt.contains(&k) && from.gap > 0.0)
+                .map(|l| FORM_REACH * l.fit.gap / from.gap);
+            (k, f, warm, reach)
         })
         .collect()
 }
@@ -109,6 +149,48 @@ pub(crate) fn form_choice(ranked: &[Ranked]) -> Option<FormChoice> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Another form is fitted in full where its effect leads (or a decision named or tied it),
+    /// and asked to come within FORM_REACH of the leader otherwise; a rejected candidate, or one
+    /// whose screen failed (its fit does not hold its effect), leads nothing.
+    #[test]
+    fn trailing_forms_are_asked_to_come_near_the_leader() {
+        use crate::model::EffectKind as K;
+        let base = [4.0; 24];
+        let mut from = Ranked::for_test(K::Viscous, 0, &base, &base, 17).fit;
+        from.gap = 4.0;
+        let mut rejected = Ranked::for_test(K::SensorDynamics, 2, &[0.5; 24], &base, 17);
+        rejected.rejected = Some("ringing absent".into());
+        let leader = Ranked::for_test(K::Viscous, 1, &[1.0; 24], &base, 17);
+        let mut failed = Ranked::for_test(K::Aging, 1, &[0.9; 24], &base, 17);
+        failed.fit.effects.clear();
+        let trailing = Ranked::for_test(K::FrictionalLag, 1, &[2.0; 24], &base, 17);
+        let ranked = [rejected, failed, leader, trailing];
+        let others = vec![
+            (K::SensorDynamics, 1.0, None),
+            (K::Aging, 1.0, None),
+            (K::Viscous, 2.0, None),
+            (K::FrictionalLag, 1.0, None),
+        ];
+        let reach: Vec<Option<f64>> = form_reach(&ranked, &from, &[], others.clone())
+            .into_iter()
+            .map(|t| t.3)
+            .collect();
+        let want = Some(FORM_REACH * 1.0 / 4.0);
+        assert_eq!(reach, [want, want, None, want]);
+        // Named or tied by a decision: in full.
+        let reach: Vec<Option<f64>> = form_reach(&ranked, &from, &[K::Aging], others.clone())
+            .into_iter()
+            .map(|t| t.3)
+            .collect();
+        assert_eq!(reach, [want, None, None, want]);
+        // No leader: every form in full.
+        let reach: Vec<Option<f64>> = form_reach(&ranked[..2], &from, &[], others)
+            .into_iter()
+            .map(|t| t.3)
+            .collect();
+        assert_eq!(reach, [None; 4]);
+    }
     use crate::diagnosis::decide::{Side, decide};
     use crate::diagnosis::evidence::MIN_PARTIAL;
 

@@ -1,7 +1,7 @@
 //! Reports of a diagnosis: the terminal summary, the JSON verdict, the HDF5 details and the
 //! plots (measured, base and extended traces overlaid; the gap over the conditions).
 
-use super::diagnose::{CONDITIONS, Diagnosis};
+use super::diagnose::{CONDITIONS, Diagnosis, Ranked};
 use super::features::FEATURES;
 use super::fit::{Estimate, FitResult, Model};
 use crate::campaign::{Campaign, Recording, Solvers, simulate_grid};
@@ -124,6 +124,7 @@ pub fn json(c: &Campaign, d: &Diagnosis) -> serde_json::Value {
             "params": estimates_json(&r.fit.estimates),
             "fingerprints": r.fingerprints,
             "rejected": r.rejected,
+            "short_of_leader": r.short_of_leader.map(|(got, needed)| json!({"screen_gap": num(got), "needed": num(needed)})),
         })).collect::<Vec<_>>(),
         "rejected": d.ranking.iter().chain(&d.second).filter_map(|r| r.rejected.as_ref().map(|why| json!({
             "effect": r.effect.name(), "form": r.form.map(|f| f.name), "reason": why,
@@ -149,6 +150,7 @@ pub fn json(c: &Campaign, d: &Diagnosis) -> serde_json::Value {
             "params": estimates_json(&r.fit.estimates),
             "fingerprints": r.fingerprints,
             "rejected": r.rejected,
+            "short_of_leader": r.short_of_leader.map(|(got, needed)| json!({"screen_gap": num(got), "needed": num(needed)})),
         })).collect::<Vec<_>>(),
         "where": {
             "summary": w.summary,
@@ -348,6 +350,9 @@ pub fn summary(c: &Campaign, d: &Diagnosis) -> String {
                 format!("  [on a bound: {}]", r.at_bound.join("; "))
             }
         );
+        if let Some(line) = short_line(r) {
+            let _ = writeln!(s, "{line}");
+        }
     }
     for r in &d.second {
         let _ = writeln!(
@@ -358,6 +363,9 @@ pub fn summary(c: &Campaign, d: &Diagnosis) -> String {
             r.gap_after,
             100.0 * r.reduction
         );
+        if let Some(line) = short_line(r) {
+            let _ = writeln!(s, "{line}");
+        }
     }
     for b in &d.bounds.bounds {
         let _ = writeln!(
@@ -513,6 +521,16 @@ pub fn summary(c: &Campaign, d: &Diagnosis) -> String {
         d.wall_time, d.work.simulations, d.work.simulation_cpu, d.work.cache_hits
     );
     s
+}
+
+/// For a form not fitted further as it could not come near the leader: what its screen
+/// reached, against what it had to.
+fn short_line(r: &Ranked) -> Option<String> {
+    let (got, needed) = r.short_of_leader?;
+    Some(format!(
+        "    {}: screened to gap {got:.2} on the screen's recordings, short of the {needed:.2} it needed to come near the leading candidate; not fitted further (its numbers are the model it extends's)",
+        r.name
+    ))
 }
 
 /// Where the time went: each step's wall time and simulations, the largest first.

@@ -83,6 +83,11 @@ pub struct Ranked {
     pub fingerprints: Vec<fingerprint::Check>,
     /// Why it is not named although its evidence would name it: a trace fingerprint absent.
     pub rejected: Option<String>,
+    /// Another form of an effect screened but not fitted further, as it could not come near the
+    /// leading candidate ([`FORM_REACH`](crate::diagnosis::forms::FORM_REACH)): its
+    /// screen's gap and the gap it had to reach, on the screen's recordings. Its other
+    /// numbers are the model it extends's, as for a candidate whose screen fails.
+    pub short_of_leader: Option<(f64, f64)>,
 }
 
 /// Twenty quiet recordings (held-out gap `quiet`) and four informative ones (`loud`): the
@@ -142,6 +147,7 @@ impl Ranked {
             wall_time: 0.0,
             fingerprints: vec![],
             rejected: None,
+            short_of_leader: None,
         }
     }
 }
@@ -304,7 +310,7 @@ pub struct Diagnosis {
     pub gap_after_spread: f64,
     /// `(E0 − E1) / E0`.
     pub reduction: f64,
-    /// Share of held-out recordings with a gap (at least [`GAPPED`](crate::diagnosis::diagnose::GAPPED)) whose gap the top
+    /// Share of held-out recordings with a gap (at least [`GAPPED`]) whose gap the top
     /// candidate lowers (informative: the decision weighs the evidence).
     pub breadth: f64,
     /// The top candidate's held-out evidence against the base model.
