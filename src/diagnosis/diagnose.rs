@@ -901,9 +901,7 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
             let qualifies = second
                 .iter()
                 .any(|r| r.evidence.clear() && first_share(r.gap_after) >= MIN_SECOND);
-            let mut by_ev: Vec<Ranked> = second.clone();
-            by_ev.sort_by(by_evidence);
-            let others = form_reach(&by_ev, &first_fit, &[], other_forms(&second, !qualifies));
+            let others = form_reach(&second, &first_fit, &[], other_forms(&second, !qualifies));
             second.extend(round(&others));
             charge_forms(&mut second);
             second.sort_by(by_evidence);

@@ -58,8 +58,8 @@ pub(crate) type Try = (EffectKind, f64, Option<Model>, Option<f64>);
 pub const FORM_REACH: f64 = 1.5;
 
 /// `others` (from [`other_forms`]) with the reach of each: `None` (fitted in full) for the
-/// forms of the leading candidate's effect (the first of `ranked`, sorted by evidence, whose
-/// fit holds its effect and that no fingerprint rejected) and of `exempt`; for the others
+/// forms of the leading candidate's effect (of `ranked`, the best by evidence whose fit holds
+/// its effect and that no fingerprint rejected) and of `exempt`; for the others
 /// [`FORM_REACH`] times the leader's gap as a share of `from`'s. Without a leader, every form
 /// is fitted in full.
 pub(crate) fn form_reach(
@@ -68,9 +68,17 @@ pub(crate) fn form_reach(
     exempt: &[EffectKind],
     others: Vec<(EffectKind, f64, Option<Model>)>,
 ) -> Vec<Try> {
+    // The first of the best evidence, in `ranked`'s order.
     let leader = ranked
         .iter()
-        .find(|r| r.rejected.is_none() && r.fit.effects.contains(&r.effect));
+        .filter(|r| r.rejected.is_none() && r.fit.effects.contains(&r.effect))
+        .reduce(|a, b| {
+            if b.evidence.ln_odds > a.evidence.ln_odds {
+                b
+            } else {
+                a
+            }
+        });
     others
         .into_iter()
         .map(|(k, f, warm)| {
@@ -172,23 +180,18 @@ mod tests {
             (K::Viscous, 2.0, None),
             (K::FrictionalLag, 1.0, None),
         ];
-        let reach: Vec<Option<f64>> = form_reach(&ranked, &from, &[], others.clone())
-            .into_iter()
-            .map(|t| t.3)
-            .collect();
+        let reach = |ranked: &[Ranked], exempt: &[K]| -> Vec<Option<f64>> {
+            form_reach(ranked, &from, exempt, others.clone())
+                .into_iter()
+                .map(|t| t.3)
+                .collect()
+        };
         let want = Some(FORM_REACH * 1.0 / 4.0);
-        assert_eq!(reach, [want, want, None, want]);
+        assert_eq!(reach(&ranked, &[]), [want, want, None, want]);
         // Named or tied by a decision: in full.
-        let reach: Vec<Option<f64>> = form_reach(&ranked, &from, &[K::Aging], others.clone())
-            .into_iter()
-            .map(|t| t.3)
-            .collect();
-        assert_eq!(reach, [want, None, None, want]);
+        assert_eq!(reach(&ranked, &[K::Aging]), [want, None, None, want]);
         // No leader: every form in full.
-        let reach: Vec<Option<f64>> = form_reach(&ranked[..2], &from, &[], others)
-            .into_iter()
-            .map(|t| t.3)
-            .collect();
+        let reach = reach(&ranked[..2], &[]);
         assert_eq!(reach, [None; 4]);
     }
     use crate::diagnosis::decide::{Side, decide};
@@ -238,6 +241,25 @@ mod tests {
     #[test]
     fn forms_of_one_effect_name_the_effect_and_say_whether_the_form_is_settled() {
         let base = gaps(1.0, 6.0);
+        // The sensor's two forms, with the informative recordings' gaps `loud2` and `loud4`.
+        let sensor_forms = |loud2: f64, loud4: f64| {
+            vec![
+                in_form(
+                    EffectKind::SensorDynamics,
+                    "order2",
+                    2,
+                    &gaps(1.0, loud2),
+                    &base,
+                ),
+                in_form(
+                    EffectKind::SensorDynamics,
+                    "order4",
+                    2,
+                    &gaps(1.0, loud4),
+                    &base,
+                ),
+            ]
+        };
         let e0 = (base.iter().map(|g| g * g).sum::<f64>() / 24.0).sqrt();
         let share = |e1: f64| (e0 - e1) / e0;
         // Alike: 3.0 and 3.02 on the informative recordings.
@@ -268,22 +290,7 @@ mod tests {
         assert_eq!((c.form, c.not_excluded.clone()), ("order2", vec!["order4"]));
         assert!(!c.settled(), "{c:?}");
         // Clearly apart: the fourth-order form halves the informative recordings' gap again.
-        let mut apart = vec![
-            in_form(
-                EffectKind::SensorDynamics,
-                "order2",
-                2,
-                &gaps(1.0, 3.0),
-                &base,
-            ),
-            in_form(
-                EffectKind::SensorDynamics,
-                "order4",
-                2,
-                &gaps(1.0, 1.5),
-                &base,
-            ),
-        ];
+        let mut apart = sensor_forms(3.0, 1.5);
         charge_forms(&mut apart);
         let (t, _) = run(&mut apart, &base);
         assert_eq!(t.as_ref().map(Vec::len), Some(1), "{t:?}");
@@ -293,22 +300,7 @@ mod tests {
         assert_eq!(apart[0].name, "sensor_dynamics[order4]");
         // The default form clearly ahead is not settled: the others' fits start next to its
         // own, so a worse one of theirs may be an optimum missed.
-        let mut ahead = vec![
-            in_form(
-                EffectKind::SensorDynamics,
-                "order2",
-                2,
-                &gaps(1.0, 1.5),
-                &base,
-            ),
-            in_form(
-                EffectKind::SensorDynamics,
-                "order4",
-                2,
-                &gaps(1.0, 3.0),
-                &base,
-            ),
-        ];
+        let mut ahead = sensor_forms(1.5, 3.0);
         charge_forms(&mut ahead);
         let (t, _) = run(&mut ahead, &base);
         assert_eq!(t.as_ref().map(Vec::len), Some(1), "{t:?}");
