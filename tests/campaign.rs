@@ -311,8 +311,14 @@ fn work_counts_each_simulation_once() {
     assert_eq!(sub.work().simulations, n + 4);
     assert_eq!(all.work().simulations, n + 4);
     // And the diagnosis reports it: its calibration alone simulates every recording, and its
-    // steps, each counted while it ran, add up to the whole.
-    let d = diagnose(&c, &no_limits()).unwrap();
+    // steps, each counted while it ran, add up to the whole (one candidate ranked, though
+    // nothing is left to explain, so that its scan, screen and fit count too).
+    let opts = DiagnoseOptions {
+        candidates: vec![EffectKind::Viscous],
+        rank_always: true,
+        ..no_limits()
+    };
+    let d = diagnose(&c, &opts).unwrap();
     assert!(
         d.work.simulations >= n && d.work.simulation_cpu > 0.0,
         "{:?}",
@@ -334,6 +340,29 @@ fn work_counts_each_simulation_once() {
         "{wall} of {}",
         d.wall_time
     );
+    // By fidelity: the two add up to the whole, in the diagnosis and in each step; the
+    // candidates' start scans search on the cheaper one, while the calibration, its
+    // cross-validation and the fingerprints (numbers a verdict rests on) run in full alone.
+    use stickslip::diagnosis::fit::{Fidelity, Work};
+    let adds_up = |w: &Work| {
+        let runs: usize = w.by_fidelity.iter().map(|r| r.simulations).sum();
+        let cpu: f64 = w.by_fidelity.iter().map(|r| r.simulation_cpu).sum();
+        runs == w.simulations && (cpu - w.simulation_cpu).abs() <= 1e-9 * w.simulation_cpu.max(1.0)
+    };
+    assert!(adds_up(&d.work), "{:?}", d.work);
+    let search = |w: &Work| w.by_fidelity[Fidelity::Search as usize].simulations;
+    for st in &d.steps {
+        assert!(adds_up(&st.work), "{st:?}");
+        if ["calibration", "cross-validation", "fingerprints", "limits"].contains(&st.step) {
+            assert_eq!(search(&st.work), 0, "{st:?}");
+        }
+    }
+    let candidates = d
+        .steps
+        .iter()
+        .find(|s| s.step == "candidates")
+        .expect("candidates");
+    assert!(search(&candidates.work) > 0, "{candidates:?}");
 }
 
 /// A fit asked to reach a gap its linearised residuals cannot reach stops at its start after

@@ -740,8 +740,9 @@ pub fn starts(target: &Target, base: &FitResult, kind: EffectKind, form: f64) ->
         let _ = m.effects.set(kind, "wavelength", lambda.clamp(lo, hi));
         candidates.push(m);
     }
-    // The scan only chooses a start: score the starts on a subset of the recordings.
-    let sub = scan_subset(target, &base.z);
+    // The scan only chooses a start: score the starts on a subset of the recordings, at the
+    // search fidelity (the screen and the fit that follow are full).
+    let sub = scan_subset(target, &base.z).at(Fidelity::Search);
     let scanned = match kind {
         EffectKind::ActuatorResponse => actuator_scan(&sub, &m0),
         EffectKind::NormalCoupling => normal_scan(&sub, &m0),
@@ -1124,9 +1125,10 @@ fn line_param(kind: EffectKind) -> Option<&'static str> {
 /// nothing for the other effects, the actuator's resonance has [`actuator_scan`]) about its
 /// optimum, the other parameters held at the fit's values: [`LINE_POINTS`] values from half to
 /// twice it (within the range a fit allows, 10 Hz to 20 kHz), scored on `target`, the fit's own
-/// recordings. Returns the best point where it lies below the fit's gap (a start for a new
-/// fit), else `None`, and the number of models evaluated (each a simulation of every recording
-/// of `target`). Where the global scan of [`starts`] (steps of a factor 2.15) put the start on
+/// recordings, at the search fidelity ([`Fidelity::Search`]: the point found only starts a full
+/// fit). Returns the best point where it lies below the fit's own gap at that fidelity (a
+/// start for a new fit), else `None`, and the number of models evaluated (each a simulation of
+/// every recording of `target`, the fit's own point among them). Where the global scan of [`starts`] (steps of a factor 2.15) put the start on
 /// the slope next to a narrow valley, the local fit stays on the slope; this finds the valley
 /// within a factor 2 of the fit.
 pub fn line_search(target: &Target, fr: &FitResult, kind: EffectKind) -> (Option<Model>, usize) {
@@ -1136,6 +1138,7 @@ pub fn line_search(target: &Target, fr: &FitResult, kind: EffectKind) -> (Option
     let Some(v0) = fr.model.effects.get(kind, name) else {
         return (None, 0);
     };
+    let target = &target.at(Fidelity::Search);
     let (lo, hi) = target.bounds.range(kind, name);
     let values: Vec<f64> = logspace(0.5 * v0, 2.0 * v0, LINE_POINTS)
         .into_iter()
@@ -1149,11 +1152,13 @@ pub fn line_search(target: &Target, fr: &FitResult, kind: EffectKind) -> (Option
             (evaluate(target, &m), m)
         })
         .collect();
-    let evaluations = gaps.len();
+    // The fit's own point at the same fidelity, which the line's points must beat.
+    let own = evaluate(target, &fr.model);
+    let evaluations = gaps.len() + 1;
     // The lowest below the fit's gap; the first of equals (values in increasing order).
     let best = gaps
         .into_iter()
-        .filter(|(g, _)| *g < fr.gap)
+        .filter(|(g, _)| *g < own)
         .reduce(|a, b| if b.0 < a.0 { b } else { a });
     (best.map(|b| b.1), evaluations)
 }
@@ -1287,7 +1292,8 @@ fn ripple_from_drive(recs: &[&Recording]) -> Option<(f64, f64)> {
 mod tests {
     use super::*;
     use crate::campaign::Solvers;
-    use crate::diagnosis::target::SimCache;
+    use crate::diagnosis::target::{Fidelity, SimCache};
+    use std::sync::atomic::Ordering;
 
     /// What the simulation cache relies on: without vibration the actuator's and the load
     /// modulation's parameters do not act, so a model with them at any value simulates a
@@ -1316,7 +1322,7 @@ mod tests {
         }
         let mut s = Solvers::default();
         let resting = rec(rest);
-        let (canonical, _) = SimCache::key(&m, &resting);
+        let (canonical, _) = SimCache::key(&m, &resting, Fidelity::Full);
         assert_ne!(
             canonical.effects, m.effects,
             "the defaults differ from the values set"
@@ -1331,17 +1337,32 @@ mod tests {
             ..Params::default()
         });
         assert!(vibrated.vibrates());
-        let (kept, _) = SimCache::key(&m, &vibrated);
+        let (kept, _) = SimCache::key(&m, &vibrated, Fidelity::Full);
         assert_eq!(kept.effects, m.effects);
         let a = simulate(&m, &vibrated, &mut s).expect("runs");
-        let b = simulate(&SimCache::key(&m, &resting).0, &vibrated, &mut s).expect("runs");
+        let b = simulate(
+            &SimCache::key(&m, &resting, Fidelity::Full).0,
+            &vibrated,
+            &mut s,
+        )
+        .expect("runs");
         assert_ne!(a.f_d, b.f_d, "with vibration the parameters act");
         let cache = SimCache::default();
-        let first = cache.features(&m, &vibrated, &mut s);
-        let again = cache.features(&m, &vibrated, &mut s);
+        let first = cache.features(&m, &vibrated, Fidelity::Full, &mut s);
+        let again = cache.features(&m, &vibrated, Fidelity::Full, &mut s);
         let fresh = predict_one(&m, &vibrated, &mut s);
         assert_eq!(format!("{first:?}"), format!("{fresh:?}"));
         assert_eq!(format!("{again:?}"), format!("{fresh:?}"));
+        // The search fidelity is an entry of its own on a vibrated recording (another
+        // tolerance, other numbers), and the full one's on a resting recording (the same run).
+        let search = cache.features(&m, &vibrated, Fidelity::Search, &mut s);
+        assert_ne!(format!("{search:?}"), format!("{fresh:?}"));
+        let rest_full = cache.features(&m, &resting, Fidelity::Full, &mut s);
+        let rest_search = cache.features(&m, &resting, Fidelity::Search, &mut s);
+        assert_eq!(format!("{rest_full:?}"), format!("{rest_search:?}"));
+        let runs = |f: Fidelity| cache.simulations[f as usize].load(Ordering::Relaxed);
+        assert_eq!((runs(Fidelity::Full), runs(Fidelity::Search)), (2, 1));
+        assert_eq!(cache.hits.load(Ordering::Relaxed), 2);
     }
 
     /// The linearised minimum is the part of `z` outside the span of the Jacobian's columns:

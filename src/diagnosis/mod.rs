@@ -20,5 +20,6 @@ pub mod forms;
 pub mod limits;
 pub mod model;
 pub mod report;
+pub mod screen;
 pub mod target;
 pub mod verdict;

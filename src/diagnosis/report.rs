@@ -175,13 +175,30 @@ pub fn json(c: &Campaign, d: &Diagnosis) -> serde_json::Value {
             "simulations": d.work.simulations,
             "cache_hits": d.work.cache_hits,
             "simulation_cpu": num(d.work.simulation_cpu),
+            "fidelity": fidelity_json(&d.work),
             "steps": d.steps.iter().map(|st| json!({
                 "step": st.step, "simulations": st.work.simulations,
                 "cache_hits": st.work.cache_hits,
                 "simulation_cpu": num(st.work.simulation_cpu), "wall": num(st.wall),
+                "fidelity": fidelity_json(&st.work),
             })).collect::<Vec<_>>(),
         },
     })
+}
+
+/// The simulations and their CPU time by fidelity (`full`, `search`).
+fn fidelity_json(w: &super::target::Work) -> serde_json::Value {
+    super::target::Fidelity::ALL
+        .iter()
+        .zip(w.by_fidelity)
+        .map(|(f, r)| {
+            (
+                f.name().to_string(),
+                json!({"simulations": r.simulations, "simulation_cpu": num(r.simulation_cpu)}),
+            )
+        })
+        .collect::<serde_json::Map<_, _>>()
+        .into()
 }
 
 /// Each feature's held-out gap under the base model and under a candidate (`before`, `after`),
@@ -515,12 +532,26 @@ pub fn summary(c: &Campaign, d: &Diagnosis) -> String {
     }
     s += &limits_table(&d.limits);
     let _ = writeln!(s, "{}", steps_line(d));
-    let _ = writeln!(
-        s,
-        "wall time {:.1} s ({} simulations, {:.0} s of CPU in them; {} predictions from the cache)",
-        d.wall_time, d.work.simulations, d.work.simulation_cpu, d.work.cache_hits
-    );
+    let _ = writeln!(s, "{}", work_line(d));
     s
+}
+
+/// The summary's last line: the wall time, the simulations by fidelity with their CPU time,
+/// and the cache's hits.
+fn work_line(d: &Diagnosis) -> String {
+    let by: Vec<String> = super::target::Fidelity::ALL
+        .iter()
+        .zip(d.work.by_fidelity)
+        .map(|(f, r)| format!("{} {} ({:.0} s)", r.simulations, f.name(), r.simulation_cpu))
+        .collect();
+    format!(
+        "wall time {:.1} s ({} simulations, {:.0} s of CPU in them: {}; {} predictions from the cache)",
+        d.wall_time,
+        d.work.simulations,
+        d.work.simulation_cpu,
+        by.join(", "),
+        d.work.cache_hits
+    )
 }
 
 /// For a form not fitted further as it could not come near the leader: what its screen

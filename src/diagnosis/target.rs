@@ -14,9 +14,63 @@ use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
+/// How a target's predictions are simulated: the fidelity of a prediction.
+///
+/// A diagnosis *searches* (scans for a fit's start, line searches along a resonance) and
+/// *judges* (fits, held-out gaps, evidence, fingerprints, limits). Every number it judges on is
+/// [`Fidelity::Full`]; a step that only chooses where a full fit starts may run on
+/// [`Fidelity::Search`], whose predictions cost about two thirds as much. A search that ends
+/// elsewhere on them only starts a full fit elsewhere: the fit, and everything after it, is
+/// full.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Fidelity {
+    /// Every recording at the fits' tolerance ([`crate::campaign::FIT_TOLERANCE`], 1e-5).
+    Full,
+    /// Vibrated recordings at [`SEARCH_TOLERANCE`] (1e-4); recordings without vibration, which
+    /// cost a few milliseconds, at the fits' tolerance (and shared with the full predictions).
+    Search,
+}
+
+/// Tolerance (`rtol = atol`) of [`Fidelity::Search`] on a vibrated recording. Why 1e-4: on
+/// the 30 recordings of the bench's ageing campaign (`benches/diagnose/README.md`) it takes
+/// 29 % less time than 1e-5 and moves no feature by more than 4 of its standard errors, but
+/// on recordings at the edge of elimination that 1e-5 itself does not converge (25 to 49,
+/// as 1e-6 against 1e-5 there); 1e-3 takes 49 % less but moves features of slow stick-slip by
+/// 10 to 40 standard errors, and the stick-slip without vibration by 20 to 115.
+pub const SEARCH_TOLERANCE: f64 = 1e-4;
+
+impl Fidelity {
+    /// Every fidelity, in the order of [`Work::by_fidelity`].
+    pub const ALL: [Fidelity; 2] = [Fidelity::Full, Fidelity::Search];
+
+    /// Its name in the JSON and the summary.
+    pub fn name(self) -> &'static str {
+        match self {
+            Fidelity::Full => "full",
+            Fidelity::Search => "search",
+        }
+    }
+
+    /// The fidelity as it acts on `rec`: a recording without vibration is simulated in full
+    /// at any fidelity.
+    pub fn on(self, rec: &Recording) -> Fidelity {
+        if rec.vibrates() { self } else { Fidelity::Full }
+    }
+
+    /// The integration tolerance (`rtol = atol`) of `rec`'s simulation.
+    pub fn tolerance(self, rec: &Recording) -> f64 {
+        match self.on(rec) {
+            Fidelity::Full => crate::campaign::FIT_TOLERANCE,
+            Fidelity::Search => SEARCH_TOLERANCE,
+        }
+    }
+}
+
 /// A set of recordings with their measured features, ready for fitting. Each recording gives
 /// one unit per stage ([`stages`]: one, or two where the vibration is switched on within it),
 /// and every unit its own features.
+#[derive(Clone)]
 pub struct Target<'a> {
     /// The recordings.
     pub recs: Vec<&'a Recording>,
@@ -32,6 +86,8 @@ pub struct Target<'a> {
     pub bounds: Plausible,
     /// Simulated features already computed, shared with every subset ([`Target::sub`]).
     cache: Arc<SimCache>,
+    /// The fidelity of this target's predictions ([`Target::at`]); full where not set.
+    pub fidelity: Fidelity,
 }
 
 /// Features of simulations already run, by recording and by the model as it acts on that
@@ -41,16 +97,17 @@ pub struct Target<'a> {
 /// do not depend on what the cache holds or on the order threads fill it.
 #[derive(Default)]
 pub(crate) struct SimCache {
-    map: Mutex<HashMap<(usize, Vec<u64>), Vec<FeatureSet>>>,
+    map: Mutex<HashMap<(usize, Fidelity, Vec<u64>), Vec<FeatureSet>>>,
     /// The measured features of each recording ([`measured_features`]), by recording.
     measured: Mutex<HashMap<usize, Vec<FeatureSet>>>,
-    /// Simulations run (each a recording under a model: a cache miss).
-    simulations: AtomicUsize,
+    /// Simulations run (each a recording under a model: a cache miss), by fidelity (in the
+    /// order of [`Fidelity::ALL`]).
+    pub(crate) simulations: [AtomicUsize; 2],
     /// Predictions served from the map without a simulation.
-    hits: AtomicUsize,
+    pub(crate) hits: AtomicUsize,
     /// Time spent in the simulations and their features \[ns\], summed over the threads that
-    /// ran them.
-    nanos: AtomicU64,
+    /// ran them, by fidelity.
+    nanos: [AtomicU64; 2],
 }
 
 /// The work behind a diagnosis: how many simulations its fits, scans, folds and fingerprints
@@ -69,15 +126,43 @@ pub struct Work {
     /// CPU time on an otherwise idle machine (more where other work takes the cores), and on
     /// `n` cores about `n` times the wall time they take.
     pub simulation_cpu: f64,
+    /// The simulations and their time by fidelity, in the order of [`Fidelity::ALL`]: they
+    /// add up to [`Work::simulations`] and [`Work::simulation_cpu`].
+    pub by_fidelity: [Runs; 2],
+}
+
+/// Simulations of one fidelity and their time ([`Work::by_fidelity`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct Runs {
+    /// Simulations run.
+    pub simulations: usize,
+    /// Their time \[s\], summed over the threads (as [`Work::simulation_cpu`]).
+    pub simulation_cpu: f64,
 }
 
 impl Work {
     /// The work done since `earlier` (a snapshot of the same counters).
     pub fn since(self, earlier: Work) -> Work {
+        let runs = |a: Runs, b: Runs| Runs {
+            simulations: a.simulations.saturating_sub(b.simulations),
+            simulation_cpu: (a.simulation_cpu - b.simulation_cpu).max(0.0),
+        };
         Work {
             simulations: self.simulations.saturating_sub(earlier.simulations),
             cache_hits: self.cache_hits.saturating_sub(earlier.cache_hits),
             simulation_cpu: (self.simulation_cpu - earlier.simulation_cpu).max(0.0),
+            by_fidelity: [0, 1].map(|i| runs(self.by_fidelity[i], earlier.by_fidelity[i])),
+        }
+    }
+
+    /// `self` and `other` together.
+    pub fn add(&mut self, other: Work) {
+        self.simulations += other.simulations;
+        self.cache_hits += other.cache_hits;
+        self.simulation_cpu += other.simulation_cpu;
+        for (a, b) in self.by_fidelity.iter_mut().zip(other.by_fidelity) {
+            a.simulations += b.simulations;
+            a.simulation_cpu += b.simulation_cpu;
         }
     }
 }
@@ -123,9 +208,7 @@ impl StepLog {
         self.clock = Instant::now();
         match self.steps.iter_mut().find(|s| s.step == step) {
             Some(s) => {
-                s.work.simulations += work.simulations;
-                s.work.cache_hits += work.cache_hits;
-                s.work.simulation_cpu += work.simulation_cpu;
+                s.work.add(work);
                 s.wall += wall;
             }
             None => self.steps.push(StepWork { step, work, wall }),
@@ -134,14 +217,25 @@ impl StepLog {
 }
 
 impl SimCache {
+    /// Counts one simulation at `fidelity` that took `nanos`.
+    fn count(&self, fidelity: Fidelity, nanos: u64) {
+        self.simulations[fidelity as usize].fetch_add(1, Ordering::Relaxed);
+        self.nanos[fidelity as usize].fetch_add(nanos, Ordering::Relaxed);
+    }
+
     /// Cache entries at most: beyond, new simulations are not kept (a diagnosis of 30
     /// recordings fills a few thousand).
     const CAPACITY: usize = 200_000;
 
-    /// The model as it acts on `rec`, and its key. Without vibration (`u0 = 0`) the actuator's
+    /// The model as it acts on `rec`, and its key at `fidelity` (as it acts on `rec`:
+    /// [`Fidelity::on`]). Without vibration (`u0 = 0`) the actuator's
     /// gain multiplies a zero amplitude and the load modulation `1 + c u0 sin(..)` is exactly 1,
     /// so their parameters are set to their defaults: the simulation is bit for bit the same.
-    pub(crate) fn key(model: &Model, rec: &Recording) -> (Model, (usize, Vec<u64>)) {
+    pub(crate) fn key(
+        model: &Model,
+        rec: &Recording,
+        fidelity: Fidelity,
+    ) -> (Model, (usize, Fidelity, Vec<u64>)) {
         let mut m = model.clone();
         if rec.params.u0 == 0.0 {
             for (k, v) in m.effects.list.iter_mut() {
@@ -162,7 +256,10 @@ impl SimCache {
             bits.push(*k as u64);
             bits.extend(v.iter().map(|x| x.to_bits()));
         }
-        (m, (rec as *const Recording as usize, bits))
+        (
+            m,
+            (rec as *const Recording as usize, fidelity.on(rec), bits),
+        )
     }
 
     /// The measured features of `rec`, computed where not cached.
@@ -177,26 +274,26 @@ impl SimCache {
         f
     }
 
-    /// The features of `rec` under `model`, simulated where not cached.
+    /// The features of `rec` under `model` at `fidelity`, simulated where not cached.
     pub(crate) fn features(
         &self,
         model: &Model,
         rec: &Recording,
+        fidelity: Fidelity,
         solvers: &mut Solvers,
     ) -> Vec<FeatureSet> {
-        let (m, key) = Self::key(model, rec);
+        let (m, key) = Self::key(model, rec, fidelity);
         let lock = || self.map.lock().unwrap_or_else(|e| e.into_inner());
         if let Some(f) = lock().get(&key) {
             self.hits.fetch_add(1, Ordering::Relaxed);
             return f.clone();
         }
         let clock = Instant::now();
-        let f = predict_one(&m, rec, solvers);
-        self.nanos.fetch_add(
+        let f = predict_at(&m, rec, fidelity, solvers);
+        self.count(
+            key.1,
             u64::try_from(clock.elapsed().as_nanos()).unwrap_or(u64::MAX),
-            Ordering::Relaxed,
         );
-        self.simulations.fetch_add(1, Ordering::Relaxed);
         let mut map = lock();
         if map.len() < Self::CAPACITY {
             map.insert(key, f.clone());
@@ -278,7 +375,17 @@ impl<'a> Target<'a> {
     /// A subset of this target's recordings, with this target's plausible ranges: the bounds of
     /// a fit are the campaign's, whichever recordings it is scored on.
     pub fn sub(&self, recs: Vec<&'a Recording>) -> Target<'a> {
-        Target::with_bounds(recs, self.bounds.clone(), Arc::clone(&self.cache))
+        let mut t = Target::with_bounds(recs, self.bounds.clone(), Arc::clone(&self.cache));
+        t.fidelity = self.fidelity;
+        t
+    }
+
+    /// The same recordings, predicted at `fidelity` (sharing the cache and its counts).
+    pub fn at(&self, fidelity: Fidelity) -> Target<'a> {
+        Target {
+            fidelity,
+            ..self.clone()
+        }
     }
 
     fn with_bounds(
@@ -334,24 +441,29 @@ impl<'a> Target<'a> {
             reference,
             bounds,
             cache,
+            fidelity: Fidelity::Full,
         }
     }
 
     /// The simulations run so far by this target and every subset of it ([`Target::sub`]
     /// shares its cache), with their cost.
     pub fn work(&self) -> Work {
+        let by_fidelity = [0, 1].map(|i| Runs {
+            simulations: self.cache.simulations[i].load(Ordering::Relaxed),
+            simulation_cpu: self.cache.nanos[i].load(Ordering::Relaxed) as f64 * 1e-9,
+        });
         Work {
-            simulations: self.cache.simulations.load(Ordering::Relaxed),
+            simulations: by_fidelity.iter().map(|r| r.simulations).sum(),
             cache_hits: self.cache.hits.load(Ordering::Relaxed),
-            simulation_cpu: self.cache.nanos.load(Ordering::Relaxed) as f64 * 1e-9,
+            simulation_cpu: by_fidelity.iter().map(|r| r.simulation_cpu).sum(),
+            by_fidelity,
         }
     }
 
-    /// Counts a simulation run outside the cache (the detection limits' noisy recordings), with
-    /// its time \[ns\], in [`Target::work`].
+    /// Counts a full simulation run outside the cache (the detection limits' noisy
+    /// recordings), with its time \[ns\], in [`Target::work`].
     pub(crate) fn count_run(&self, nanos: u64) {
-        self.cache.simulations.fetch_add(1, Ordering::Relaxed);
-        self.cache.nanos.fetch_add(nanos, Ordering::Relaxed);
+        self.cache.count(Fidelity::Full, nanos);
     }
 
     /// The units of recording `i`.
@@ -375,7 +487,7 @@ impl<'a> Target<'a> {
             .enumerate()
             .map_init(Solvers::default, |s, (i, r)| {
                 if need.is_none_or(|n| n[i]) {
-                    self.cache.features(model, r, s)
+                    self.cache.features(model, r, self.fidelity, s)
                 } else {
                     vec![FeatureSet::nan(); self.units.iter().filter(|u| u.0 == i).count()]
                 }
@@ -496,6 +608,16 @@ pub fn sigma(m: &FeatureSet, p: &FeatureSet, f: Feature) -> f64 {
 /// The simulation of recording `rec` under `model` on its sample grid, at the fits' tolerance
 /// (`None` where the run fails).
 pub fn simulate(model: &Model, rec: &Recording, solvers: &mut Solvers) -> Option<SimTrace> {
+    simulate_at(model, rec, Fidelity::Full, solvers)
+}
+
+/// [`simulate`] at `fidelity`.
+pub fn simulate_at(
+    model: &Model,
+    rec: &Recording,
+    fidelity: Fidelity,
+    solvers: &mut Solvers,
+) -> Option<SimTrace> {
     let p = model.params_for(rec);
     simulate_grid(
         &p,
@@ -503,19 +625,31 @@ pub fn simulate(model: &Model, rec: &Recording, solvers: &mut Solvers) -> Option
         rec.t[0],
         rec.dt(),
         rec.t.len(),
-        crate::campaign::FIT_TOLERANCE,
+        fidelity.tolerance(rec),
         solvers,
     )
     .ok()
     .filter(|tr| tr.status == crate::ode::Status::Success)
 }
 
+/// The features of `rec` simulated under `model` in full (NaN where the run fails).
+#[cfg(test)]
 pub(crate) fn predict_one(
     model: &Model,
     rec: &Recording,
     solvers: &mut Solvers,
 ) -> Vec<FeatureSet> {
-    match simulate(model, rec, solvers) {
+    predict_at(model, rec, Fidelity::Full, solvers)
+}
+
+/// [`predict_one`] at `fidelity`.
+fn predict_at(
+    model: &Model,
+    rec: &Recording,
+    fidelity: Fidelity,
+    solvers: &mut Solvers,
+) -> Vec<FeatureSet> {
+    match simulate_at(model, rec, fidelity, solvers) {
         Some(tr) => trace_features(
             rec,
             &tr.f_d,

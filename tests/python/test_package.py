@@ -376,6 +376,11 @@ def test_diagnose_from_frames_gives_the_cli_verdict(small_campaign: Path, tmp_pa
     # two runs can differ by a few).
     assert d.work["simulations"] > len(camp) and by_cli["work"]["simulations"] > len(camp)
     assert d.work["simulation_cpu"] > 0 and d.work["cache_hits"] >= 0
+    # By fidelity (the full simulations and the search's cheaper ones): they add up.
+    by = d.work["fidelity"]
+    assert set(by) == {"full", "search"}
+    assert sum(f["simulations"] for f in by.values()) == d.work["simulations"]
+    assert by["full"]["simulations"] > len(camp)
     figs = d.figures()
     import matplotlib.figure
 

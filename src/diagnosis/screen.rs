@@ -1,0 +1,242 @@
+//! The screens: a candidate effect's quick fit on at most [`SCREEN_RECORDINGS`] recordings,
+//! which decides whether it is fitted on every recording.
+//!
+//! A screen runs in full. On the search fidelity ([`super::target::Fidelity::Search`]) its
+//! fits ended elsewhere: on the bench's ageing campaign the ageing screen's five iterations
+//! reached a gap of 1.89 instead of 1.14, and the fit on every recording that starts there
+//! then took more full simulations than the screens had saved (the candidates' step 196 s →
+//! 230 s, 4087 → 5497 simulations). Its starts' scans, which only compare points, search.
+
+use super::fit::{self, FitOptions, FitResult, Model, Target};
+use crate::model::EffectKind;
+use crate::model::effects::form_param;
+use faer::Mat;
+
+/// Most recordings a candidate is first fitted on. Each candidate is screened, by a fit of at
+/// most [`SCREEN_ITERATIONS`] iterations, on every recording of a campaign of this many or
+/// fewer, else on this many ([`fit::subset`]: half where the model it extends misses most, the
+/// rest evenly by name), and fitted further on every recording, from the screen's optimum,
+/// only where it lowers the screen's gap by [`SCREEN_BAR`] or more below that of the model it
+/// extends (on a subset, that model refitted to it: else the candidate would be credited with
+/// what any refit of the base parameters to fewer recordings gains). The others are ranked as
+/// that model, as a candidate that moves the gap by less than [`UNCHANGED`](super::evidence::UNCHANGED) is.
+pub const SCREEN_RECORDINGS: usize = 16;
+
+/// Share of the subset's gap a candidate must remove in its screening to be fitted on every
+/// recording. Why 10 %: a candidate is named only for a held-out reduction of 25 % or more,
+/// and a runner-up below 10 % leaves every margin of the verdict rules as it is.
+pub const SCREEN_BAR: f64 = 0.1;
+
+/// Relative fall of the cost below which a screening fit's step on a fresh Jacobian ends it
+/// (the fits' [`FitOptions::rel_tol`] is 1e-3): a step that lowers the gap by less than 0.5 %
+/// does not lead to the [`SCREEN_BAR`] of 10 % in the few iterations left, where small steps
+/// through a rough cost would spend them all.
+pub const SCREEN_REL_TOL: f64 = 0.01;
+
+/// Relative fall of the cost below which a step on a fresh Jacobian ends a candidate's fit on
+/// every recording (where its screen passed): the candidates are ranked on fits converged to
+/// 1 % of their cost, and the named effect's fit is then polished to the fits' own
+/// [`FitOptions::rel_tol`] ([`fit::refine`]). Why: the cost is rough at the level of a few
+/// tenths of a percent (each feature counts stick-slip events, a step in the parameters moves
+/// one across a recording's end), so a fit to 1e-3 spends most of its steps on that roughness,
+/// on every candidate that passes its screen, the runners-up included.
+pub const RANK_REL_TOL: f64 = 0.01;
+
+/// Levenberg–Marquardt iterations of a screening fit: its start comes from the candidate's
+/// global scan, so an effect that explains a clear share of the gap shows it within a few.
+/// A screen also ends as soon as its linearised residuals cannot reach the bar
+/// ([`FitOptions::reach`] at [`SCREEN_BAR`] below the gap of the model it extends), checked
+/// first on the extended model's Jacobian columns with the candidate's differenced
+/// ([`fit::fit_extending`]): a candidate that explains nothing then costs its start and its
+/// own columns, not a Jacobian and five iterations of steps tried and refused.
+pub const SCREEN_ITERATIONS: usize = 5;
+
+/// The recordings candidates extending a model are screened on, with that model's gap there.
+pub(crate) struct Screen<'a> {
+    /// The subset, with the extended model refitted to it, in a campaign of more than
+    /// [`SCREEN_RECORDINGS`]; `None`: every recording, and the model as fitted to them.
+    pub subset: Option<(Target<'a>, FitResult)>,
+    /// Gap of the extended model on the screen's recordings (refitted to a subset).
+    pub gap: f64,
+    /// The extended model's Jacobian there, differenced at its optimum, where it is: the
+    /// columns of its coordinates in the Jacobian a screen's bar is first checked on
+    /// ([`fit::fit_extending`]).
+    pub jacobian: Option<Mat<f64>>,
+}
+
+/// What the screens of a candidate's starts found.
+pub(crate) struct Screened {
+    /// The lowest screen that passed its bar (the first of equals).
+    pub passed: Option<FitResult>,
+    /// The lowest gap a screen reached.
+    pub lowest: f64,
+    /// Evaluations of the screens that did not go on, and of the neutral start's check.
+    pub checks: usize,
+    /// The extended model's gap on the screen's recordings.
+    pub from_gap: f64,
+}
+
+impl<'a> Screen<'a> {
+    /// The screen for candidates extending `from`, fitted on every recording of `all`.
+    pub fn of(all: &Target<'a>, from: &FitResult, opts: FitOptions) -> Self {
+        let fresh = |f: &FitResult| f.jacobian_fresh.then(|| f.jacobian.clone());
+        if all.recs.len() <= SCREEN_RECORDINGS {
+            return Screen {
+                subset: None,
+                gap: from.gap,
+                jacobian: fresh(from),
+            };
+        }
+        let sub = fit::subset(all, &from.z, SCREEN_RECORDINGS);
+        let opts = FitOptions {
+            final_jacobian: true,
+            ..opts
+        };
+        let refit = fit::fit(&sub, &from.model, &from.effects, opts);
+        Screen {
+            gap: refit.gap,
+            jacobian: fresh(&refit),
+            subset: Some((sub, refit)),
+        }
+    }
+
+    /// The screening fit's starts for the candidate `effects` (the extended model's and the
+    /// candidate `k`, last) from its scan's best start `scanned`: `k`'s parameters from the
+    /// scan on the extended model as fitted to the screen's recordings (refitted to a subset);
+    /// where that misses them by more than the extended model does (the scan scores half as
+    /// many recordings, on the model fitted to all, and holds the extended model's parameters
+    /// where the candidate would move them), `k` at its neutral values there
+    /// ([`fit::neutral_start`]) besides: a screen is run from each, and the lowest that passes
+    /// its bar goes on. Why both: an effect the extended model's parameters have
+    /// compensated (a friction growing with the slip velocity, absorbed by a lower `F_s`)
+    /// misses at its scanned values until those parameters move back, which the screen's
+    /// steps do; the neutral start keeps every candidate at least the model it extends.
+    /// Evaluated on the screen's recordings, with the number of evaluations beside the ones the
+    /// screening fits count (0, or 1 for the neutral start).
+    fn starts(
+        &self,
+        all: &Target,
+        from: &Model,
+        scanned: &Model,
+        effects: &[EffectKind],
+    ) -> (Vec<fit::Start>, usize) {
+        let k = *effects.last().expect("a candidate");
+        let m = match &self.subset {
+            Some((_, refit)) => {
+                let mut m = refit.model.clone();
+                if let Some((_, v)) = scanned.effects.list.iter().find(|(e, _)| *e == k) {
+                    *m.effects.enable(k) = v.clone();
+                }
+                // Where the scan moved the base parameters with the candidate (the ones the
+                // extended model has absorbed it into: fit::starts), the refit's move the same
+                // way, by the same factor (by the same amount for h_d, which may be 0).
+                let scale = |refit: f64, scanned: f64, from: f64| {
+                    if scanned == from || from == 0.0 {
+                        refit
+                    } else {
+                        refit * scanned / from
+                    }
+                };
+                m.f_s = scale(m.f_s, scanned.f_s, from.f_s);
+                m.f_c = scale(m.f_c, scanned.f_c, from.f_c);
+                m.v_s = scale(m.v_s, scanned.v_s, from.v_s);
+                m.h_d += scanned.h_d - from.h_d;
+                m.f_s = m.f_s.max(m.f_c);
+                m
+            }
+            None => scanned.clone(),
+        };
+        let sub = self.recordings(all);
+        let first = fit::prepare(sub, &m, effects);
+        if first.gap() <= self.gap {
+            (vec![first], 0)
+        } else {
+            // The model it extends, as fitted to these recordings (not the scan's base
+            // parameters, which may have moved with the candidate).
+            let base = match &self.subset {
+                Some((_, refit)) => &refit.model,
+                None => from,
+            };
+            let form = scanned
+                .effects
+                .get(k, form_param(k))
+                .unwrap_or(k.default_form());
+            let neutral = fit::prepare(sub, &fit::neutral_start(base, k, form), effects);
+            (vec![first, neutral], 1)
+        }
+    }
+
+    /// The screen's recordings: the subset, or `all`.
+    pub fn recordings<'s>(&'s self, all: &'s Target<'a>) -> &'s Target<'a> {
+        self.subset.as_ref().map_or(all, |(sub, _)| sub)
+    }
+
+    /// Screens the candidate `effects` (the extended model's and the candidate, last) from
+    /// each of its scan's starts `scanned` ([`Screen::starts`]): fits of at most
+    /// [`SCREEN_ITERATIONS`] iterations with the options `opts` (their reach set here), each
+    /// stopped where it cannot reach its bar, [`SCREEN_BAR`] below the extended model's gap,
+    /// or `reach` times that gap where given and lower (another form of a
+    /// trailing effect, [`super::forms::form_reach`]); with `full_reach` (another form of an
+    /// effect whose default form passed) no stop before the bar is checked at the end.
+    #[allow(clippy::too_many_arguments)]
+    pub fn screen(
+        &self,
+        all: &Target,
+        from: &Model,
+        scanned: &[Model],
+        effects: &[EffectKind],
+        reach: Option<f64>,
+        full_reach: bool,
+        opts: FitOptions,
+    ) -> Screened {
+        let sub = self.recordings(all);
+        let from_gap = self.gap;
+        let mut firsts = vec![];
+        let mut checks = 0;
+        for m in scanned {
+            let (f, n) = self.starts(all, from, m, effects);
+            firsts.extend(f);
+            checks += n;
+        }
+        let bar = (1.0 - SCREEN_BAR) * from_gap;
+        let opts = FitOptions {
+            max_iter: opts.max_iter.min(SCREEN_ITERATIONS),
+            rel_tol: SCREEN_REL_TOL,
+            reach: match (reach, full_reach) {
+                // Short of the leader's reach, it is not fitted further whatever its start.
+                (Some(r), _) => (r * from_gap).min(bar),
+                (None, true) => f64::INFINITY,
+                (None, false) => bar,
+            },
+            ..opts
+        };
+        let mut passed: Option<FitResult> = None;
+        let mut lowest = f64::INFINITY;
+        for first in firsts {
+            // The bar checked first on the extended model's Jacobian columns from its own fit
+            // on these recordings and the candidate's differenced: a
+            // candidate out of reach costs those.
+            let s = match &self.jacobian {
+                Some(known) => fit::fit_extending(sub, first, known, opts),
+                None => fit::fit_from(sub, first, opts),
+            };
+            // The lowest screen that passes goes on (the first of equals); the others'
+            // evaluations count with the fit's where its recordings are the fit's.
+            lowest = lowest.min(s.gap);
+            let better = s.gap <= bar && passed.as_ref().is_none_or(|p| s.gap < p.gap);
+            if better {
+                if let Some(p) = passed.replace(s) {
+                    checks += p.evaluations;
+                }
+            } else {
+                checks += s.evaluations;
+            }
+        }
+        Screened {
+            passed,
+            lowest,
+            checks,
+            from_gap,
+        }
+    }
+}
