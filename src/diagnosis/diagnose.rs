@@ -180,11 +180,11 @@ fn try_candidate(
     // family is known to reach, and a form's scan start can lie far from its valley (a
     // fourth-order sensor's resonance at twice the data's). That of a trailing effect stops
     // where it cannot come near the leader (`reach`): then it can neither be named nor tie.
+    let from_gap = screen.gap;
     let Screened {
         passed,
         lowest,
         checks,
-        from_gap,
     } = screen.screen(
         all,
         &from.model,

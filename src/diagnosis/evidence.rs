@@ -231,6 +231,7 @@ pub fn gap_order(a: &[f64], a_n: &[usize], b: &[f64], b_n: &[usize]) -> GapOrder
         recordings: idx.len(),
     }
 }
+
 /// Held-out gap of a recording from which it counts as carrying a gap for the breadth rule.
 pub const GAPPED: f64 = 1.5;
 

@@ -742,7 +742,8 @@ pub fn starts(target: &Target, base: &FitResult, kind: EffectKind, form: f64) ->
     }
     // The scan only chooses a start: score the starts on a subset of the recordings, at the
     // search fidelity (the screen and the fit that follow are full).
-    let sub = scan_subset(target, &base.z).at(Fidelity::Search);
+    let mut sub = scan_subset(target, &base.z);
+    sub.fidelity = Fidelity::Search;
     let scanned = match kind {
         EffectKind::ActuatorResponse => actuator_scan(&sub, &m0),
         EffectKind::NormalCoupling => normal_scan(&sub, &m0),

@@ -124,7 +124,7 @@ pub fn json(c: &Campaign, d: &Diagnosis) -> serde_json::Value {
             "params": estimates_json(&r.fit.estimates),
             "fingerprints": r.fingerprints,
             "rejected": r.rejected,
-            "short_of_leader": r.short_of_leader.map(|(got, needed)| json!({"screen_gap": num(got), "needed": num(needed)})),
+            "short_of_leader": short_json(r),
         })).collect::<Vec<_>>(),
         "rejected": d.ranking.iter().chain(&d.second).filter_map(|r| r.rejected.as_ref().map(|why| json!({
             "effect": r.effect.name(), "form": r.form.map(|f| f.name), "reason": why,
@@ -150,7 +150,7 @@ pub fn json(c: &Campaign, d: &Diagnosis) -> serde_json::Value {
             "params": estimates_json(&r.fit.estimates),
             "fingerprints": r.fingerprints,
             "rejected": r.rejected,
-            "short_of_leader": r.short_of_leader.map(|(got, needed)| json!({"screen_gap": num(got), "needed": num(needed)})),
+            "short_of_leader": short_json(r),
         })).collect::<Vec<_>>(),
         "where": {
             "summary": w.summary,
@@ -184,6 +184,15 @@ pub fn json(c: &Campaign, d: &Diagnosis) -> serde_json::Value {
             })).collect::<Vec<_>>(),
         },
     })
+}
+
+/// A form stopped short of the leader ([`Ranked::short_of_leader`]): its screen's gap and the
+/// gap it needed; null for any other candidate.
+fn short_json(r: &Ranked) -> serde_json::Value {
+    r.short_of_leader.map_or(
+        serde_json::Value::Null,
+        |(got, needed)| json!({"screen_gap": num(got), "needed": num(needed)}),
+    )
 }
 
 /// The simulations and their CPU time by fidelity (`full`, `search`).

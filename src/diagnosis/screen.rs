@@ -72,8 +72,6 @@ pub(crate) struct Screened {
     pub lowest: f64,
     /// Evaluations of the screens that did not go on, and of the neutral start's check.
     pub checks: usize,
-    /// The extended model's gap on the screen's recordings.
-    pub from_gap: f64,
 }
 
 impl<'a> Screen<'a> {
@@ -190,7 +188,6 @@ impl<'a> Screen<'a> {
         opts: FitOptions,
     ) -> Screened {
         let sub = self.recordings(all);
-        let from_gap = self.gap;
         let mut firsts = vec![];
         let mut checks = 0;
         for m in scanned {
@@ -198,13 +195,13 @@ impl<'a> Screen<'a> {
             firsts.extend(f);
             checks += n;
         }
-        let bar = (1.0 - SCREEN_BAR) * from_gap;
+        let bar = (1.0 - SCREEN_BAR) * self.gap;
         let opts = FitOptions {
             max_iter: opts.max_iter.min(SCREEN_ITERATIONS),
             rel_tol: SCREEN_REL_TOL,
             reach: match (reach, full_reach) {
                 // Short of the leader's reach, it is not fitted further whatever its start.
-                (Some(r), _) => (r * from_gap).min(bar),
+                (Some(r), _) => (r * self.gap).min(bar),
                 (None, true) => f64::INFINITY,
                 (None, false) => bar,
             },
@@ -236,7 +233,6 @@ impl<'a> Screen<'a> {
             passed,
             lowest,
             checks,
-            from_gap,
         }
     }
 }
