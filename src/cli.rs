@@ -454,6 +454,10 @@ pub struct SweepArgs {
     /// Do not draw the figures or compute the boundary at the end.
     #[arg(long)]
     pub no_plot: bool,
+    /// Integrate every run on the scalar path, one at a time, instead of the full model's runs
+    /// side by side in vector lanes (the results are the same bit for bit; for comparisons).
+    #[arg(long)]
+    pub scalar: bool,
     /// Seconds between HDF5 checkpoints while running (>= 1).
     #[arg(long, value_name = "s", default_value_t = 30.0)]
     pub checkpoint_every: f64,
@@ -898,6 +902,7 @@ impl SweepArgs {
             checkpoint_every: self.checkpoint_every,
             shard: self.shard,
             tally: None,
+            batch: !self.scalar,
         })
     }
 }

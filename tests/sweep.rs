@@ -90,6 +90,7 @@ fn opts(out: &Path, threads: usize) -> SweepOptions {
         checkpoint_every: 30.0,
         shard: None,
         tally: None,
+        batch: true,
     }
 }
 

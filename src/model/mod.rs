@@ -18,10 +18,12 @@
 //! Jacobian and an analytic `∂f/∂t`; model extensions add state components after these three
 //! and terms to the same right-hand side, so the integrators never change.
 
+pub mod base;
 pub mod effects;
 pub mod params;
 pub mod state;
 
+pub use base::BaseCoeffs;
 pub use effects::{EffectError, EffectKind, Effects};
 pub use params::{ParamError, Params};
 pub use state::{BASE_DIM, S, V, X};
@@ -85,11 +87,10 @@ pub fn contact(p: &Params, v_r: f64, s: f64) -> Contact {
 
 /// `exp(−q²)` of the Stribeck curve (4.7) and the contact damping (4.9), given `q²`; 0 beyond
 /// `q² = 50`, where it is below 2e-22 and adds less than a rounding error to `F_c` or to the
-/// contact force. Skipping the exponential there pays at large vibration, where `|v_r|` spends
-/// most of each period far above `v_s` and `v_d`.
+/// contact force. The base model's own ([`base`]), so that every path rounds alike.
 #[inline]
 fn gauss(q2: f64) -> f64 {
-    if q2 > 50.0 { 0.0 } else { (-q2).exp() }
+    base::gauss(q2)
 }
 
 /// Largest state dimension of the rig with every effect on.
@@ -177,7 +178,8 @@ impl Rig {
         if self.u0 == 0.0 || t < self.t_on {
             0.0
         } else {
-            self.u0 * self.omega * (self.omega * (t - self.t_on)).cos()
+            // The right-hand side's own cosine ([`base`]), so that every path rounds alike.
+            base::substrate_velocity(&self.base_coeffs(), t)
         }
     }
 
@@ -238,6 +240,37 @@ impl Rig {
         (y[S] + extra) / n as f64
     }
 
+    /// The coefficients of the base model's right-hand side, `None` where an effect is on (the
+    /// right-hand side then has terms [`base::base_rhs`] does not hold).
+    #[inline]
+    pub fn lane_coeffs(&self) -> Option<BaseCoeffs<f64>> {
+        (!self.fx.any).then(|| self.base_coeffs())
+    }
+
+    #[inline(always)]
+    fn base_coeffs(&self) -> BaseCoeffs<f64> {
+        let p = &self.p;
+        BaseCoeffs {
+            u0: self.u0,
+            omega: self.omega,
+            t_on: self.t_on,
+            v_s: p.v_s,
+            f_c: p.f_c,
+            f_s: p.f_s,
+            k_t: p.k_t,
+            v_d: p.v_d,
+            h_t: p.h_t,
+            h_v: p.h_v,
+            k_d: p.k_d,
+            h_d: p.h_d,
+            m: p.m,
+            inv_v_s: 1.0 / p.v_s,
+            inv_v_d: 1.0 / p.v_d,
+            inv_k_t: 1.0 / p.k_t,
+            inv_m: 1.0 / p.m,
+        }
+    }
+
     /// Whether any effect is on.
     pub fn has_effects(&self) -> bool {
         self.fx.any
@@ -287,7 +320,10 @@ impl Rig {
             }
             None => v_r,
         };
-        let q = (w / p.v_s).abs();
+        // Multiplied by the reciprocals where the base model's right-hand side is ([`base`]), so
+        // that neutral effects round as it does.
+        let c = self.base_coeffs();
+        let q = (w * c.inv_v_s).abs();
         let e_s = if fx.rational {
             1.0 / (1.0 + q.powf(fx.delta))
         } else if fx.delta == 2.0 {
@@ -295,9 +331,9 @@ impl Rig {
         } else {
             (-q.powf(fx.delta)).exp()
         };
-        let g = nu * (p.f_c + (f_s - p.f_c) * e_s) / p.k_t;
+        let g = nu * (p.f_c + (f_s - p.f_c) * e_s) * c.inv_k_t;
         // Contact damping (4.9).
-        let qd = v_r / p.v_d;
+        let qd = v_r * c.inv_v_d;
         let h = p.h_t * gauss(qd * qd);
         // Bristles (4.6): one, or N Maxwell-slip elements of stiffness k_t/N.
         let n = fx.elements;
@@ -327,7 +363,7 @@ impl Rig {
         let force = p.k_t * sum_s / nf + h * sum_sd / nf + h_v * v_r;
         let f_d = self.drive_force(t, y);
         dy[X] = y[V];
-        dy[V] = (f_d - force) / p.m; // (4.2)
+        dy[V] = (f_d - force) * c.inv_m; // (4.2)
         if let Some((wn, zeta, i)) = fx.sensor {
             dy[i] = y[i + 1];
             dy[i + 1] = wn * wn * (f_d - y[i]) - 2.0 * zeta * wn * y[i + 1];
@@ -366,11 +402,7 @@ impl OdeSystem for Rig {
         if self.fx.any {
             return self.rhs_effects(t, y, dy);
         }
-        let v_r = self.relative_velocity(t, y);
-        let c = contact(&self.p, v_r, y[S]);
-        dy[X] = y[V];
-        dy[V] = (self.drive_force(t, y) - c.force) / self.p.m; // (4.2)
-        dy[S] = c.s_dot;
+        base::base_rhs(&self.base_coeffs(), t, y, dy);
     }
 
     fn jacobian(&self, t: f64, y: &[f64], j: &mut [f64]) {

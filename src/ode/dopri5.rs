@@ -2,6 +2,7 @@
 //! extension of Dormand & Prince (Hairer, Nørsett & Wanner, *Solving ODEs I*, Sect. II.5–II.6;
 //! the DOPRI5 code). First-same-as-last: 6 right-hand sides per accepted step.
 
+use super::lanes::Real;
 use super::{OdeSystem, Stats, StepOutcome, Stepper, error_norm};
 
 const C2: f64 = 1.0 / 5.0;
@@ -42,10 +43,204 @@ const D6: f64 = -1453857185.0 / 822651844.0;
 const D7: f64 = 69997945.0 / 29380423.0;
 
 const SAFE: f64 = 0.9;
+/// `ln 1e-4`: the floor of `facold`, as a logarithm.
+const LN_1E_4: f64 = -9.210_340_371_976_182;
 const BETA: f64 = 0.04;
 /// Step ratio bounds: `FAC1 ≤ h_new/h ≤ FAC2`.
 const FAC1: f64 = 0.2;
 const FAC2: f64 = 10.0;
+
+/// The step-size controller of one integration: PI control with Lund stabilisation (the DOPRI5
+/// code's), its history and whether the last attempt was rejected. Scalar in both paths: the
+/// batch integrator keeps one per lane.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Control {
+    facold: f64,
+    /// `facold^β`, computed once per accepted step.
+    facold_beta: f64,
+    reject: bool,
+}
+
+/// What [`Control::judge`] made of an attempt: the step is taken or not, and the next step size.
+pub(crate) enum Judged {
+    Accepted(f64),
+    Rejected(f64),
+}
+
+impl Control {
+    pub(crate) fn new() -> Self {
+        Control {
+            facold: 1e-4,
+            facold_beta: 1e-4f64.powf(BETA),
+            reject: false,
+        }
+    }
+
+    /// Judges an attempt of step `h` with error norm `err`: accepted where `err ≤ 1`; a
+    /// non-finite error cuts the step tenfold.
+    #[inline]
+    pub(crate) fn judge(&mut self, err: f64, h: f64) -> Judged {
+        if !err.is_finite() {
+            self.reject = true;
+            return Judged::Rejected(h * 0.1);
+        }
+        // The two powers from one logarithm (`pow` costs a logarithm and an exponential each).
+        let ln_err = err.ln();
+        let fac11 = ((0.2 - BETA * 0.75) * ln_err).exp();
+        let fac = (fac11 / self.facold_beta / SAFE).clamp(1.0 / FAC2, 1.0 / FAC1);
+        if err <= 1.0 {
+            self.facold = err.max(1e-4);
+            self.facold_beta = (BETA * ln_err.max(LN_1E_4)).exp();
+            let mut hnew = h / fac;
+            if self.reject {
+                hnew = hnew.min(h);
+            }
+            self.reject = false;
+            Judged::Accepted(hnew)
+        } else {
+            self.reject = true;
+            Judged::Rejected(h / (1.0 / FAC1).min(fac11 / SAFE))
+        }
+    }
+}
+
+/// A right-hand side as [`Stages::step`] calls it: one system's, or one per lane. A trait
+/// rather than a closure, so that the call is inlined into the code compiled for the vector
+/// instruction set.
+pub(crate) trait Eval<T> {
+    fn eval(&self, t: T, y: &[T], dy: &mut [T]);
+}
+
+/// One system's right-hand side.
+pub(crate) struct One<'a, S>(pub &'a S);
+
+impl<S: OdeSystem> Eval<f64> for One<'_, S> {
+    #[inline(always)]
+    fn eval(&self, t: f64, y: &[f64], dy: &mut [f64]) {
+        self.0.rhs(t, y, dy);
+    }
+}
+
+/// The buffers of one attempt: the stages `k1` (given: `f(t, y)`) to `k7` (`f(t + h, ynew)`),
+/// the fifth-order solution and a scratch state; one point (`T = f64`) or one per lane.
+pub(crate) struct Stages<'a, T> {
+    pub k1: &'a mut [T],
+    pub k2: &'a mut [T],
+    pub k3: &'a mut [T],
+    pub k4: &'a mut [T],
+    pub k5: &'a mut [T],
+    pub k6: &'a mut [T],
+    pub k7: &'a mut [T],
+    pub ynew: &'a mut [T],
+    pub ytmp: &'a mut [T],
+}
+
+impl<T: Real> Stages<'_, T> {
+    /// One Dormand–Prince attempt from `(t, y)` with step `h`: the stages, `ynew`, and the error
+    /// norm of the embedded estimate (`k2` then holds the estimate). The same operations for a
+    /// point alone and in a lane.
+    #[inline(always)]
+    pub(crate) fn step(self, rhs: &impl Eval<T>, t: T, h: T, y: &[T], atol: &[T], rtol: T) -> T {
+        let Stages {
+            k1,
+            k2,
+            k3,
+            k4,
+            k5,
+            k6,
+            k7,
+            ynew,
+            ytmp,
+        } = self;
+        let n = y.len();
+        let c = T::splat;
+        for i in 0..n {
+            ytmp[i] = y[i] + h * c(A21) * k1[i];
+        }
+        rhs.eval(t + c(C2) * h, ytmp, k2);
+        for i in 0..n {
+            ytmp[i] = y[i] + h * (c(A31) * k1[i] + c(A32) * k2[i]);
+        }
+        rhs.eval(t + c(C3) * h, ytmp, k3);
+        for i in 0..n {
+            ytmp[i] = y[i] + h * (c(A41) * k1[i] + c(A42) * k2[i] + c(A43) * k3[i]);
+        }
+        rhs.eval(t + c(C4) * h, ytmp, k4);
+        for i in 0..n {
+            ytmp[i] =
+                y[i] + h * (c(A51) * k1[i] + c(A52) * k2[i] + c(A53) * k3[i] + c(A54) * k4[i]);
+        }
+        rhs.eval(t + c(C5) * h, ytmp, k5);
+        for i in 0..n {
+            ytmp[i] = y[i]
+                + h * (c(A61) * k1[i]
+                    + c(A62) * k2[i]
+                    + c(A63) * k3[i]
+                    + c(A64) * k4[i]
+                    + c(A65) * k5[i]);
+        }
+        rhs.eval(t + h, ytmp, k6);
+        for i in 0..n {
+            ynew[i] = y[i]
+                + h * (c(A71) * k1[i]
+                    + c(A73) * k3[i]
+                    + c(A74) * k4[i]
+                    + c(A75) * k5[i]
+                    + c(A76) * k6[i]);
+        }
+        rhs.eval(t + h, ynew, k7);
+        // Local error estimate, reusing k2 as scratch.
+        for i in 0..n {
+            k2[i] = h
+                * (c(E1) * k1[i]
+                    + c(E3) * k3[i]
+                    + c(E4) * k4[i]
+                    + c(E5) * k5[i]
+                    + c(E6) * k6[i]
+                    + c(E7) * k7[i]);
+        }
+        error_norm(k2, y, ynew, atol, rtol)
+    }
+}
+
+/// The dense output coefficients of an accepted step of size `h` from `y` to `ynew`, given the
+/// stages `[k1, k3, k4, k5, k6, k7]`.
+#[inline(always)]
+pub(crate) fn dense_coefficients<T: Real>(
+    h: T,
+    y: &[T],
+    ynew: &[T],
+    k: [&[T]; 6],
+    rc: [&mut [T]; 5],
+) {
+    let [k1, k3, k4, k5, k6, k7] = k;
+    let [rc0, rc1, rc2, rc3, rc4] = rc;
+    let c = T::splat;
+    for i in 0..y.len() {
+        let ydiff = ynew[i] - y[i];
+        let bspl = h * k1[i] - ydiff;
+        rc0[i] = y[i];
+        rc1[i] = ydiff;
+        rc2[i] = bspl;
+        rc3[i] = ydiff - h * k7[i] - bspl;
+        rc4[i] = h
+            * (c(D1) * k1[i]
+                + c(D3) * k3[i]
+                + c(D4) * k4[i]
+                + c(D5) * k5[i]
+                + c(D6) * k6[i]
+                + c(D7) * k7[i]);
+    }
+}
+
+/// The continuous extension at `t` of the step that ended at `t_end` after `h_prev`, from one
+/// component's coefficients.
+#[inline(always)]
+pub(crate) fn dense_value(t: f64, t_end: f64, h_prev: f64, rc: [f64; 5]) -> f64 {
+    let s = (t - (t_end - h_prev)) / h_prev;
+    let s1 = 1.0 - s;
+    rc[0] + s * (rc[1] + s1 * (rc[2] + s * (rc[3] + s1 * rc[4])))
+}
 
 pub(crate) struct Dopri5 {
     n: usize,
@@ -66,10 +261,7 @@ pub(crate) struct Dopri5 {
     ytmp: Vec<f64>,
     /// Dense output coefficients of the last accepted step.
     rc: [Vec<f64>; 5],
-    facold: f64,
-    /// `facold^β`, computed once per accepted step.
-    facold_beta: f64,
-    reject: bool,
+    control: Control,
     /// Whether to run the stiffness test on accepted steps (for [`super::Method::Auto`]).
     pub(crate) detect: bool,
     /// `h λ̃` of the last accepted step (0 unless `detect`): the stiffness test of DOPRI5,
@@ -101,9 +293,7 @@ impl Dopri5 {
             ynew: v(),
             ytmp: v(),
             rc: [v(), v(), v(), v(), v()],
-            facold: 1e-4,
-            facold_beta: 1e-4f64.powf(BETA),
-            reject: false,
+            control: Control::new(),
             detect: false,
             h_lambda: 0.0,
         }
@@ -125,9 +315,7 @@ impl Stepper for Dopri5 {
         self.y.copy_from_slice(y0);
         sys.rhs(t0, y0, &mut self.k1);
         st.rhs_evals += 1;
-        self.facold = 1e-4;
-        self.facold_beta = self.facold.powf(BETA);
-        self.reject = false;
+        self.control = Control::new();
         self.h_lambda = 0.0;
         self.rc[0].copy_from_slice(y0);
         for c in self.rc[1..].iter_mut() {
@@ -151,8 +339,8 @@ impl Stepper for Dopri5 {
     fn attempt<S: OdeSystem>(&mut self, sys: &S, st: &mut Stats) -> StepOutcome {
         let n = self.n;
         let (t, h) = (self.t, self.h);
-        // Every buffer as a slice of length n: the loops below then carry no bounds checks,
-        // which for the rig's three states cost as much as their arithmetic.
+        // Every buffer as a slice of length n: the loops then carry no bounds checks, which for
+        // the rig's three states cost as much as their arithmetic.
         let Dopri5 {
             y,
             k1,
@@ -166,130 +354,81 @@ impl Stepper for Dopri5 {
             ytmp,
             ..
         } = self;
-        let (y, k1, k2, k3, k4, k5, k6, k7, ynew, ytmp) = (
-            &y[..n],
-            &mut k1[..n],
-            &mut k2[..n],
-            &mut k3[..n],
-            &mut k4[..n],
-            &mut k5[..n],
-            &mut k6[..n],
-            &mut k7[..n],
-            &mut ynew[..n],
-            &mut ytmp[..n],
-        );
-        for i in 0..n {
-            ytmp[i] = y[i] + h * A21 * k1[i];
-        }
-        sys.rhs(t + C2 * h, ytmp, k2);
-        for i in 0..n {
-            ytmp[i] = y[i] + h * (A31 * k1[i] + A32 * k2[i]);
-        }
-        sys.rhs(t + C3 * h, ytmp, k3);
-        for i in 0..n {
-            ytmp[i] = y[i] + h * (A41 * k1[i] + A42 * k2[i] + A43 * k3[i]);
-        }
-        sys.rhs(t + C4 * h, ytmp, k4);
-        for i in 0..n {
-            ytmp[i] = y[i] + h * (A51 * k1[i] + A52 * k2[i] + A53 * k3[i] + A54 * k4[i]);
-        }
-        sys.rhs(t + C5 * h, ytmp, k5);
-        for i in 0..n {
-            ytmp[i] =
-                y[i] + h * (A61 * k1[i] + A62 * k2[i] + A63 * k3[i] + A64 * k4[i] + A65 * k5[i]);
-        }
-        sys.rhs(t + h, ytmp, k6);
-        for i in 0..n {
-            ynew[i] =
-                y[i] + h * (A71 * k1[i] + A73 * k3[i] + A74 * k4[i] + A75 * k5[i] + A76 * k6[i]);
-        }
-        sys.rhs(t + h, ynew, k7);
+        let ks = Stages {
+            k1: &mut k1[..n],
+            k2: &mut k2[..n],
+            k3: &mut k3[..n],
+            k4: &mut k4[..n],
+            k5: &mut k5[..n],
+            k6: &mut k6[..n],
+            k7: &mut k7[..n],
+            ynew: &mut ynew[..n],
+            ytmp: &mut ytmp[..n],
+        };
+        let err = ks.step(&One(sys), t, h, &y[..n], &self.atol, self.rtol);
         st.rhs_evals += 6;
-        // Local error estimate, reusing k2 as scratch.
-        for i in 0..n {
-            k2[i] =
-                h * (E1 * k1[i] + E3 * k3[i] + E4 * k4[i] + E5 * k5[i] + E6 * k6[i] + E7 * k7[i]);
-        }
-        let err = error_norm(k2, y, ynew, &self.atol, self.rtol);
-        if !err.is_finite() {
-            st.rejected += 1;
-            self.h *= 0.1;
-            self.reject = true;
-            return StepOutcome::Rejected;
-        }
-        // PI controller with Lund stabilisation.
-        let fac11 = err.powf(0.2 - BETA * 0.75);
-        let fac = (fac11 / self.facold_beta / SAFE).clamp(1.0 / FAC2, 1.0 / FAC1);
-        if err <= 1.0 {
-            if self.detect {
-                // Stiffness test, before k7 and ytmp are reused.
-                let (mut num, mut den) = (0.0, 0.0);
-                for i in 0..n {
-                    num += (k7[i] - k6[i]).powi(2);
-                    den += (ynew[i] - ytmp[i]).powi(2);
-                }
-                self.h_lambda = if den > 0.0 {
-                    h * (num / den).sqrt()
-                } else {
-                    0.0
-                };
+        let accepted = match self.control.judge(err, h) {
+            Judged::Accepted(h_next) => h_next,
+            Judged::Rejected(h_next) => {
+                st.rejected += 1;
+                self.h = h_next;
+                return StepOutcome::Rejected;
             }
-            self.facold = err.max(1e-4);
-            self.facold_beta = self.facold.powf(BETA);
-            // Dense output coefficients.
-            let [rc0, rc1, rc2, rc3, rc4] = &mut self.rc;
-            let (rc0, rc1, rc2, rc3, rc4) = (
+        };
+        let n = self.n;
+        if self.detect {
+            // Stiffness test, before k7 and ytmp are reused.
+            let (mut num, mut den) = (0.0, 0.0);
+            for i in 0..n {
+                num += (self.k7[i] - self.k6[i]).powi(2);
+                den += (self.ynew[i] - self.ytmp[i]).powi(2);
+            }
+            self.h_lambda = if den > 0.0 {
+                h * (num / den).sqrt()
+            } else {
+                0.0
+            };
+        }
+        let [rc0, rc1, rc2, rc3, rc4] = &mut self.rc;
+        dense_coefficients(
+            h,
+            &self.y[..n],
+            &self.ynew[..n],
+            [
+                &self.k1[..n],
+                &self.k3[..n],
+                &self.k4[..n],
+                &self.k5[..n],
+                &self.k6[..n],
+                &self.k7[..n],
+            ],
+            [
                 &mut rc0[..n],
                 &mut rc1[..n],
                 &mut rc2[..n],
                 &mut rc3[..n],
                 &mut rc4[..n],
-            );
-            for i in 0..n {
-                let ydiff = ynew[i] - y[i];
-                let bspl = h * k1[i] - ydiff;
-                rc0[i] = y[i];
-                rc1[i] = ydiff;
-                rc2[i] = bspl;
-                rc3[i] = ydiff - h * k7[i] - bspl;
-                rc4[i] = h
-                    * (D1 * k1[i] + D3 * k3[i] + D4 * k4[i] + D5 * k5[i] + D6 * k6[i] + D7 * k7[i]);
-            }
-            std::mem::swap(&mut self.k1, &mut self.k7);
-            std::mem::swap(&mut self.y, &mut self.ynew);
-            self.h_prev = h;
-            self.t = t + h;
-            let mut hnew = h / fac;
-            if self.reject {
-                hnew = hnew.min(h);
-            }
-            self.reject = false;
-            self.h = hnew;
-            st.steps += 1;
-            StepOutcome::Accepted
-        } else {
-            st.rejected += 1;
-            self.reject = true;
-            self.h = h / (1.0 / FAC1).min(fac11 / SAFE);
-            StepOutcome::Rejected
-        }
+            ],
+        );
+        std::mem::swap(&mut self.k1, &mut self.k7);
+        std::mem::swap(&mut self.y, &mut self.ynew);
+        self.h_prev = h;
+        self.t = t + h;
+        self.h = accepted;
+        st.steps += 1;
+        StepOutcome::Accepted
     }
 
     fn dense(&self, t: f64, out: &mut [f64]) {
-        let s = (t - (self.t - self.h_prev)) / self.h_prev;
-        let s1 = 1.0 - s;
         let n = self.n;
         let [rc0, rc1, rc2, rc3, rc4] = &self.rc;
-        let (rc0, rc1, rc2, rc3, rc4, out) = (
-            &rc0[..n],
-            &rc1[..n],
-            &rc2[..n],
-            &rc3[..n],
-            &rc4[..n],
-            &mut out[..n],
-        );
         for i in 0..n {
-            out[i] = rc0[i] + s * (rc1[i] + s1 * (rc2[i] + s * (rc3[i] + s1 * rc4[i])));
+            out[i] = dense_value(
+                t,
+                self.t,
+                self.h_prev,
+                [rc0[i], rc1[i], rc2[i], rc3[i], rc4[i]],
+            );
         }
     }
 }

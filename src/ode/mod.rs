@@ -25,8 +25,10 @@
 //! otherwise). A step is accepted when `‖e‖ ≤ 1`.
 
 mod auto;
+pub mod batch;
 mod dopri5;
 mod envelope;
+pub mod lanes;
 mod linalg;
 mod options;
 mod radau5;
@@ -78,6 +80,29 @@ pub trait OdeSystem {
     /// system; only the linear algebra shrinks (by `k³` in the factorisation).
     fn jacobian_blocks(&self) -> usize {
         1
+    }
+}
+
+/// A borrowed system is the system (so that jobs of the batch integrator can borrow theirs).
+impl<S: OdeSystem + ?Sized> OdeSystem for &S {
+    fn dim(&self) -> usize {
+        (**self).dim()
+    }
+    #[inline(always)]
+    fn rhs(&self, t: f64, y: &[f64], dy: &mut [f64]) {
+        (**self).rhs(t, y, dy)
+    }
+    fn jacobian(&self, t: f64, y: &[f64], jac: &mut [f64]) {
+        (**self).jacobian(t, y, jac)
+    }
+    fn time_derivative(&self, t: f64, y: &[f64], dfdt: &mut [f64], scratch: &mut [f64]) {
+        (**self).time_derivative(t, y, dfdt, scratch)
+    }
+    fn scale(&self, i: usize) -> f64 {
+        (**self).scale(i)
+    }
+    fn jacobian_blocks(&self) -> usize {
+        (**self).jacobian_blocks()
     }
 }
 
@@ -314,16 +339,17 @@ pub struct RunReport {
     pub h_next: f64,
 }
 
-/// Weighted RMS norm of `e` (see the module docs): the single definition all methods use.
-#[inline]
-pub(crate) fn error_norm(e: &[f64], y: &[f64], y_new: &[f64], atol: &[f64], rtol: f64) -> f64 {
-    let mut sum = 0.0;
+/// Weighted RMS norm of `e` (see the module docs): the single definition all methods use, for
+/// one point or one per lane.
+#[inline(always)]
+pub(crate) fn error_norm<T: lanes::Real>(e: &[T], y: &[T], y_new: &[T], atol: &[T], rtol: T) -> T {
+    let mut sum = T::splat(0.0);
     for i in 0..e.len() {
         let sc = atol[i] + rtol * y[i].abs().max(y_new[i].abs());
         let q = e[i] / sc;
-        sum += q * q;
+        sum = sum + q * q;
     }
-    (sum / e.len() as f64).sqrt()
+    (sum / T::splat(e.len() as f64)).sqrt()
 }
 
 /// What a method's step attempt produced.
@@ -421,7 +447,7 @@ enum Workspace {
 }
 
 /// Buffers the driver needs whatever the method.
-struct Shared {
+pub(crate) struct Shared {
     atol: Vec<f64>,
     out: Vec<f64>,
     init: [Vec<f64>; 3],
@@ -429,8 +455,38 @@ struct Shared {
 }
 
 impl Shared {
+    /// Readies the buffers for an integration of `sys` with `opts` (under `envelope`, if any):
+    /// the scaled absolute tolerances and the envelope's strobe. Returns the options to
+    /// integrate with: the periods whose slopes feed a jump are integrated at the envelope's
+    /// inner tolerance, stretches the envelope gives up on at the one asked for.
+    pub(crate) fn prepare<S: OdeSystem>(
+        &mut self,
+        sys: &S,
+        opts: &Options,
+        envelope: Option<&Envelope>,
+    ) -> Options {
+        let n = sys.dim();
+        let inner = match envelope {
+            Some(e) => Options {
+                rtol: e.inner_tolerance(opts.rtol),
+                atol: e.inner_tolerance(opts.atol),
+                ..opts.clone()
+            },
+            None => opts.clone(),
+        };
+        for i in 0..n {
+            self.atol[i] = inner.atol * sys.scale(i);
+        }
+        if let Some(e) = envelope {
+            let loosen = inner.rtol < opts.rtol || inner.atol < opts.atol;
+            self.strobe
+                .reset(n, e.period_samples, e.baseline, loosen, |i| sys.scale(i));
+        }
+        inner
+    }
+
     /// Buffers for an `n`-dimensional system (the strobe sizes itself per run).
-    fn sized(n: usize) -> Self {
+    pub(crate) fn sized(n: usize) -> Self {
         Shared {
             atol: vec![0.0; n],
             out: vec![0.0; n],
@@ -529,25 +585,7 @@ impl Solver {
         let n = sys.dim();
         assert_eq!(y0.len(), n, "initial state has the wrong length");
         self.ensure(n);
-        // The periods whose slopes feed a jump are integrated at the envelope's inner
-        // tolerance; stretches the envelope gives up on, at the one asked for.
-        let inner = match envelope {
-            Some(e) => Options {
-                rtol: e.inner_tolerance(opts.rtol),
-                atol: e.inner_tolerance(opts.atol),
-                ..opts.clone()
-            },
-            None => opts.clone(),
-        };
-        for i in 0..n {
-            self.shared.atol[i] = inner.atol * sys.scale(i);
-        }
-        if let Some(e) = envelope {
-            let loosen = inner.rtol < opts.rtol || inner.atol < opts.atol;
-            self.shared
-                .strobe
-                .reset(n, e.period_samples, e.baseline, loosen, |i| sys.scale(i));
-        }
+        let inner = self.shared.prepare(sys, opts, envelope);
         if let Workspace::Auto(a) = &mut self.ws {
             a.switching = envelope.is_none();
         }
@@ -580,93 +618,142 @@ fn drive<M: Stepper, S: OdeSystem>(
     observe: &mut impl FnMut(f64, &[f64]) -> bool,
     sh: &mut Shared,
 ) -> RunReport {
-    let Shared {
-        atol,
-        out,
-        init,
-        strobe,
-    } = sh;
-    m.set_tolerances(opts.rtol, atol);
-    let mut st = Stats::default();
-    let stats = &mut st;
-    let finish = |status, t, y0: &mut [f64], y: &[f64], stats: &Stats, h_next: f64| {
+    let mut d = match Drive::begin(m, sys, t0, t1, y0, opts, grid, observe, sh) {
+        Ok(d) => d,
+        Err(r) => return r,
+    };
+    loop {
+        if let Some(r) = d.before(m, y0) {
+            return r;
+        }
+        let outcome = m.attempt(sys, &mut d.stats);
+        if let Some(r) = d.after(m, sys, outcome, opts, env, observe, sh, y0) {
+            return r;
+        }
+    }
+}
+
+/// One integration between attempts: what [`drive`] keeps from one attempt to the next, so
+/// that the batch integrator can drive each lane's integration with the same code, one attempt
+/// at a time.
+pub(crate) struct Drive {
+    t1: f64,
+    h_max: f64,
+    grid: OutputGrid,
+    /// Last grid index inside the span: jumps never pass it.
+    g_last: u64,
+    /// Next output index.
+    k: u64,
+    attempts: u64,
+    max_steps: u64,
+    pub(crate) stats: Stats,
+}
+
+impl Drive {
+    /// Starts an integration of `sys` from `(t0, y0)` to `t1`: the outputs at `t0`, the first
+    /// step and the method's start. `Err` with the report where the run ends before a step.
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn begin<M: Stepper, S: OdeSystem>(
+        m: &mut M,
+        sys: &S,
+        t0: f64,
+        t1: f64,
+        y0: &[f64],
+        opts: &Options,
+        grid: OutputGrid,
+        observe: &mut impl FnMut(f64, &[f64]) -> bool,
+        sh: &mut Shared,
+    ) -> Result<Drive, RunReport> {
+        let Shared { atol, init, .. } = sh;
+        m.set_tolerances(opts.rtol, atol);
+        let mut stats = Stats::default();
+        let early = |status, stats: &Stats| {
+            Err(RunReport {
+                status,
+                t: t0,
+                stats: *stats,
+                h_next: 0.0,
+            })
+        };
+        if y0.iter().any(|v| !v.is_finite()) {
+            return early(Status::NonFinite, &stats);
+        }
+        // Output times before t0 are skipped; the one at t0 is the initial state.
+        let mut k = 0u64;
+        while k < grid.count && grid.time(k) < t0 {
+            k += 1;
+        }
+        while k < grid.count && grid.time(k) == t0 {
+            k += 1;
+            if !observe(t0, y0) {
+                return early(Status::Success, &stats);
+            }
+        }
+        let span = t1 - t0;
+        if span <= 0.0 {
+            return early(Status::Success, &stats);
+        }
+        let h_max = opts.h_max.min(span);
+        let h = if opts.h0 > 0.0 {
+            opts.h0.min(h_max)
+        } else {
+            initial_step(
+                sys,
+                t0,
+                y0,
+                M::ORDER,
+                atol,
+                opts.rtol.max(1e-12),
+                h_max,
+                init,
+                &mut stats,
+            )
+        };
+        m.start(sys, t0, y0, h, &mut stats);
+        let g_last = if grid.count == 0 {
+            0
+        } else {
+            let mut g =
+                (((t1 - grid.start) / grid.step).floor().max(0.0) as u64).min(grid.count - 1);
+            while g > 0 && grid.time(g) > t1 {
+                g -= 1;
+            }
+            g
+        };
+        Ok(Drive {
+            t1,
+            h_max,
+            grid,
+            g_last,
+            k,
+            attempts: 0,
+            max_steps: opts.max_steps,
+            stats,
+        })
+    }
+
+    /// The report of a run that ends at `t` in state `y` (copied to `y0`).
+    fn finish(&self, status: Status, t: f64, y0: &mut [f64], y: &[f64], h_next: f64) -> RunReport {
         y0.copy_from_slice(y);
         RunReport {
             status,
             t,
-            stats: *stats,
+            stats: self.stats,
             h_next,
         }
-    };
-    if y0.iter().any(|v| !v.is_finite()) {
-        return RunReport {
-            status: Status::NonFinite,
-            t: t0,
-            stats: *stats,
-            h_next: 0.0,
-        };
     }
-    // Output times before t0 are skipped; the one at t0 is the initial state.
-    let mut k = 0u64;
-    while k < grid.count && grid.time(k) < t0 {
-        k += 1;
-    }
-    while k < grid.count && grid.time(k) == t0 {
-        k += 1;
-        if !observe(t0, y0) {
-            return RunReport {
-                status: Status::Success,
-                t: t0,
-                stats: *stats,
-                h_next: 0.0,
-            };
-        }
-    }
-    let span = t1 - t0;
-    if span <= 0.0 {
-        return RunReport {
-            status: Status::Success,
-            t: t0,
-            stats: *stats,
-            h_next: 0.0,
-        };
-    }
-    let h_max = opts.h_max.min(span);
-    let h = if opts.h0 > 0.0 {
-        opts.h0.min(h_max)
-    } else {
-        initial_step(
-            sys,
-            t0,
-            y0,
-            M::ORDER,
-            atol,
-            opts.rtol.max(1e-12),
-            h_max,
-            init,
-            stats,
-        )
-    };
-    m.start(sys, t0, y0, h, stats);
-    // Last grid index inside the span: jumps never pass it.
-    let g_last = if grid.count == 0 {
-        0
-    } else {
-        let mut g = (((t1 - grid.start) / grid.step).floor().max(0.0) as u64).min(grid.count - 1);
-        while g > 0 && grid.time(g) > t1 {
-            g -= 1;
-        }
-        g
-    };
-    let mut attempts = 0u64;
-    loop {
+
+    /// Before an attempt: ends the run at the end of the span or at a step limit (`Some`, the
+    /// final state in `y0`), else caps the method's next step to land on `t1`.
+    #[inline]
+    pub(crate) fn before<M: Stepper>(&mut self, m: &mut M, y0: &mut [f64]) -> Option<RunReport> {
+        let t1 = self.t1;
         let t = m.t();
         let remaining = t1 - t;
         if remaining <= 1e-14 * t1.abs().max(1.0) {
-            let t_end = t;
-            return finish(Status::Success, t_end, y0, m.y(), stats, m.h());
+            return Some(self.finish(Status::Success, t, y0, m.y(), m.h()));
         }
-        let mut h = m.h().min(h_max);
+        let mut h = m.h().min(self.h_max);
         // Land on t1 exactly without a sliver step at the end.
         if h >= remaining {
             h = remaining;
@@ -674,22 +761,44 @@ fn drive<M: Stepper, S: OdeSystem>(
             h = 0.5 * remaining;
         }
         if 0.1 * h <= t.abs() * f64::EPSILON || h <= 0.0 {
-            return finish(Status::StepTooSmall, t, y0, m.y(), stats, m.h());
+            return Some(self.finish(Status::StepTooSmall, t, y0, m.y(), m.h()));
         }
         m.set_h(h);
-        if attempts >= opts.max_steps {
-            return finish(Status::MaxSteps, t, y0, m.y(), stats, m.h());
+        if self.attempts >= self.max_steps {
+            return Some(self.finish(Status::MaxSteps, t, y0, m.y(), m.h()));
         }
         // A relaxed load every 256 attempts: microseconds apart, never measurable.
-        if attempts.is_multiple_of(256) && crate::interrupt::requested() {
-            return finish(Status::Interrupted, t, y0, m.y(), stats, m.h());
+        if self.attempts.is_multiple_of(256) && crate::interrupt::requested() {
+            return Some(self.finish(Status::Interrupted, t, y0, m.y(), m.h()));
         }
-        attempts += 1;
-        match m.attempt(sys, stats) {
+        self.attempts += 1;
+        None
+    }
+
+    /// After an attempt that started at `t`: the outputs the accepted step covers, envelope
+    /// jumps, and the end of the run where the state went non-finite, the method failed or the
+    /// observer had enough (`Some`, the final state in `y0`).
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn after<M: Stepper, S: OdeSystem>(
+        &mut self,
+        m: &mut M,
+        sys: &S,
+        outcome: StepOutcome,
+        opts: &Options,
+        env: Option<(&Envelope, &Options)>,
+        observe: &mut impl FnMut(f64, &[f64]) -> bool,
+        sh: &mut Shared,
+        y0: &mut [f64],
+    ) -> Option<RunReport> {
+        let Shared {
+            atol, out, strobe, ..
+        } = sh;
+        let (grid, t1) = (self.grid, self.t1);
+        match outcome {
             StepOutcome::Accepted => {
                 let t_new = m.t();
                 if m.y().iter().any(|v| !v.is_finite()) {
-                    return finish(Status::NonFinite, t_new, y0, m.y(), stats, m.h());
+                    return Some(self.finish(Status::NonFinite, t_new, y0, m.y(), m.h()));
                 }
                 // The last step lands on t1 up to round-off; snap output times there.
                 let t_hi = if (t_new - t1).abs() <= 1e-14 * t1.abs().max(1.0) {
@@ -697,23 +806,23 @@ fn drive<M: Stepper, S: OdeSystem>(
                 } else {
                     t_new
                 };
-                while k < grid.count {
-                    let tk = grid.time(k);
+                while self.k < grid.count {
+                    let tk = grid.time(self.k);
                     if tk > t_hi {
                         break;
                     }
                     m.dense(tk.min(t_new), out);
-                    let g = k;
-                    k += 1;
+                    let g = self.k;
+                    self.k += 1;
                     if !observe(tk, out) {
-                        return finish(Status::Success, tk, y0, out, stats, m.h());
+                        return Some(self.finish(Status::Success, tk, y0, out, m.h()));
                     }
                     let Some((e, own)) = env else { continue };
                     strobe.record(g, out);
                     if !g.is_multiple_of(e.period_samples) {
                         continue;
                     }
-                    let jump = strobe.plan(g, e, (g_last - g) / e.period_samples);
+                    let jump = strobe.plan(g, e, (self.g_last - g) / e.period_samples);
                     if jump == 0 {
                         if let Some(loose) = strobe.take_change() {
                             let o = if loose { own } else { opts };
@@ -731,19 +840,23 @@ fn drive<M: Stepper, S: OdeSystem>(
                         strobe.synth(gj, out);
                         let tj = grid.time(gj);
                         if !observe(tj, out) {
-                            return finish(Status::Success, tj, y0, out, stats, m.h());
+                            return Some(self.finish(Status::Success, tj, y0, out, m.h()));
                         }
                     }
                     strobe.landed(out);
-                    stats.skipped_periods += jump;
+                    self.stats.skipped_periods += jump;
                     let h = m.h();
-                    m.start(sys, grid.time(target), out, h, stats);
-                    k = target + 1;
+                    m.start(sys, grid.time(target), out, h, &mut self.stats);
+                    self.k = target + 1;
                     break;
                 }
+                None
             }
-            StepOutcome::Rejected => {}
-            StepOutcome::Failed(status) => return finish(status, t, y0, m.y(), stats, m.h()),
+            StepOutcome::Rejected => None,
+            StepOutcome::Failed(status) => {
+                let t = m.t();
+                Some(self.finish(status, t, y0, m.y(), m.h()))
+            }
         }
     }
 }

@@ -4,7 +4,7 @@
 use crate::cycle::LimitCycle;
 use crate::measures::{Analyzer, DROP_THRESHOLD, Measures, STICK_VELOCITY, Trend};
 use crate::model::{Params, Rig, V, X};
-use crate::ode::{Envelope, OdeSystem, Options, OutputGrid, Solver, Status};
+use crate::ode::{Envelope, OdeSystem, Options, OutputGrid, RunReport, Solver, Status};
 use crate::sim::options::*;
 use crate::sim::result::{RunResult, nan_measures};
 use crate::sim::tier::{Tier, TierReason};
@@ -14,8 +14,8 @@ use std::time::Instant;
 
 /// The per-sample work of a run: the measures, the trace, the limit-cycle watch and the
 /// early-stop checks, fed one output sample at a time by the integrator.
-struct Recorder<'a> {
-    rig: &'a Rig,
+pub(crate) struct Recorder {
+    rig: Rig,
     an: Analyzer,
     trace: Option<Trace>,
     /// Every `stride`-th sample goes to the trace (0: no trace).
@@ -48,12 +48,11 @@ struct EarlyChecks {
     min_cycles: usize,
 }
 
-impl Recorder<'_> {
+impl Recorder {
     /// Takes sample `(t, y)`; false ends the integration (limit cycle found, answer known).
-    fn observe(&mut self, t: f64, y: &[f64]) -> bool {
-        let rig = self.rig;
+    pub(crate) fn observe(&mut self, t: f64, y: &[f64]) -> bool {
         // The force the sensor records (the drive force itself without sensor dynamics).
-        let f = rig.measured_force(t, y);
+        let f = self.rig.measured_force(t, y);
         let i = self.idx;
         self.record(i, t, f, y);
         self.idx += 1;
@@ -101,8 +100,7 @@ impl Recorder<'_> {
     /// Feeds sample `i` (time `t`, measured force `f`, state `y`) to the analyzer and, every
     /// `stride` samples, to the trace.
     fn record(&mut self, i: u64, t: f64, f: f64, y: &[f64]) {
-        let rig = self.rig;
-        let v_r = rig.relative_velocity(t, y);
+        let v_r = self.rig.relative_velocity(t, y);
         let smooth = self.an.push(t, f, v_r);
         let Some(tr) = self.trace.as_mut() else {
             return;
@@ -122,6 +120,7 @@ impl Recorder<'_> {
         tr.f_d.push(f);
         tr.f_d_smooth.push(if self.k > 1 { smooth } else { f });
         tr.x_s.push(y[X]);
+        let rig = &self.rig;
         tr.x_d.push(rig.drive_displacement(t));
         tr.s.push(rig.deformation(y));
         tr.v_r.push(v_r);
@@ -160,11 +159,7 @@ pub(crate) fn integrate_full(
     solver: &mut Solver,
 ) -> RunResult {
     let first = integrate(rig, t_end, opts, solver);
-    let m = &first.measures;
-    if opts.envelope.is_none()
-        || first.status != Status::Success
-        || !(m.cycles > 0 && m.stick_fraction == 0.0)
-    {
+    if !needs_every_period(&first, opts) {
         return first;
     }
     let every = RunOptions {
@@ -176,183 +171,291 @@ pub(crate) fn integrate_full(
     again
 }
 
-fn integrate(rig: &Rig, t_end: f64, opts: &RunOptions, solver: &mut Solver) -> RunResult {
-    let start = Instant::now();
-    let p = &rig.p;
-    let (dt, k) = sampling(p, opts.samples_per_period);
-    let count = (t_end / dt).floor() as u64 + 1;
-    // A two-stage run is integrated every period: the early-stop checks and the envelope's
-    // jumps assume the forcing ran from t = 0.
-    let two_stage = p.two_stage();
-    let early = p.vibrates()
-        && !two_stage
-        && match opts.early_stop {
-            EarlyStop::Off => false,
-            EarlyStop::Automatic => opts.t_end.is_none(),
-            EarlyStop::Always => true,
+/// A run of the full model between its setup and its measures: the recorder, the state and
+/// the sampling. [`integrate`] makes one, integrates it ([`Run::solve`]) and measures it
+/// ([`Run::finish`]); the batch path ([`crate::sim::batch`]) integrates many side by side in
+/// vector lanes between the same two steps.
+pub(crate) struct Run {
+    pub(crate) rec: Recorder,
+    pub(crate) y: Vec<f64>,
+    pub(crate) grid: OutputGrid,
+    pub(crate) envelope: Option<Envelope>,
+    /// The integration options (the run's tolerances).
+    pub(crate) ode: Options,
+    two_stage: bool,
+    t_end: f64,
+    t_cap: f64,
+    dt: f64,
+    nominal: f64,
+    start: Instant,
+    /// The share of the wall time since `start` this run counts as its own (1, or one over
+    /// the lanes it shared a batch with).
+    pub(crate) share: f64,
+}
+
+impl Run {
+    /// Sets up a run of `rig` over `t_end` with `opts` (the run keeps a copy of the rig).
+    pub(crate) fn new(rig: &Rig, t_end: f64, opts: &RunOptions) -> Self {
+        let start = Instant::now();
+        let p = &rig.p;
+        let (dt, k) = sampling(p, opts.samples_per_period);
+        let count = (t_end / dt).floor() as u64 + 1;
+        // A two-stage run is integrated every period: the early-stop checks and the envelope's
+        // jumps assume the forcing ran from t = 0.
+        let two_stage = p.two_stage();
+        let early = p.vibrates()
+            && !two_stage
+            && match opts.early_stop {
+                EarlyStop::Off => false,
+                EarlyStop::Automatic => opts.t_end.is_none(),
+                EarlyStop::Always => true,
+            };
+        // The longest time: an automatic one may be continued until the force settles.
+        let t_cap = if opts.t_end.is_none() {
+            SETTLE_CAP * t_end
+        } else {
+            t_end
         };
-    // The longest time: an automatic one may be continued until the force settles.
-    let t_cap = if opts.t_end.is_none() {
-        SETTLE_CAP * t_end
-    } else {
-        t_end
-    };
-    // Blocks for the window checks: a few thousand over the run, at least a vibration period.
-    let block = (t_end / 4000.0).max(k as f64 * dt);
-    let an = Analyzer::with_blocks(
-        k,
-        window_start(p, t_end),
-        DROP_THRESHOLD * (p.f_s - p.f_c),
-        STICK_VELOCITY * p.v_d,
-        block,
-        (t_end / block) as usize + 2,
-    );
-    let nominal = 2.0 * (p.f_s - p.f_c);
-    let tc = p.cycle_estimate();
-    // Checkpoints: every 1/256 of the planned time, from a twentieth of it on; sooner, and at
-    // first a quarter of the time so far apart, where the force settles fast (`first_check`).
-    let checks = early.then(|| EarlyChecks {
-        next_check: first_check(p, t_end, block),
-        check_every: t_end / EARLY_STOP_CHECKS,
-        range: EARLY_STOP_RANGE * nominal,
-        nominal,
-        slope: SETTLING_SLOPE * p.k_d * p.v_d,
-        // Stick-slip is judged once the window can hold the cycles the planned time is made for.
-        cycles_from: 2.0 * (opts.min_cycles as f64 * tc).max(first_loading(p) + tc),
-        min_cycles: opts.min_cycles as usize,
-    });
-    let stride = if opts.trace {
-        count.div_ceil(opts.trace_points as u64).max(1)
-    } else {
-        0
-    };
-    let trace = opts.trace.then(|| {
-        let n = (count / stride.max(1) + 1) as usize;
-        let v = || Vec::with_capacity(n);
-        Trace {
-            t: v(),
-            f_d: v(),
-            f_d_smooth: v(),
-            x_s: v(),
-            x_d: v(),
-            s: v(),
-            v_r: v(),
-            v: v(),
-            u: v(),
+        // Blocks for the window checks: a few thousand over the run, at least a vibration period.
+        let block = (t_end / 4000.0).max(k as f64 * dt);
+        let an = Analyzer::with_blocks(
+            k,
+            window_start(p, t_end),
+            DROP_THRESHOLD * (p.f_s - p.f_c),
+            STICK_VELOCITY * p.v_d,
+            block,
+            (t_end / block) as usize + 2,
+        );
+        let nominal = 2.0 * (p.f_s - p.f_c);
+        let tc = p.cycle_estimate();
+        // Checkpoints: every 1/256 of the planned time, from a twentieth of it on; sooner, and at
+        // first a quarter of the time so far apart, where the force settles fast (`first_check`).
+        let checks = early.then(|| EarlyChecks {
+            next_check: first_check(p, t_end, block),
+            check_every: t_end / EARLY_STOP_CHECKS,
+            range: EARLY_STOP_RANGE * nominal,
+            nominal,
+            slope: SETTLING_SLOPE * p.k_d * p.v_d,
+            // Stick-slip is judged once the window can hold the cycles the planned time is made for.
+            cycles_from: 2.0 * (opts.min_cycles as f64 * tc).max(first_loading(p) + tc),
+            min_cycles: opts.min_cycles as usize,
+        });
+        let stride = if opts.trace {
+            count.div_ceil(opts.trace_points as u64).max(1)
+        } else {
+            0
+        };
+        let trace = opts.trace.then(|| {
+            let n = (count / stride.max(1) + 1) as usize;
+            let v = || Vec::with_capacity(n);
+            Trace {
+                t: v(),
+                f_d: v(),
+                f_d_smooth: v(),
+                x_s: v(),
+                x_d: v(),
+                s: v(),
+                v_r: v(),
+                v: v(),
+                u: v(),
+            }
+        });
+        let envelope = opts
+            .envelope
+            .filter(|_| p.vibrates() && !two_stage)
+            .map(|tol| envelope_for(p, k, tol));
+        // The solver integrates the periods that feed the envelope's slopes finer
+        // (`Envelope::inner_tolerance`), the rest at the run's own tolerance.
+        let ode = opts.ode.clone();
+        // Without vibration the base model is autonomous: watch for its limit cycle.
+        let cycle = (opts.periodic && !p.vibrates() && !rig.has_effects())
+            .then(|| LimitCycle::new(rig, dt, &ode));
+        let rec = Recorder {
+            rig: rig.clone(),
+            an,
+            trace,
+            stride,
+            trace_points: opts.trace_points,
+            idx: 0,
+            k,
+            cycle,
+            early: checks,
+            stopped: None,
+        };
+        let y = rig.initial_state();
+        let grid = OutputGrid {
+            start: 0.0,
+            step: dt,
+            count,
+        };
+        Run {
+            rec,
+            y,
+            grid,
+            envelope,
+            ode,
+            two_stage,
+            t_end,
+            t_cap,
+            dt,
+            nominal,
+            start,
+            share: 1.0,
         }
-    });
-    let envelope = opts
-        .envelope
-        .filter(|_| p.vibrates() && !two_stage)
-        .map(|tol| envelope_for(p, k, tol));
-    let env = envelope.as_ref();
-    // The solver integrates the periods that feed the envelope's slopes finer
-    // (`Envelope::inner_tolerance`), the rest at the run's own tolerance.
-    let ode = opts.ode.clone();
-    // Without vibration the base model is autonomous: watch for its limit cycle.
-    let cycle = (opts.periodic && !p.vibrates() && !rig.has_effects())
-        .then(|| LimitCycle::new(rig, dt, &ode));
-    let mut rec = Recorder {
-        rig,
-        an,
-        trace,
-        stride,
-        trace_points: opts.trace_points,
-        idx: 0,
-        k,
-        cycle,
-        early: checks,
-        stopped: None,
-    };
-    let mut y = rig.initial_state();
-    let grid = OutputGrid {
-        start: 0.0,
-        step: dt,
-        count,
-    };
-    let mut rep = if two_stage {
-        // The substrate velocity jumps from 0 to u0 ω at t_on (docs/model.md): integrate the stages
-        // apart, so the step control restarts at the jump instead of rejecting its way down to it.
-        integrate_stages(solver, rig, p.t_on, t_end, &mut y, &ode, grid, |t, y| {
-            rec.observe(t, y)
-        })
-    } else {
-        solver.solve_envelope(rig, 0.0, t_end, &mut y, &ode, grid, env, |t, y| {
-            rec.observe(t, y)
-        })
-    };
-    // A periodic run: the remaining samples are the last cycle's.
-    let continued_from = rec.cycle.as_ref().and_then(LimitCycle::continued_from);
-    if let Some(c) = rec.cycle.take()
-        && rep.status == Status::Success
-    {
-        c.replay(&grid, rec.idx, t_end, |i, t, f, y| rec.record(i, t, f, y));
-        rec.cycle = Some(c);
     }
-    // docs/model.md: a window that still holds a trend does not count. Extrapolate the level where
-    // the force plainly settles along one exponential (not in a run asked to run in full), else
-    // go on, up to the cap.
-    let mut t_stop = t_end;
-    let mut extrapolated: Option<(Measures, f64)> = None;
-    let mut unsettled = false;
-    while rep.status == Status::Success && rec.stopped.is_none() && continued_from.is_none() {
-        let ws = window_start(p, t_stop);
-        if rec.an.trend(ws, SETTLED_TREND * nominal, SETTLED_MEAN) != Trend::Trending {
-            break;
+
+    /// The main integration, on one solver.
+    fn solve(&mut self, solver: &mut Solver) -> RunReport {
+        let Run {
+            rec,
+            y,
+            grid,
+            envelope,
+            ode,
+            two_stage,
+            t_end,
+            ..
+        } = self;
+        let rig = rec.rig.clone();
+        let (rig, t_end, grid) = (&rig, *t_end, *grid);
+        if *two_stage {
+            // The substrate velocity jumps from 0 to u0 ω at t_on (docs/model.md): integrate the
+            // stages apart, so the step control restarts at the jump instead of rejecting its
+            // way down to it.
+            integrate_stages(solver, rig, rig.p.t_on, t_end, y, ode, grid, |t, y| {
+                rec.observe(t, y)
+            })
+        } else {
+            solver.solve_envelope(rig, 0.0, t_end, y, ode, grid, envelope.as_ref(), |t, y| {
+                rec.observe(t, y)
+            })
         }
-        if opts.early_stop != EarlyStop::Off {
-            extrapolated = rec.an.settling(
-                ws,
-                SETTLING_SLOPE * p.k_d * p.v_d,
-                SETTLING_TOL * nominal,
-                SETTLED_MEAN,
-            );
-            if extrapolated.is_some() {
+    }
+
+    /// Measures the run after its main integration ended with `rep`: a limit cycle's replay,
+    /// the continuation of a run still settling (on `solver`), the measures.
+    pub(crate) fn finish(
+        self,
+        rep: RunReport,
+        opts: &RunOptions,
+        solver: &mut Solver,
+    ) -> RunResult {
+        let Run {
+            mut rec,
+            mut y,
+            grid,
+            envelope,
+            ode,
+            t_end,
+            t_cap,
+            dt,
+            nominal,
+            start,
+            share,
+            ..
+        } = self;
+        let mut rep = rep;
+        let rig = rec.rig.clone();
+        let rig = &rig;
+        let p = &rig.p;
+        let env = envelope.as_ref();
+        // A periodic run: the remaining samples are the last cycle's.
+        let continued_from = rec.cycle.as_ref().and_then(LimitCycle::continued_from);
+        if let Some(c) = rec.cycle.take()
+            && rep.status == Status::Success
+        {
+            c.replay(&grid, rec.idx, t_end, |i, t, f, y| rec.record(i, t, f, y));
+            rec.cycle = Some(c);
+        }
+        // docs/model.md: a window that still holds a trend does not count. Extrapolate the level where
+        // the force plainly settles along one exponential (not in a run asked to run in full), else
+        // go on, up to the cap.
+        let mut t_stop = t_end;
+        let mut extrapolated: Option<(Measures, f64)> = None;
+        let mut unsettled = false;
+        while rep.status == Status::Success && rec.stopped.is_none() && continued_from.is_none() {
+            let ws = window_start(p, t_stop);
+            if rec.an.trend(ws, SETTLED_TREND * nominal, SETTLED_MEAN) != Trend::Trending {
                 break;
             }
+            if opts.early_stop != EarlyStop::Off {
+                extrapolated = rec.an.settling(
+                    ws,
+                    SETTLING_SLOPE * p.k_d * p.v_d,
+                    SETTLING_TOL * nominal,
+                    SETTLED_MEAN,
+                );
+                if extrapolated.is_some() {
+                    break;
+                }
+            }
+            if t_stop >= t_cap {
+                unsettled = true;
+                break;
+            }
+            let t_next = ((1.0 + SETTLE_GROWTH) * t_stop).min(t_cap);
+            let more = extend(solver, rig, &mut y, &ode, env, dt, t_stop, t_next, &mut rec);
+            rep.stats += more.stats;
+            rep.status = more.status;
+            t_stop = more.t;
         }
-        if t_stop >= t_cap {
-            unsettled = true;
-            break;
+        let extended = t_stop > t_end;
+        // An early stop's window is the second half of the run so far.
+        let (t_end, window_start) = match &rec.stopped {
+            Some((t, ..)) => (*t, 0.5 * t),
+            None => (t_stop, window_start(p, t_stop)),
+        };
+        let (measures, level_error) = match (rep.status, &rec.stopped, extrapolated) {
+            (Status::Success, Some((_, m, err)), _) => (*m, *err),
+            (Status::Success, None, Some((m, err))) => (m, Some(err)),
+            (Status::Success, None, None) if extended => {
+                (rec.an.window_measures(window_start), None)
+            }
+            (Status::Success, None, None) => (rec.an.finish(), None),
+            _ => (nan_measures(), None),
+        };
+        let status = if unsettled && rep.status == Status::Success {
+            Status::Unsettled
+        } else {
+            rep.status
+        };
+        debug_assert_eq!(rig.dim(), y.len());
+        RunResult {
+            status,
+            stats: rep.stats,
+            measures,
+            t_end,
+            window_start,
+            wall_time: share * start.elapsed().as_secs_f64(),
+            continued_from,
+            level_error,
+            tier: Tier::Full,
+            tier_reason: TierReason::Asked,
+            trace: rec.trace,
         }
-        let t_next = ((1.0 + SETTLE_GROWTH) * t_stop).min(t_cap);
-        let more = extend(solver, rig, &mut y, &ode, env, dt, t_stop, t_next, &mut rec);
-        rep.stats += more.stats;
-        rep.status = more.status;
-        t_stop = more.t;
     }
-    let extended = t_stop > t_end;
-    // An early stop's window is the second half of the run so far.
-    let (t_end, window_start) = match &rec.stopped {
-        Some((t, ..)) => (*t, 0.5 * t),
-        None => (t_stop, window_start(p, t_stop)),
-    };
-    let (measures, level_error) = match (rep.status, &rec.stopped, extrapolated) {
-        (Status::Success, Some((_, m, err)), _) => (*m, *err),
-        (Status::Success, None, Some((m, err))) => (m, Some(err)),
-        (Status::Success, None, None) if extended => (rec.an.window_measures(window_start), None),
-        (Status::Success, None, None) => (rec.an.finish(), None),
-        _ => (nan_measures(), None),
-    };
-    let status = if unsettled && rep.status == Status::Success {
-        Status::Unsettled
-    } else {
-        rep.status
-    };
-    debug_assert_eq!(rig.dim(), y.len());
-    RunResult {
-        status,
-        stats: rep.stats,
-        measures,
-        t_end,
-        window_start,
-        wall_time: start.elapsed().as_secs_f64(),
-        continued_from,
-        level_error,
-        tier: Tier::Full,
-        tier_reason: TierReason::Asked,
-        trace: rec.trace,
-    }
+}
+
+/// Whether a run under envelope following ended in slips without a stick, so that
+/// [`integrate_full`] integrates it again with every period.
+pub(crate) fn needs_every_period(first: &RunResult, opts: &RunOptions) -> bool {
+    let m = &first.measures;
+    opts.envelope.is_some()
+        && first.status == Status::Success
+        && m.cycles > 0
+        && m.stick_fraction == 0.0
+}
+
+/// A run of the full model on one solver: set up, integrated, measured.
+pub(crate) fn integrate(
+    rig: &Rig,
+    t_end: f64,
+    opts: &RunOptions,
+    solver: &mut Solver,
+) -> RunResult {
+    let mut run = Run::new(rig, t_end, opts);
+    let rep = run.solve(solver);
+    run.finish(rep, opts, solver)
 }
 
 /// Continues a run from `t` (state `y`, samples up to `rec.idx` recorded) to the last sample

@@ -4,6 +4,7 @@
 //! computes the reduction coefficient `r` against the automatic run without vibration. What the
 //! tiers share (the options, the run's time and sampling, traces, results) sits below them all.
 
+pub mod batch;
 pub mod choose;
 pub mod full;
 pub mod hybrid;

@@ -122,6 +122,7 @@ pub fn estimate(
         checkpoint_every: 1e9,
         shard: Some(sh),
         tally: None,
+        batch: true,
     };
     let outcome = super::run_with(spec, &opts, &store);
     let sample_wall = t0.elapsed().as_secs_f64();

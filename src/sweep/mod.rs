@@ -27,6 +27,7 @@ pub mod status;
 pub mod traces;
 
 use crate::averaged::TableStore;
+use crate::model::Params;
 use crate::ode::{Solver, Status};
 use crate::progress::Progress;
 use crate::sim::{self, RunOptions, RunResult};
@@ -66,6 +67,10 @@ pub struct SweepOptions {
     /// Counts of runs done, planned and failed, shared with a host that shows its own
     /// progress (the Python package). Default `None`.
     pub tally: Option<std::sync::Arc<crate::progress::Tally>>,
+    /// Integrate the full model's runs that can run in vector lanes side by side
+    /// ([`crate::sim::batch`]; the results are the same bit for bit). Default true; false runs
+    /// every run on the scalar path.
+    pub batch: bool,
 }
 
 impl SweepOptions {
@@ -101,16 +106,15 @@ pub struct SweepOutcome {
     pub check: check::Summary,
 }
 
-/// Runs one task with the given solver: a check with the full model integrating every period
-/// (no envelope following), and under auto a point
-/// alone with its table of the averaged law too (the table would cost what the full run does).
-fn run_task(
+/// The parameters and options of one task's run, and the reason the full model serves it
+/// where the task decides that (`None`: the run's tier choice decides): a check with the full
+/// model integrating every period (no envelope following), and under auto a point alone with
+/// its table of the averaged law too (the table would cost what the full run does).
+fn task_run(
     plan: &Plan,
     t: Task,
     opts: &RunOptions,
-    solver: &mut Solver,
-    store: &TableStore,
-) -> RunResult {
+) -> (Params, RunOptions, Option<crate::sim::TierReason>) {
     use crate::sim::{Tier, TierReason};
     let p = plan.params(t);
     let full_because = match t {
@@ -125,8 +129,7 @@ fn run_task(
         _ => None,
     };
     let Some(why) = full_because else {
-        return sim::simulate_in(p, &plan.effects, opts, solver, store)
-            .expect("parameters and options were validated");
+        return (*p, opts.clone(), None);
     };
     // A check is the judge of an averaged point, so it integrates every period: envelope
     // following can tip a slide near its stability limit into stick-slip (2000 Hz, u0 = 79 nm,
@@ -141,10 +144,58 @@ fn run_task(
         },
         ..opts.clone()
     };
-    let mut r = sim::simulate_in(p, &plan.effects, &full, solver, store)
+    (*p, full, Some(why))
+}
+
+/// Runs one task with the given solver ([`task_run`]).
+fn run_task(
+    plan: &Plan,
+    t: Task,
+    opts: &RunOptions,
+    solver: &mut Solver,
+    store: &TableStore,
+) -> RunResult {
+    let (p, opts, why) = task_run(plan, t, opts);
+    let mut r = sim::simulate_in(&p, &plan.effects, &opts, solver, store)
         .expect("parameters and options were validated");
-    r.tier_reason = why;
+    if let Some(why) = why {
+        r.tier_reason = why;
+    }
     r
+}
+
+/// Runs the tasks `next` hands out, one at a time as the solver's lanes free up, with the given
+/// solver: the full model's main integrations that can run in vector lanes side by side
+/// ([`sim::batch`]); each result goes to `done` as it ends.
+fn run_tasks(
+    plan: &Plan,
+    mut next: impl FnMut() -> Option<Task>,
+    opts: &RunOptions,
+    solver: &mut Solver,
+    store: &TableStore,
+    mut done: impl FnMut(Task, RunResult),
+) {
+    let mut taken: Vec<(Task, Option<crate::sim::TierReason>)> = Vec::new();
+    let taken_ref = std::cell::RefCell::new(&mut taken);
+    let asks = std::iter::from_fn(|| {
+        let t = next()?;
+        let (p, opts, why) = task_run(plan, t, opts);
+        let mut tk = taken_ref.borrow_mut();
+        tk.push((t, why));
+        Some(sim::batch::Ask {
+            id: tk.len() - 1,
+            p,
+            opts,
+        })
+    });
+    sim::batch::simulate_batch(asks, &plan.effects, solver, store, |id, r, _| {
+        let (t, why) = taken_ref.borrow()[id];
+        let mut r = r.expect("parameters and options were validated");
+        if let Some(w) = why {
+            r.tier_reason = w;
+        }
+        done(t, r);
+    });
 }
 
 /// Runs rounds of tasks in parallel: each finished run goes to the journal at once, and the
@@ -182,6 +233,7 @@ impl Executor<'_> {
         let method = self.run_opts.method;
         let mut io_error: Option<String> = None;
         let (plan, run_opts, pool, store) = (self.plan, self.run_opts, self.pool, self.store);
+        let batch = self.opts.batch;
         std::thread::scope(|sc| {
             let (tx, rx) = std::sync::mpsc::channel::<(Task, RunResult)>();
             sc.spawn(move || {
@@ -191,14 +243,35 @@ impl Executor<'_> {
                     // split off a range of them runs it through alone, while the others wait
                     // (on a 1024-point slice of the overnight grid, one of two workers sat idle
                     // for the last 9 of 25 s).
-                    todo.par_iter().with_max_len(1).for_each_init(
-                        || (tx.clone(), Solver::new(method)),
-                        |(tx, solver), &t| {
-                            let r = run_task(plan, t, run_opts, solver, store);
-                            // The receiver lives until every sender is gone.
-                            let _ = tx.send((t, r));
-                        },
-                    )
+                    if batch {
+                        // One batch per worker, each taking the next run from one shared
+                        // queue as its lanes free up: no lane idles while runs remain.
+                        let queue = std::sync::atomic::AtomicUsize::new(0);
+                        let next = || {
+                            let i = queue.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                            todo.get(i).copied()
+                        };
+                        rayon::scope(|s| {
+                            for _ in 0..rayon::current_num_threads() {
+                                let (tx, next) = (tx.clone(), &next);
+                                s.spawn(move |_| {
+                                    let mut solver = Solver::new(method);
+                                    run_tasks(plan, next, run_opts, &mut solver, store, |t, r| {
+                                        let _ = tx.send((t, r));
+                                    });
+                                });
+                            }
+                        })
+                    } else {
+                        todo.par_iter().with_max_len(1).for_each_init(
+                            || (tx.clone(), Solver::new(method)),
+                            |(tx, solver), &t| {
+                                let r = run_task(plan, t, run_opts, solver, store);
+                                // The receiver lives until every sender is gone.
+                                let _ = tx.send((t, r));
+                            },
+                        )
+                    }
                 });
                 drop(tx);
             });
@@ -285,6 +358,7 @@ impl Executor<'_> {
         let (spec, plan, run_opts, pool, store) =
             (self.spec, self.plan, self.run_opts, self.pool, self.store);
         let method = run_opts.method;
+        let batch = self.opts.batch;
         let planes = refine::plane_count(spec);
         let (plane_of, _) = shard::planes(spec);
         let mut io_error: Option<String> = None;
@@ -302,10 +376,40 @@ impl Executor<'_> {
                             let (res_tx, task_rx) = (res_tx.clone(), &task_rx);
                             s.spawn(move |_| {
                                 let mut solver = Solver::new(method);
-                                // Until the sender is gone: no plane asks for more.
-                                while let Ok(Ok(t)) = task_rx.lock().map(|rx| rx.recv()) {
-                                    let r = run_task(plan, t, run_opts, &mut solver, store);
-                                    let _ = res_tx.send((t, r));
+                                // Until the sender is gone: no plane asks for more. On the
+                                // batch path a worker takes what is waiting, up to a chunk.
+                                let recv = || task_rx.lock().ok().and_then(|rx| rx.recv().ok());
+                                if batch {
+                                    // A batch from each run that arrives: its lanes take the
+                                    // runs waiting as they free up, and the batch ends when
+                                    // none waits (never waiting itself: the planes ask for
+                                    // more only once the runs in its lanes have landed).
+                                    while let Some(t) = recv() {
+                                        let mut first = Some(t);
+                                        let next = || {
+                                            first.take().or_else(|| {
+                                                task_rx
+                                                    .lock()
+                                                    .ok()
+                                                    .and_then(|rx| rx.try_recv().ok())
+                                            })
+                                        };
+                                        run_tasks(
+                                            plan,
+                                            next,
+                                            run_opts,
+                                            &mut solver,
+                                            store,
+                                            |t, r| {
+                                                let _ = res_tx.send((t, r));
+                                            },
+                                        );
+                                    }
+                                } else {
+                                    while let Some(t) = recv() {
+                                        let r = run_task(plan, t, run_opts, &mut solver, store);
+                                        let _ = res_tx.send((t, r));
+                                    }
                                 }
                             });
                         }

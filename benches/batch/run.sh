@@ -1,0 +1,32 @@
+#!/usr/bin/env bash
+# The batch path against the scalar path on a 1024-point slice of the overnight grid below the
+# contact resonance (benches/batch/slice.toml, --tier full), side by side in one run, and the
+# two files compared (identical bit for bit but for wall times). With OLD=/path/to/stickslip, a
+# build of another commit runs the slice too, and its r and mean force are compared with this
+# build's against the convergence rule (r within 0.005, mean force within 0.5 %).
+#   bash benches/batch/run.sh            (about 3 minutes on 2 cores)
+set -euo pipefail
+cd "$(dirname "$0")/../.."
+cargo build --release --quiet
+out=results/bench-batch
+mkdir -p "$out"
+bin=target/release/stickslip
+for path in batch scalar; do
+    flag=""; [ "$path" = scalar ] && flag="--scalar"
+    $bin sweep benches/batch/slice.toml -o "$out/$path.h5" --no-plot --quiet --overwrite $flag | tail -1
+done
+python3 tests/python/compare_sweeps.py "$out/batch.h5" "$out/scalar.h5"
+if [ -n "${OLD:-}" ]; then
+    "$OLD" sweep benches/batch/slice.toml -o "$out/old.h5" --no-plot --quiet --overwrite | tail -1
+    python3 - "$out/batch.h5" "$out/old.h5" <<'PY'
+import sys
+import h5py
+import numpy as np
+a, b = (h5py.File(p, "r") for p in sys.argv[1:3])
+dr = np.abs(a["r"][()] - b["r"][()])
+dm = np.abs(a["mean_force"][()] / b["mean_force"][()] - 1)
+side = (a["r"][()] < 0.05) != (b["r"][()] < 0.05)
+print(f"r: {np.sum(dr > 0.005)} of {dr.size} points move by more than 0.005 (largest {np.nanmax(dr):.3f});"
+      f" mean force: {np.sum(dm > 0.005)} by more than 0.5 %; boundary side changes: {np.sum(side)}")
+PY
+fi
