@@ -87,10 +87,13 @@ pub fn contact(p: &Params, v_r: f64, s: f64) -> Contact {
 
 /// `exp(−q²)` of the Stribeck curve (4.7) and the contact damping (4.9), given `q²`; 0 beyond
 /// `q² = 50`, where it is below 2e-22 and adds less than a rounding error to `F_c` or to the
-/// contact force. The base model's own ([`base`]), so that every path rounds alike.
+/// contact force. [`contact`] keeps the platform's exponential: the averaged law's orbits are
+/// built on it, and which of their orbits still contracts (a Floquet multiplier at 1) decides
+/// the escape force, a threshold a rounding can move (`docs/methods.md`); the right-hand sides
+/// integrated use the base model's own ([`base`]).
 #[inline]
 fn gauss(q2: f64) -> f64 {
-    base::gauss(q2)
+    if q2 > 50.0 { 0.0 } else { (-q2).exp() }
 }
 
 /// Largest state dimension of the rig with every effect on.
@@ -327,14 +330,14 @@ impl Rig {
         let e_s = if fx.rational {
             1.0 / (1.0 + q.powf(fx.delta))
         } else if fx.delta == 2.0 {
-            gauss(q * q)
+            base::gauss(q * q)
         } else {
             (-q.powf(fx.delta)).exp()
         };
         let g = nu * (p.f_c + (f_s - p.f_c) * e_s) * c.inv_k_t;
         // Contact damping (4.9).
         let qd = v_r * c.inv_v_d;
-        let h = p.h_t * gauss(qd * qd);
+        let h = p.h_t * base::gauss(qd * qd);
         // Bristles (4.6): one, or N Maxwell-slip elements of stiffness k_t/N.
         let n = fx.elements;
         let (mut sum_s, mut sum_sd) = (0.0, 0.0);

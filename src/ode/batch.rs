@@ -6,10 +6,10 @@
 //! or reject, dense output, tolerances, envelope strobe, observer and end. Only the arithmetic
 //! of an attempt (six right-hand sides, the stage combinations, the error norm, the dense
 //! output's coefficients) runs on all lanes at once, through the code the scalar
-//! [`Method::Dopri5`](super::Method::Dopri5) runs on one point ([`Stages::step`],
-//! [`dense_coefficients`], [`Lanewise::rhs_lanes`] generic over [`Real`]); everything between
-//! two attempts is the scalar driver's own code ([`Drive`]), run lane by lane, and the step
-//! controller is the scalar one ([`Control`]). So a job's result is bit for bit the result of
+//! [`Method::Dopri5`] runs on one point (`Stages::step`,
+//! `dense_coefficients`, [`Lanewise::rhs_lanes`] generic over [`Real`]); everything between
+//! two attempts is the scalar driver's own code (`Drive`), run lane by lane, and the step
+//! controller is the scalar one (`Control`). So a job's result is bit for bit the result of
 //! [`Solver::solve_envelope`](super::Solver::solve_envelope) with `Method::Dopri5` on the same
 //! job alone, whatever the lane, the batch or the jobs beside it.
 //!

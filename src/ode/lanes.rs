@@ -305,7 +305,7 @@ const LN2_LO: f64 = -4.200_915_072_681_084_6e-11;
 /// `q² ≤ 50`).
 ///
 /// Range reduction `x = k ln 2 + r`, `|r| ≤ ln 2 / 2`, in Cody and Waite's two parts; `e^r` by
-/// its Taylor series to `r¹³` (the first terms by Horner's rule, the rest by [`estrin`]; truncation below
+/// its Taylor series to `r¹³` (the first terms by Horner's rule, the rest by Estrin's scheme; truncation below
 /// 5e-18 relative), scaled by `2^k`.
 /// Within 1 ulp of `std`'s `exp` on −50 ..= 0 (test `exp_matches_std`).
 #[inline(always)]

@@ -386,10 +386,12 @@ impl Executor<'_> {
                                     // more only once the runs in its lanes have landed).
                                     while let Some(t) = recv() {
                                         let mut first = Some(t);
+                                        // Never waiting for the queue's lock either: another
+                                        // worker may hold it while it waits for a run.
                                         let next = || {
                                             first.take().or_else(|| {
                                                 task_rx
-                                                    .lock()
+                                                    .try_lock()
                                                     .ok()
                                                     .and_then(|rx| rx.try_recv().ok())
                                             })
