@@ -309,7 +309,7 @@ impl<const W: usize, const N: usize> Batch<W, N> {
     fn attempt<S: Lanewise>(&mut self, pack: &S::Pack<W>, active: [bool; W]) -> [Option<bool>; W] {
         let [k1, k2, k3, k4, k5, k6, k7] = &mut self.k;
         let ks = Stages {
-            k1,
+            k1: &*k1,
             k2,
             k3,
             k4,

@@ -124,7 +124,7 @@ impl<S: OdeSystem> Eval<f64> for One<'_, S> {
 /// The buffers of one attempt: the stages `k1` (given: `f(t, y)`) to `k7` (`f(t + h, ynew)`),
 /// the fifth-order solution and a scratch state; one point (`T = f64`) or one per lane.
 pub(crate) struct Stages<'a, T> {
-    pub k1: &'a mut [T],
+    pub k1: &'a [T],
     pub k2: &'a mut [T],
     pub k3: &'a mut [T],
     pub k4: &'a mut [T],
@@ -355,7 +355,7 @@ impl Stepper for Dopri5 {
             ..
         } = self;
         let ks = Stages {
-            k1: &mut k1[..n],
+            k1: &k1[..n],
             k2: &mut k2[..n],
             k3: &mut k3[..n],
             k4: &mut k4[..n],
