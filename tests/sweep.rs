@@ -1225,7 +1225,8 @@ min_points = 0
 /// `no_vibration`); the checks re-run the drawn share and the points near r = 0.05 with the
 /// full model, their comparison lands in group `tier_check`, and a point whose check
 /// disagrees carries its full run (`tier` 0, reason `check`, `r` the full run's); with one `k_d`
-/// no point shares its table and each runs in full (`unshared`). The file is
+/// no point shares its table and each is averaged all the same (a table costs less than a full
+/// run). The file is
 /// the same bit for bit from one and two threads, from shards merged, and from a sweep resumed
 /// from half of its runs (a shard's runs file as its journal), as h5py reads them.
 #[test]
@@ -1279,8 +1280,7 @@ fn averaged_points_are_checked_and_resume_and_merge_bit_for_bit() {
             assert_eq!((tier[i], why[i]), (1.0, 6.0), "point {i}");
         }
     }
-    // One k_d: no point shares its table, and auto integrates each in full (reason 11,
-    // unshared: a table costs about one full run).
+    // One k_d: no point shares its table; auto averages each all the same (reason 6, valid).
     let alone = SweepSpec::parse(
         "alone.toml",
         &TIERED.replace("values = [8000.0, 11700.0, 16000.0]", "values = [11700.0]"),
@@ -1288,14 +1288,14 @@ fn averaged_points_are_checked_and_resume_and_merge_bit_for_bit() {
     .unwrap();
     let c = dir.path().join("alone.h5");
     let oc = sweep::run(&alone, &opts(&c, 2)).unwrap();
-    assert_eq!(oc.check.averaged, 0);
+    assert_eq!(oc.check.averaged, 3);
     let fc = H5File::open(&c).unwrap();
     let why = fc
         .dataset("tier_reason")
         .unwrap()
         .read_raw::<f64>()
         .unwrap();
-    assert_eq!(why, vec![1.0, 11.0, 11.0, 11.0]);
+    assert_eq!(why, vec![1.0, 6.0, 6.0, 6.0]);
     // Shards merged, and a resume from a shard's runs as the journal: the same file.
     let file = write(dir.path(), "tiered.toml", TIERED);
     let fs = file.to_str().unwrap();

@@ -113,8 +113,9 @@ pub enum TierReason {
     /// The averaged run's steady window passed a mean velocity where the law may not stand
     /// for the vibration ([`SlowRun::left_law`](crate::sim::slow::SlowRun::left_law)): the full model served.
     LeftLaw,
-    /// In a sweep under `auto`, no other point shares the point's table of the averaged law:
-    /// building it would cost about what the full run does.
+    /// Code 11 of a sweep's `tier_reason`: a point under `auto` that no other point shared its
+    /// table of the averaged law with, run in full. No run takes this reason now (a table costs
+    /// a tenth of a full run above the resonance); the code stays so that files holding it read.
     Unshared,
     /// The vibration's velocity amplitude lies below [`MIN_VA_RATIO`](crate::sim::choose::MIN_VA_RATIO) times the drive velocity.
     SmallAmplitude,

@@ -271,17 +271,13 @@ fn build_tables(
     store: &crate::averaged::TableStore,
 ) -> std::collections::HashMap<usize, f64> {
     use crate::averaged::TableStore;
-    use crate::sim::{Tier, choose::needs_table};
+    use crate::sim::choose::needs_table;
     let tier = spec.run.tier;
     let none = plan.effects.is_empty();
     let mut took = std::collections::HashMap::<Vec<u64>, f64>::new();
     let mut share = std::collections::HashMap::new();
     for (i, p) in plan.points.iter().enumerate() {
-        // Under auto a point alone with its table runs in full (`unshared`): none is built.
-        if owners[i] != 0
-            || !needs_table(p, none, tier)
-            || (tier == Tier::Auto && plan.table_share[i] < 2)
-        {
+        if owners[i] != 0 || !needs_table(p, none, tier) {
             continue;
         }
         let key = TableStore::key(p);
@@ -411,7 +407,7 @@ mod tests {
 
     /// Under auto, the sample's points that average (above the resonance, sharing their table
     /// with another point) are charged their share of their table, built once; points below the
-    /// resonance, without vibration or alone with their table (`unshared`) build none.
+    /// resonance or without vibration build none.
     #[test]
     fn tables_are_charged_by_their_share_of_the_sweep() {
         let spec = SweepSpec::parse(

@@ -107,9 +107,10 @@ pub struct SweepOutcome {
 }
 
 /// The parameters and options of one task's run, and the reason the full model serves it
-/// where the task decides that (`None`: the run's tier choice decides): a check with the full
-/// model integrating every period (no envelope following), and under auto a point alone with
-/// its table of the averaged law too (the table would cost what the full run does).
+/// where the task decides that (`None`: the run's tier choice decides): a check runs the full
+/// model integrating every period (no envelope following). Every point, whether or not another
+/// shares its table of the averaged law, takes the tier its run chooses: a table costs 10 to
+/// 40 ms, a full run above the contact resonance 60 to 700 ms (`sweeps/fig11-boundary.toml`).
 fn task_run(
     plan: &Plan,
     t: Task,
@@ -117,34 +118,19 @@ fn task_run(
 ) -> (Params, RunOptions, Option<crate::sim::TierReason>) {
     use crate::sim::{Tier, TierReason};
     let p = plan.params(t);
-    let full_because = match t {
-        Task::Check(_) => Some(TierReason::Check),
-        Task::Point(i)
-            if opts.tier == Tier::Auto
-                && plan.table_share[i] < 2
-                && crate::sim::choose::needs_table(p, plan.effects.is_empty(), opts.tier) =>
-        {
-            Some(TierReason::Unshared)
-        }
-        _ => None,
-    };
-    let Some(why) = full_because else {
+    if !matches!(t, Task::Check(_)) {
         return (*p, opts.clone(), None);
-    };
+    }
     // A check is the judge of an averaged point, so it integrates every period: envelope
     // following can tip a slide near its stability limit into stick-slip (2000 Hz, u0 = 79 nm,
     // v_d = 1.1 mm/s: r = 0.073 at 1e-4 where every period integrated gives 0, as does the
     // averaged model).
     let full = RunOptions {
         tier: Tier::Full,
-        envelope: if matches!(t, Task::Check(_)) {
-            None
-        } else {
-            opts.envelope
-        },
+        envelope: None,
         ..opts.clone()
     };
-    (*p, full, Some(why))
+    (*p, full, Some(TierReason::Check))
 }
 
 /// Runs one task with the given solver ([`task_run`]).

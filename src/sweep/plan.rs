@@ -24,8 +24,8 @@ pub struct Plan {
     /// The boundary level of `r` about which averaged points are checked ([`check_level`]).
     pub check_level: f64,
     /// For each point, how many points with vibration share its table of the averaged law
-    /// ([`crate::averaged::TableStore::key`]): under `auto` a point whose table serves no other runs
-    /// in full ([`crate::sim::TierReason::Unshared`]).
+    /// ([`crate::averaged::TableStore::key`]): [`super::estimate`] charges each point its share
+    /// of its table.
     pub table_share: Vec<usize>,
 }
 
