@@ -338,6 +338,9 @@ pub fn diagnose(a: &DiagnoseArgs) -> Result<Diagnosed, AppError> {
 
 /// `stickslip bench`.
 pub fn bench_cmd(a: &BenchArgs) -> Result<(), AppError> {
+    if a.batch {
+        return bench_batch_cmd(a);
+    }
     let o = a.resolve()?;
     let (cases, refs, rows) = crate::bench::run(&o, |line| crate::note!("{line}"))?;
     crate::bench::write_h5(&a.out, &cases, &refs, &rows, &o)?;
@@ -382,6 +385,27 @@ pub fn bench_cmd(a: &BenchArgs) -> Result<(), AppError> {
             }
         }
     }
+    Ok(())
+}
+
+/// `stickslip bench --batch`: prints the table and writes its JSON beside `--out`.
+fn bench_batch_cmd(a: &BenchArgs) -> Result<(), AppError> {
+    let o = a.resolve_batch()?;
+    let b = crate::bench::batch::run(&o, |line| crate::note!("{line}"));
+    crate::say!("{b}");
+    let stem = a.out.with_extension("");
+    let json = stem.with_file_name(format!(
+        "{}_batch.json",
+        stem.file_name()
+            .map_or("bench".into(), |s| s.to_string_lossy())
+    ));
+    output::ensure_parent(&json)?;
+    let text = serde_json::to_string_pretty(&b).unwrap_or_default();
+    std::fs::write(&json, text).map_err(|e| output::OutputError::Io {
+        path: json.display().to_string(),
+        source: e,
+    })?;
+    crate::say!("wrote {}", json.display());
     Ok(())
 }
 

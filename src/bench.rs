@@ -9,6 +9,10 @@
 //! With partial reduction the trajectories are sensitive: runs that differ only in tolerance
 //! part after a second or two, and `r` spreads by a few thousandths; below that spread an error
 //! measures the chaos, not the method.
+//!
+//! `stickslip bench --batch` measures the batch path against the scalar one instead ([`batch`]).
+
+pub mod batch;
 
 use crate::model::Params;
 use crate::ode::{Method, Options, Solver, Stats, Status};

@@ -349,12 +349,70 @@ pub struct BenchArgs {
     /// inside them); each builds its table afresh for every repeat. Default: full.
     #[arg(long, value_delimiter = ',', value_name = "TIERS")]
     pub tiers: Vec<crate::sim::Tier>,
-    /// Output HDF5 file; diagrams go beside it (<stem>_<case>.png/.svg).
+    /// Output HDF5 file; diagrams go beside it (<stem>_<case>.png/.svg). With --batch: the
+    /// JSON of the batch benchmark goes to <stem>_batch.json.
     #[arg(short, long, default_value = "results/bench.h5")]
     pub out: PathBuf,
+    /// Instead of the work-precision ladder: whole sweep runs per second and core on the
+    /// scalar path and on the batch path (vector lanes), side by side, their results compared
+    /// bit for bit. Takes --methods (one of dopri5, auto; default dopri5), --envelopes (one;
+    /// default 1e-4), --repeats and --points.
+    #[arg(long)]
+    pub batch: bool,
+    /// Points of the batch benchmark (1 to 100000), spread over the full model's region below
+    /// the contact resonance. Default 64.
+    #[arg(long, value_name = "N", requires = "batch")]
+    pub points: Option<usize>,
 }
 
 impl BenchArgs {
+    /// Validates and resolves the options of `--batch`.
+    pub fn resolve_batch(&self) -> Result<crate::bench::batch::BatchBenchOptions, CliError> {
+        let o = self.resolve()?;
+        let mut b = crate::bench::batch::BatchBenchOptions {
+            repeats: o.repeats,
+            ..Default::default()
+        };
+        let bad = |flag: &str, value: String, msg: &str| CliError::Flag {
+            flag: flag.into(),
+            value,
+            msg: msg.into(),
+        };
+        let one = "with --batch give one value";
+        if let Some(n) = self.points {
+            if !(1..=100_000).contains(&n) {
+                return Err(bad("points", n.to_string(), "must be from 1 to 100000"));
+            }
+            b.points = n;
+        }
+        match self.methods.as_slice() {
+            [] => {}
+            [m] if crate::bench::batch::lane_method(*m) => b.method = *m,
+            [m] => {
+                return Err(bad(
+                    "methods",
+                    m.to_string(),
+                    "the lanes serve dopri5 and auto; give one of them",
+                ));
+            }
+            ms => return Err(bad("methods", format!("{ms:?}"), one)),
+        }
+        match o.envelopes.as_slice() {
+            _ if self.envelopes.is_empty() => {}
+            [e] => b.envelope = *e,
+            _ => return Err(bad("envelopes", self.envelopes.join(","), one)),
+        }
+        if !self.cases.is_empty() || !self.tolerances.is_empty() || !self.tiers.is_empty() {
+            return Err(bad(
+                "batch",
+                "true".into(),
+                "--batch runs its own points at the sweep's tolerance on the full tier: \
+                 --cases, --tolerances and --tiers do not apply",
+            ));
+        }
+        Ok(b)
+    }
+
     /// Validates and resolves the benchmark options.
     pub fn resolve(&self) -> Result<crate::bench::BenchOptions, CliError> {
         let mut o = crate::bench::BenchOptions::default();

@@ -199,6 +199,51 @@ fn bench_writes_a_work_precision_table_whose_error_falls_with_the_tolerance() {
     assert!(String::from_utf8_lossy(&bad.stderr).contains("no_vibration"));
 }
 
+/// `bench --batch` times whole runs on both paths, finds them equal bit for bit, writes its JSON
+/// beside `--out`, and refuses what the lanes cannot serve by name.
+#[test]
+fn bench_batch_compares_the_paths_and_refuses_what_lanes_do_not_serve() {
+    let dir = tempfile::tempdir().unwrap();
+    let h5 = dir.path().join("b.h5");
+    let out = stickslip(&[
+        "bench",
+        "--batch",
+        "--points",
+        "6",
+        "--repeats",
+        "1",
+        "-o",
+        h5.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let s = String::from_utf8_lossy(&out.stdout);
+    assert!(s.contains("agree bit for bit"), "{s}");
+    let j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("b_batch.json")).unwrap())
+            .unwrap();
+    assert_eq!(j["points"], 6);
+    assert_eq!(j["in_lanes"], 6, "{j}");
+    assert_eq!(j["differing"].as_array().unwrap().len(), 0, "{j}");
+    assert!(j["scalar_seconds"].as_f64().unwrap() > 0.0);
+    assert!(!h5.exists(), "--batch writes no work-precision file");
+    for (args, named) in [
+        (vec!["--methods", "radau5"], "methods"),
+        (vec!["--methods", "dopri5,auto"], "methods"),
+        (vec!["--points", "0"], "points"),
+        (vec!["--cases", "partial"], "batch"),
+    ] {
+        let mut a = vec!["bench", "--batch"];
+        a.extend(args);
+        let bad = stickslip(&a);
+        assert_eq!(bad.status.code(), Some(2), "{a:?}");
+        let e = String::from_utf8_lossy(&bad.stderr);
+        assert!(e.contains(named), "{a:?}: {e}");
+    }
+}
 #[test]
 fn synth_then_diagnose_writes_the_verdict_json_hdf5_and_plots() {
     let dir = tempfile::tempdir().unwrap();

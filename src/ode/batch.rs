@@ -111,6 +111,20 @@ pub enum Path {
 /// same width runs as scalar loops).
 pub const WIDTH: usize = 4;
 
+/// The vector instructions the lanes run on, as found on this machine at run time.
+pub fn vector_set() -> &'static str {
+    // `pulp` names its levels V3 (AVX2 and FMA) and V4 (AVX-512); anything else runs the
+    // portable scalar loops.
+    let level = format!("{:?}", pulp::Arch::new());
+    if level.starts_with("V4") {
+        "AVX-512 (x86-64-v4)"
+    } else if level.starts_with("V3") {
+        "AVX2 and FMA (x86-64-v3)"
+    } else {
+        "no vector set found: portable scalar loops"
+    }
+}
+
 /// Integrates every job of `jobs` with Dormand–Prince 5(4), `WIDTH` at a time, and hands each
 /// back to `done` with its report and the path that served it, in the order the jobs end.
 pub fn solve_batch<S, O, const N: usize>(
