@@ -7,7 +7,7 @@
 //! sequence (bases 2, 3, 5, 7), so any count spreads over the whole box. Every run is the
 //! sweep's run of that point (automatic simulated time, early stops, the full tier), one thread
 //! per path: the scalar path runs them one after another through
-//! [`simulate_in`](crate::sim::simulate_in), the batch path hands them all to
+//! [`simulate_in`], the batch path hands them all to
 //! [`simulate_batch`]. The repeats alternate the paths and keep each one's fastest, as the
 //! machine is shared. Every result of the two paths is compared (all fields but the wall time)
 //! and the report says whether they agree bit for bit.

@@ -186,6 +186,13 @@ impl Rig {
         }
     }
 
+    /// The substrate velocity's amplitude `u0 ω` \[m/s\] (0 without vibration) and the
+    /// vibration's switch-on time `t_on` \[s\]: [`Rig::substrate_velocity`] is
+    /// `u0 ω cos(ω (t − t_on))` from `t_on` on, this product times that cosine.
+    pub fn substrate_velocity_amplitude(&self) -> (f64, f64) {
+        (self.u0 * self.omega, self.t_on)
+    }
+
     /// The vibration's phase `ω (t − t_on)` \[rad\] (meaningful from `t_on` on).
     #[inline]
     pub fn vibration_phase(&self, t: f64) -> f64 {

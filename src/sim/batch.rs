@@ -184,7 +184,7 @@ pub fn simulate_batch(
         if let Some((stats, wall)) = meta.first {
             r.stats += stats;
             r.wall_time += wall;
-        } else if needs_every_period(&r, &meta.ask.opts) {
+        } else if needs_every_period(&r, &meta.rig.p, &meta.ask.opts) {
             // As `integrate_full`: where envelope following ended in slips without a stick,
             // the run is integrated again with every period, in a lane too.
             let mut ask = meta.ask.clone();
