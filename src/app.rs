@@ -399,12 +399,7 @@ fn bench_batch_cmd(a: &BenchArgs) -> Result<(), AppError> {
         stem.file_name()
             .map_or("bench".into(), |s| s.to_string_lossy())
     ));
-    output::ensure_parent(&json)?;
-    let text = serde_json::to_string_pretty(&b).unwrap_or_default();
-    std::fs::write(&json, text).map_err(|e| output::OutputError::Io {
-        path: json.display().to_string(),
-        source: e,
-    })?;
+    output::write_text(&json, &serde_json::to_string_pretty(&b).unwrap_or_default())?;
     crate::say!("wrote {}", json.display());
     Ok(())
 }

@@ -94,6 +94,16 @@ pub fn replace(tmp: &Path, path: &Path) -> std::io::Result<()> {
     std::fs::rename(tmp, path)
 }
 
+/// Writes `text` to `path` through its temporary file ([`temp_for`], [`replace`]): a write cut
+/// short leaves the file that was there, and a folder or device at `path` is never replaced.
+pub fn write_text(path: &Path, text: &str) -> Result<()> {
+    ensure_parent(path)?;
+    let tmp = temp_for(path)?;
+    let e = ioerr(path);
+    std::fs::write(&tmp, text).map_err(&e)?;
+    replace(&tmp, path).map_err(&e)
+}
+
 /// Creates the parent directory of `path` if needed.
 pub fn ensure_parent(path: &Path) -> Result<()> {
     if let Some(d) = path.parent().filter(|d| !d.as_os_str().is_empty()) {

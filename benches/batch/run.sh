@@ -18,15 +18,5 @@ done
 python3 tests/python/compare_sweeps.py "$out/batch.h5" "$out/scalar.h5"
 if [ -n "${OLD:-}" ]; then
     "$OLD" sweep benches/batch/slice.toml -o "$out/old.h5" --no-plot --quiet --overwrite | tail -1
-    python3 - "$out/batch.h5" "$out/old.h5" <<'PY'
-import sys
-import h5py
-import numpy as np
-a, b = (h5py.File(p, "r") for p in sys.argv[1:3])
-dr = np.abs(a["r"][()] - b["r"][()])
-dm = np.abs(a["mean_force"][()] / b["mean_force"][()] - 1)
-side = (a["r"][()] < 0.05) != (b["r"][()] < 0.05)
-print(f"r: {np.sum(dr > 0.005)} of {dr.size} points move by more than 0.005 (largest {np.nanmax(dr):.3f});"
-      f" mean force: {np.sum(dm > 0.005)} by more than 0.5 %; boundary side changes: {np.sum(side)}")
-PY
+    python3 benches/batch/compare.py "$out/batch.h5" "$out/old.h5"
 fi

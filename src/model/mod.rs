@@ -189,7 +189,7 @@ impl Rig {
     /// The substrate velocity's amplitude `u0 ω` \[m/s\] (0 without vibration) and the
     /// vibration's switch-on time `t_on` \[s\]: [`Rig::substrate_velocity`] is
     /// `u0 ω cos(ω (t − t_on))` from `t_on` on, this product times that cosine.
-    pub fn substrate_velocity_amplitude(&self) -> (f64, f64) {
+    pub fn substrate_velocity_terms(&self) -> (f64, f64) {
         (self.u0 * self.omega, self.t_on)
     }
 

@@ -32,10 +32,8 @@ pub(crate) struct Recorder {
     /// otherwise. Sample `i` at `t = i dt` takes entry `i mod k`: a cosine per sample was a
     /// tenth of a sweep's time below the resonance.
     u_dot: Vec<f64>,
-    /// The sample spacing `dt = 1 / (k f)` \[s\] and the last sample's index and phase
-    /// entry, so that consecutive samples step the entry instead of dividing.
+    /// The sample spacing `dt = 1 / (k f)` \[s\].
     dt: f64,
-    last: Option<(u64, usize)>,
     cycle: Option<LimitCycle>,
     early: Option<EarlyChecks>,
     /// Where an early check ended the run: its time, measures and the error bound of an
@@ -110,22 +108,8 @@ impl Recorder {
     /// The entry of [`Recorder::u_dot`] for sample `i` at time `t`, where the table serves it
     /// (the vibration runs from 0 and `t` is the sample's grid time `i dt`).
     #[inline]
-    fn phase(&mut self, i: u64, t: f64) -> Option<usize> {
-        if self.u_dot.is_empty() || t != i as f64 * self.dt {
-            return None;
-        }
-        let j = match self.last {
-            Some((last, j)) if i == last + 1 => {
-                if j + 1 == self.k {
-                    0
-                } else {
-                    j + 1
-                }
-            }
-            _ => (i % self.k as u64) as usize,
-        };
-        self.last = Some((i, j));
-        Some(j)
+    fn phase(&self, i: u64, t: f64) -> Option<usize> {
+        (!self.u_dot.is_empty() && t == i as f64 * self.dt).then(|| (i % self.k as u64) as usize)
     }
 
     /// Feeds sample `i` (time `t`, measured force `f`, state `y`) to the analyzer and, every
@@ -307,7 +291,7 @@ impl Run {
         // The table of the substrate velocity: one cosine per sample of a period instead of one
         // per sample of the run (the same operations as the right-hand side's, at the exact
         // phase `2π j / k`).
-        let u_dot = match rig.substrate_velocity_amplitude() {
+        let u_dot = match rig.substrate_velocity_terms() {
             (a, t_on) if a != 0.0 && t_on == 0.0 && k > 1 => (0..k)
                 .map(|j| a * cos(std::f64::consts::TAU * j as f64 / k as f64))
                 .collect(),
@@ -323,7 +307,6 @@ impl Run {
             k,
             u_dot,
             dt,
-            last: None,
             cycle,
             early: checks,
             stopped: None,
