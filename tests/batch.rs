@@ -1,11 +1,12 @@
 //! The batch integrator against the scalar one: a point's integration in a lane, beside other
 //! points, is bit for bit its integration alone with `Method::Dopri5` (samples, final state,
-//! status and statistics), with and without envelope following; a system with an effect is
-//! served by the scalar path and says so.
+//! status and statistics), with and without envelope following, with and without model
+//! extensions; a system whose terms differ from those of the systems in busy lanes is served by
+//! the scalar path and says so.
 
 use std::cell::RefCell;
 use stickslip::model::{EffectKind, Effects, Params, Rig};
-use stickslip::ode::batch::{Job, Path, WIDTH, solve_batch};
+use stickslip::ode::batch::{Job, Path, WIDTH, solve_batch_dim};
 use stickslip::ode::{Method, Options, OutputGrid, RunReport, Solver};
 use stickslip::sim::{envelope_for, sampling};
 
@@ -97,8 +98,9 @@ fn alone(p: &Params, t_end: f64, env: bool, fx: &Effects) -> Outcome {
     }
 }
 
-/// Every point through the batch integrator: each one's outcome and path, by index.
-fn batched(pts: &[(Params, f64, bool, Effects)]) -> Vec<(Outcome, Path)> {
+/// Every point through the batch integrator (for systems of `dim` states): each one's outcome
+/// and path, by index.
+fn batched(pts: &[(Params, f64, bool, Effects)], dim: usize) -> Vec<(Outcome, Path)> {
     let seen: RefCell<Vec<Samples>> = RefCell::new(vec![Vec::new(); pts.len()]);
     let mut got: Vec<Option<(RunReport, Vec<u64>, Path)>> = vec![None; pts.len()];
     let jobs = pts.iter().enumerate().map(|(i, (p, t_end, env, fx))| {
@@ -109,7 +111,9 @@ fn batched(pts: &[(Params, f64, bool, Effects)]) -> Vec<(Outcome, Path)> {
             s[i].len() < MOST
         })
     });
-    solve_batch::<Rig, _, 3>(jobs, |j, r, path| got[j.id] = Some((r, bits(&j.y), path)));
+    solve_batch_dim(dim, jobs, |j, r, path| {
+        got[j.id] = Some((r, bits(&j.y), path))
+    });
     let seen = seen.into_inner();
     got.into_iter()
         .zip(seen)
@@ -126,12 +130,12 @@ fn a_point_in_a_lane_is_the_point_alone_bit_for_bit() {
         .into_iter()
         .map(|(p, t, e)| (p, t, e, Effects::none()))
         .collect();
-    // One point with an effect: the scalar path serves it, in its turn.
+    // One point with an effect among base-model points: the scalar path serves it, in its turn.
     let mut fx = Effects::none();
     fx.enable(EffectKind::Viscous);
     pts.insert(5, (pts[5].0, 0.01, false, fx));
     assert!(pts.len() > 8 * WIDTH);
-    let got = batched(&pts);
+    let got = batched(&pts, 3);
     let (mut enveloped, mut cut) = (0, 0);
     for (i, ((p, t_end, env, fx), (b, path))) in pts.iter().zip(&got).enumerate() {
         let want = alone(p, *t_end, *env, fx);
@@ -167,9 +171,8 @@ fn shown(r: &stickslip::sim::RunResult) -> String {
 
 #[test]
 fn runs_in_a_batch_are_the_runs_alone() {
-    use stickslip::averaged::store::TableStore;
-    use stickslip::sim::batch::{Ask, simulate_batch};
-    use stickslip::sim::{RunOptions, Tier, simulate_in};
+    use stickslip::sim::batch::Ask;
+    use stickslip::sim::{RunOptions, Tier};
     let mut asks = Vec::new();
     let mut id = 0;
     for (method, tier) in [
@@ -205,12 +208,31 @@ fn runs_in_a_batch_are_the_runs_alone() {
             }
         }
     }
-    let fx = Effects::none();
+    // The base model, and two extensions without states of their own (in lanes too; the
+    // full model alone).
+    let mut loaded = Effects::none();
+    loaded.enable(EffectKind::NormalCoupling);
+    loaded.enable(EffectKind::DriveRipple);
+    batch_against_alone(&asks, &Effects::none());
+    // With the extensions, the runs over a fixed time (an automatic one grows long with them).
+    let fixed: Vec<_> = asks
+        .iter()
+        .filter(|a| a.opts.t_end.is_some())
+        .cloned()
+        .collect();
+    batch_against_alone(&fixed, &loaded);
+}
+
+/// Every ask through [`simulate_batch`] against [`simulate_in`] alone.
+fn batch_against_alone(asks: &[stickslip::sim::batch::Ask], fx: &Effects) {
+    use stickslip::averaged::store::TableStore;
+    use stickslip::sim::batch::simulate_batch;
+    use stickslip::sim::simulate_in;
     let store = TableStore::new();
     let mut solver = Solver::new(Method::Auto);
     let mut got = std::collections::BTreeMap::new();
     let mut lanes = 0;
-    simulate_batch(asks.clone(), &fx, &mut solver, &store, |id, r, path| {
+    simulate_batch(asks.to_vec(), fx, &mut solver, &store, |id, r, path| {
         lanes += usize::from(path == Path::Lanes);
         assert!(
             got.insert(id, r.expect("valid runs")).is_none(),
@@ -223,9 +245,9 @@ fn runs_in_a_batch_are_the_runs_alone() {
         lanes >= 16 && lanes < asks.len() - 8,
         "{lanes} runs in lanes"
     );
-    for a in &asks {
+    for a in asks {
         let mut s = Solver::new(a.opts.method);
-        let want = simulate_in(&a.p, &fx, &a.opts, &mut s, &TableStore::new()).unwrap();
+        let want = simulate_in(&a.p, fx, &a.opts, &mut s, &TableStore::new()).unwrap();
         assert_eq!(
             shown(&want),
             shown(&got[&a.id]),
@@ -234,5 +256,140 @@ fn runs_in_a_batch_are_the_runs_alone() {
             a.p,
             a.opts
         );
+    }
+}
+
+/// Every effect of the library in each of its forms (and a few together), on points that differ
+/// in their drive, vibration and effect parameters, integrated in lanes beside each other: each
+/// bit for bit its integration alone, and served by the lanes.
+#[test]
+fn effects_in_lanes_are_the_effects_alone_bit_for_bit() {
+    use stickslip::model::effects::{EFFECTS, form_param};
+    use stickslip::ode::batch::MAX_LANE_DIM;
+    let mut sets: Vec<Effects> = Vec::new();
+    for info in &EFFECTS {
+        let forms: Vec<Option<f64>> = if info.forms.is_empty() {
+            vec![None]
+        } else {
+            info.forms.iter().map(|f| Some(f.value)).collect()
+        };
+        for form in forms {
+            let mut fx = Effects::none();
+            fx.enable(info.kind);
+            if let Some(v) = form {
+                fx.set(info.kind, form_param(info.kind), v).unwrap();
+            }
+            sets.push(fx);
+        }
+    }
+    let mut both = Effects::none();
+    both.enable(EffectKind::Aging);
+    both.enable(EffectKind::SensorDynamics);
+    both.enable(EffectKind::NormalCoupling);
+    sets.push(both);
+    let mut three = Effects::none();
+    three.set(EffectKind::Presliding, "elements", 3.0).unwrap();
+    three.enable(EffectKind::FrictionalLag);
+    sets.push(three);
+    let mut served = 0;
+    for fx in &sets {
+        // Points of one shape: the effect's own parameters moved within their ranges.
+        let mut pts = Vec::new();
+        for (n, (p, t_end, env)) in points().into_iter().enumerate().step_by(5) {
+            let mut fx = fx.clone();
+            let shape = |fx: &Effects| Rig::with_effects(p, fx).unwrap().shape();
+            for (kind, vals) in fx.list.clone() {
+                for (j, q) in kind.info().params.iter().enumerate() {
+                    if q.name == "elements" || q.name == form_param(kind) {
+                        continue;
+                    }
+                    let before = fx.clone();
+                    let v = (vals[j] * (0.8 + 0.1 * (n % 5) as f64)).clamp(q.min, q.max);
+                    fx.set(kind, q.name, v).unwrap();
+                    // Where the value changes the terms (a Stribeck exponent off 2), keep the old.
+                    if shape(&fx) != shape(&before) {
+                        fx = before;
+                    }
+                }
+            }
+            pts.push((p, t_end, env, fx));
+        }
+        // A rig with more states than the lanes serve runs on the scalar path.
+        let dim = Rig::with_effects(pts[0].0, &pts[0].3)
+            .unwrap()
+            .initial_state()
+            .len();
+        let path = if dim <= MAX_LANE_DIM {
+            Path::Lanes
+        } else {
+            Path::Scalar
+        };
+        for (i, ((p, t_end, env, fx), (b, got_path))) in
+            pts.iter().zip(batched(&pts, dim)).enumerate()
+        {
+            let want = alone(p, *t_end, *env, fx);
+            assert_eq!(want.report, b.report, "{fx:?}, point {i}");
+            assert_eq!(want.end, b.end, "{fx:?}, point {i}");
+            assert!(want.seen == b.seen, "{fx:?}, point {i}: the samples differ");
+            assert_eq!(got_path, path, "{fx:?}, point {i}");
+            served += usize::from(path == Path::Lanes);
+        }
+    }
+    assert!(served >= 8 * (sets.len() - 2), "{served} runs in lanes");
+}
+
+/// Recordings' simulations through [`simulate_grids`] (lanes where they can, spread over the
+/// pool) against [`simulate_grid`] one at a time: every sample bit for bit, whatever the mix of
+/// models, effects, stages and sampling beside it.
+#[test]
+fn grids_in_lanes_are_the_grids_alone() {
+    use stickslip::campaign::{GridAsk, Solvers, simulate_grid, simulate_grids};
+    let mut sets = vec![Effects::none()];
+    let mut aging = Effects::none();
+    aging.enable(EffectKind::Aging);
+    sets.push(aging);
+    let mut sensor = Effects::none();
+    sensor.enable(EffectKind::SensorDynamics);
+    sets.push(sensor.clone());
+    // A fourth-order sensor: more states than the lanes serve.
+    sensor
+        .set_form(EffectKind::SensorDynamics, "order4")
+        .unwrap();
+    sets.push(sensor);
+    let mut normal = Effects::none();
+    normal.enable(EffectKind::NormalCoupling);
+    sets.push(normal);
+    let mut asks = Vec::new();
+    for (n, (p, _, _)) in points().into_iter().enumerate().step_by(3) {
+        let fx = sets[n % sets.len()].clone();
+        let mut p = p;
+        // Some in two stages: the vibration switched on within the recording.
+        if n % 7 == 0 && p.u0 > 0.0 {
+            p.t_on = 0.004;
+        }
+        let dt = [1e-4, 5e-5][n % 2];
+        asks.push(GridAsk {
+            p,
+            fx,
+            t0: 0.001 * (n % 3) as f64,
+            dt,
+            n: 200 + 37 * (n % 5),
+            tol: [1e-5, 1e-4][n % 2],
+        });
+    }
+    let got = simulate_grids(&asks);
+    assert_eq!(got.len(), asks.len());
+    let mut s = Solvers::default();
+    for (i, (a, (g, _))) in asks.iter().zip(&got).enumerate() {
+        let want = simulate_grid(&a.p, &a.fx, a.t0, a.dt, a.n, a.tol, &mut s).unwrap();
+        let g = g.as_ref().expect("valid asks");
+        assert_eq!(want.status, g.status, "ask {i}");
+        for (w, v) in [
+            (&want.f_d, &g.f_d),
+            (&want.x_s, &g.x_s),
+            (&want.x_d, &g.x_d),
+        ] {
+            assert_eq!(bits(w), bits(v), "ask {i}: {:?}", a.p);
+        }
     }
 }

@@ -22,8 +22,10 @@
 //! ignored. A `.csv` without its `.toml` (or the reverse) is an error, as is any malformed line:
 //! the message names the file, the line and the problem. No recording is skipped silently.
 
+pub mod batch;
 pub mod check;
 pub mod synth;
+pub use batch::{GridAsk, GridResult, simulate_grids};
 
 use crate::config::{self, ConfigError, Doc};
 use crate::model::{Effects, Params, Rig, RigError};
@@ -431,12 +433,7 @@ pub fn simulate_grid(
 ) -> Result<SimTrace, RigError> {
     let rig = Rig::with_effects(*p, fx)?;
     let mut y = rig.initial_state();
-    let mut out = SimTrace {
-        f_d: Vec::with_capacity(n),
-        x_s: Vec::with_capacity(n),
-        x_d: Vec::with_capacity(n),
-        status: Status::Success,
-    };
+    let mut out = batch::trace(n);
     let grid = OutputGrid {
         start: t0,
         step: dt,
@@ -449,11 +446,7 @@ pub fn simulate_grid(
         atol: tol,
         ..Options::default()
     };
-    let mut observe = |t: f64, y: &[f64]| {
-        out.f_d.push(rig.measured_force(t, y));
-        out.x_s.push(y[crate::model::X]);
-        out.x_d.push(rig.drive_displacement(t));
-    };
+    let mut observe = |t: f64, y: &[f64]| batch::sample(&rig, &mut out, t, y);
     let rep = if p.two_stage() && p.t_on < t1 {
         // The substrate velocity jumps at t_on: two integrations, the grid shared by index.
         let observe = |t: f64, y: &[f64]| {
@@ -464,11 +457,7 @@ pub fn simulate_grid(
     } else {
         solver.solve(&rig, 0.0, t1, &mut y, &opts, grid, &mut observe)
     };
-    out.status = rep.status;
-    // A failed run leaves the rest of the grid unsampled: fill with NaN so features say so.
-    for v in [&mut out.f_d, &mut out.x_s, &mut out.x_d] {
-        v.resize(n, f64::NAN);
-    }
+    batch::finish(&mut out, rep.status, n);
     Ok(out)
 }
 

@@ -50,8 +50,9 @@
 //! (`held_out_families`), whose pairs are feature residuals instead of trace statistics.
 
 use super::features::{smooth, zigzag};
-use super::fit::{Model, simulate};
-use crate::campaign::{Recording, Solvers};
+use super::fit::Model;
+use super::target::{Fidelity, simulate_many};
+use crate::campaign::Recording;
 use rayon::prelude::*;
 
 /// Strength (in standard errors, summed in quadrature over statistics) below which a family
@@ -663,10 +664,13 @@ impl Reference {
     /// The statistics of the recordings `recs` and of `from` simulated for each (in parallel
     /// over recordings; deterministic).
     pub fn of(recs: &[&Recording], from: &Model) -> Reference {
+        let asks: Vec<(&Model, &Recording)> = recs.iter().map(|r| (from, *r)).collect();
+        let sims = simulate_many(&asks, Fidelity::Full);
         let per = recs
             .par_iter()
-            .map_init(Solvers::default, |s, rec| {
-                let fb = simulate(from, rec, s)?;
+            .zip(sims)
+            .map(|(rec, (fb, _))| {
+                let fb = fb?;
                 Some((statistics(rec, &rec.f_d), statistics(rec, &fb.f_d)))
             })
             .collect();
@@ -676,11 +680,25 @@ impl Reference {
     /// Checks the fingerprints of `cand` (a fit of a candidate effect extending the reference's
     /// model) on the same recordings `recs`: one check per family of [`TRACE_FAMILIES`].
     pub fn check(&self, recs: &[&Recording], cand: &Model) -> Vec<Check> {
+        // The candidate's simulations where the reference has its own.
+        let asks: Vec<(&Model, &Recording)> = recs
+            .iter()
+            .zip(&self.per)
+            .filter(|(_, r)| r.is_some())
+            .map(|(rec, _)| (cand, *rec))
+            .collect();
+        let mut sims = simulate_many(&asks, Fidelity::Full).into_iter();
+        let cand_sims: Vec<Option<_>> = self
+            .per
+            .iter()
+            .map(|r| r.as_ref().and_then(|_| sims.next().and_then(|(s, _)| s)))
+            .collect();
         let per: Vec<Vec<(usize, Pair)>> = recs
             .par_iter()
             .zip(&self.per)
-            .map_init(Solvers::default, |s, (rec, reference)| {
-                let (Some((m, b)), Some(fc)) = (reference, simulate(cand, rec, s)) else {
+            .zip(cand_sims)
+            .map(|((rec, reference), fc)| {
+                let (Some((m, b)), Some(fc)) = (reference, fc) else {
                     return vec![];
                 };
                 let c = statistics(rec, &fc.f_d);

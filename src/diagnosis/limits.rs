@@ -55,11 +55,11 @@ use super::evidence::SIGNIFICANT_GAP;
 use super::features::Feature;
 use super::features::{FEATURES, FeatureSet, N_FEATURES, noise_sd};
 use super::fit::{
-    self, FitResult, Model, Target, difference, fill_r, sigma, simulate, trace_features, zscore,
+    self, FitResult, Model, Target, difference, fill_r, sigma, trace_features, zscore,
 };
 use super::folds::{CrossValidated, concentrated, summarise};
 use super::model::neutral;
-use crate::campaign::Solvers;
+use super::target::{Fidelity, simulate_many};
 use crate::model::EffectKind;
 use rand::{RngExt, SeedableRng, rngs::StdRng};
 use rand_distr::{Distribution, Normal};
@@ -378,34 +378,35 @@ impl<'t, 'a> Pipeline<'t, 'a> {
     /// The noisy recordings of `model` through the pipeline, per unit (None where a run
     /// failed), with the noise-free features beside them.
     fn record(&self, model: &Model) -> (Vec<Option<FeatureSet>>, Vec<FeatureSet>) {
-        let per: Vec<Vec<(Option<FeatureSet>, FeatureSet)>> = self
-            .all
-            .recs
+        let recs = &self.all.recs;
+        let asks: Vec<(&Model, &crate::campaign::Recording)> =
+            recs.iter().map(|r| (model, *r)).collect();
+        // Counted and timed in the target's work, as a run through its cache is.
+        let sims = simulate_many(&asks, Fidelity::Full);
+        for (_, ns) in &sims {
+            self.all.count_run(*ns);
+        }
+        let per: Vec<Vec<(Option<FeatureSet>, FeatureSet)>> = recs
             .par_iter()
+            .zip(sims)
             .enumerate()
-            .map_init(Solvers::default, |sol, (i, rec)| {
+            .map(|(i, (rec, (tr, _)))| {
                 let stages = self.all.units.iter().filter(|u| u.0 == i).count();
-                // Counted and timed in the target's work, as a run through its cache is.
-                let clock = std::time::Instant::now();
-                let out = self.record_one(model, i, rec, sol, stages);
-                self.all
-                    .count_run(u64::try_from(clock.elapsed().as_nanos()).unwrap_or(u64::MAX));
-                out
+                self.record_one(tr, i, rec, stages)
             })
             .collect();
         self.finish(per)
     }
 
-    /// One recording's noisy and noise-free features under `model` (per unit).
+    /// One recording's noisy and noise-free features from its simulation `tr` (per unit).
     fn record_one(
         &self,
-        model: &Model,
+        tr: Option<crate::campaign::SimTrace>,
         i: usize,
         rec: &crate::campaign::Recording,
-        sol: &mut Solvers,
         stages: usize,
     ) -> Vec<(Option<FeatureSet>, FeatureSet)> {
-        let Some(tr) = simulate(model, rec, sol) else {
+        let Some(tr) = tr else {
             return vec![(None, FeatureSet::nan()); stages];
         };
         // The same noise at every strength and under the model in hand: common random

@@ -6,7 +6,7 @@ use super::features::{
     FEATURES, Feature, FeatureSet, Stage, quantize, quantum, stage_features, stages, weigh_quantum,
 };
 use super::model::{Bound, Model, Plausible, SLIP_BOUND_MARGIN, STRIBECK_DELTA, default_range};
-use crate::campaign::{Recording, SimTrace, Solvers, simulate_grid};
+use crate::campaign::{GridAsk, Recording, SimTrace, Solvers, simulate_grid, simulate_grids};
 use crate::model::{EffectKind, Params};
 use rayon::prelude::*;
 use std::collections::HashMap;
@@ -274,7 +274,66 @@ impl SimCache {
         f
     }
 
+    /// The features of each recording under its model at `fidelity` (as [`SimCache::features`]
+    /// gives one), the simulations not cached run together ([`simulate_grids`]: side by side in
+    /// vector lanes where they can, spread over the thread pool), in the order of `asks`.
+    pub(crate) fn features_many(
+        &self,
+        asks: &[(&Model, &Recording)],
+        fidelity: Fidelity,
+    ) -> Vec<Vec<FeatureSet>> {
+        let keyed: Vec<_> = asks
+            .iter()
+            .map(|(m, r)| Self::key(m, r, fidelity))
+            .collect();
+        let mut out: Vec<Option<Vec<FeatureSet>>> = vec![None; asks.len()];
+        let mut missed = Vec::new();
+        {
+            let map = self.map.lock().unwrap_or_else(|e| e.into_inner());
+            for (i, (_, key)) in keyed.iter().enumerate() {
+                match map.get(key) {
+                    Some(f) => {
+                        self.hits.fetch_add(1, Ordering::Relaxed);
+                        out[i] = Some(f.clone());
+                    }
+                    None => missed.push(i),
+                }
+            }
+        }
+        let grid: Vec<GridAsk> = missed
+            .iter()
+            .map(|&i| grid_ask(&keyed[i].0, asks[i].1, fidelity))
+            .collect();
+        let sims = simulate_grids(&grid);
+        // The features of each trace, in parallel as the simulations were.
+        let feats: Vec<(Vec<FeatureSet>, u64)> = missed
+            .par_iter()
+            .zip(sims)
+            .map(|(&i, (sim, nanos))| {
+                let rec = asks[i].1;
+                let f = match sim {
+                    Ok(tr) if tr.status == crate::ode::Status::Success => trace_of(rec, &tr),
+                    _ => vec![FeatureSet::nan(); stages(&rec.t, &rec.params).len()],
+                };
+                (f, nanos)
+            })
+            .collect();
+        for (&i, (f, nanos)) in missed.iter().zip(feats) {
+            let key = keyed[i].1.clone();
+            self.count(key.1, nanos);
+            let mut map = self.map.lock().unwrap_or_else(|e| e.into_inner());
+            if map.len() < Self::CAPACITY {
+                map.insert(key, f.clone());
+            }
+            out[i] = Some(f);
+        }
+        out.into_iter()
+            .map(|f| f.expect("every ask answered"))
+            .collect()
+    }
+
     /// The features of `rec` under `model` at `fidelity`, simulated where not cached.
+    #[cfg(test)]
     pub(crate) fn features(
         &self,
         model: &Model,
@@ -481,13 +540,16 @@ impl<'a> Target<'a> {
     /// recording are those of `predict` wherever the recordings its units are compared with
     /// for `r` ([`Target::reference`]) are needed too ([`Target::needed_with_references`]).
     pub fn predict_for(&self, model: &Model, need: Option<&[bool]>) -> Vec<FeatureSet> {
-        let per: Vec<Vec<FeatureSet>> = self
-            .recs
-            .par_iter()
-            .enumerate()
-            .map_init(Solvers::default, |s, (i, r)| {
+        let needed: Vec<usize> = (0..self.recs.len())
+            .filter(|&i| need.is_none_or(|n| n[i]))
+            .collect();
+        let asks: Vec<(&Model, &Recording)> =
+            needed.iter().map(|&i| (model, self.recs[i])).collect();
+        let mut got = self.cache.features_many(&asks, self.fidelity).into_iter();
+        let per: Vec<Vec<FeatureSet>> = (0..self.recs.len())
+            .map(|i| {
                 if need.is_none_or(|n| n[i]) {
-                    self.cache.features(model, r, self.fidelity, s)
+                    got.next().expect("one answer per needed recording")
                 } else {
                     vec![FeatureSet::nan(); self.units.iter().filter(|u| u.0 == i).count()]
                 }
@@ -611,6 +673,38 @@ pub fn simulate(model: &Model, rec: &Recording, solvers: &mut Solvers) -> Option
     simulate_at(model, rec, Fidelity::Full, solvers)
 }
 
+/// The simulations of each recording under its model at `fidelity` ([`simulate_at`] each:
+/// `None` where the run fails), run together ([`simulate_grids`]: side by side in vector lanes
+/// where they can, spread over the thread pool), each with its CPU time \[ns\].
+pub fn simulate_many(
+    asks: &[(&Model, &Recording)],
+    fidelity: Fidelity,
+) -> Vec<(Option<SimTrace>, u64)> {
+    let grid: Vec<GridAsk> = asks
+        .iter()
+        .map(|(m, rec)| grid_ask(m, rec, fidelity))
+        .collect();
+    simulate_grids(&grid)
+        .into_iter()
+        .map(|(r, ns)| {
+            let ok = r.ok().filter(|tr| tr.status == crate::ode::Status::Success);
+            (ok, ns)
+        })
+        .collect()
+}
+
+/// The simulation of `rec` under `model` at `fidelity`, as [`simulate_grids`] takes it.
+fn grid_ask(model: &Model, rec: &Recording, fidelity: Fidelity) -> GridAsk {
+    GridAsk {
+        p: model.params_for(rec),
+        fx: model.effects.clone(),
+        t0: rec.t[0],
+        dt: rec.dt(),
+        n: rec.t.len(),
+        tol: fidelity.tolerance(rec),
+    }
+}
+
 /// [`simulate`] at `fidelity`.
 pub fn simulate_at(
     model: &Model,
@@ -643,6 +737,7 @@ pub(crate) fn predict_one(
 }
 
 /// [`predict_one`] at `fidelity`.
+#[cfg(test)]
 fn predict_at(
     model: &Model,
     rec: &Recording,
@@ -650,14 +745,19 @@ fn predict_at(
     solvers: &mut Solvers,
 ) -> Vec<FeatureSet> {
     match simulate_at(model, rec, fidelity, solvers) {
-        Some(tr) => trace_features(
-            rec,
-            &tr.f_d,
-            rec.x_s.as_ref().map(|_| &tr.x_s[..]),
-            rec.x_d.as_ref().map(|_| &tr.x_d[..]),
-        ),
+        Some(tr) => trace_of(rec, &tr),
         None => vec![FeatureSet::nan(); stages(&rec.t, &rec.params).len()],
     }
+}
+
+/// The features of every stage of `rec` from its simulated trace `tr`.
+fn trace_of(rec: &Recording, tr: &SimTrace) -> Vec<FeatureSet> {
+    trace_features(
+        rec,
+        &tr.f_d,
+        rec.x_s.as_ref().map(|_| &tr.x_s[..]),
+        rec.x_d.as_ref().map(|_| &tr.x_d[..]),
+    )
 }
 
 /// `√(mean z²)`.

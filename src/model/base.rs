@@ -97,27 +97,3 @@ pub fn base_rhs<T: Real>(c: &BaseCoeffs<T>, t: T, y: &[T], dy: &mut [T]) {
     dy[V] = (f_d - force) * c.inv_m;
     dy[S] = s_dot;
 }
-
-impl crate::ode::batch::Lanewise for super::Rig {
-    type Pack<const W: usize> = BaseCoeffs<Lanes<W>>;
-
-    fn in_lanes(&self) -> bool {
-        self.lane_coeffs().is_some()
-    }
-
-    fn pack<const W: usize>(&self, pack: &mut Self::Pack<W>, lane: usize) {
-        if let Some(c) = self.lane_coeffs() {
-            pack.set_lane(lane, &c);
-        }
-    }
-
-    #[inline(always)]
-    fn rhs_lanes<const W: usize>(
-        pack: &Self::Pack<W>,
-        t: Lanes<W>,
-        y: &[Lanes<W>],
-        dy: &mut [Lanes<W>],
-    ) {
-        base_rhs(pack, t, y, dy);
-    }
-}

@@ -42,6 +42,7 @@
 //! 10, a presliding spread below 0.95 (no element may break away at zero force), and so on; see
 //! [`EFFECTS`].
 
+use super::extended::{FxCoeffs, Shape, Stribeck};
 use std::fmt;
 
 /// One switchable effect.
@@ -1017,6 +1018,63 @@ pub(crate) struct Resolved {
 }
 
 impl Resolved {
+    /// The terms of the right-hand side and their states' indices ([`super::extended`]).
+    pub fn shape(&self) -> Shape {
+        Shape {
+            any: self.any,
+            dim: self.dim,
+            aging: self.aging.map(|a| a.3),
+            slip_law: self.slip_law,
+            normal: self.normal.is_some(),
+            normal_fixed: self.normal.is_some_and(|n| n.2),
+            sensor: self.sensor.map(|s| s.2),
+            sensor4: self.sensor4.is_some(),
+            ripple: self.ripple.is_some(),
+            visc_linear: self.visc_n == 1.0,
+            stribeck: if self.rational {
+                Stribeck::Rational
+            } else if self.delta == 2.0 {
+                Stribeck::Gauss
+            } else {
+                Stribeck::Power
+            },
+            elements: self.elements,
+            first_extra: self.first_extra,
+            lag: self.lag.map(|l| l.1),
+            lag_distance: self.lag_distance,
+            track: self.track.is_some(),
+        }
+    }
+
+    /// The effects' coefficients ([`super::extended`]; 0 for an effect that is off).
+    pub fn coeffs(&self) -> FxCoeffs<f64> {
+        let (b, theta0, dc) = self.aging.map_or((0.0, 1.0, 1.0), |a| (a.0, a.1, a.2));
+        let (c_n, phi) = self.normal.map_or((0.0, 0.0), |n| (n.0, n.1));
+        let (wn, zeta) = self.sensor.map_or((0.0, 0.0), |s| (s.0, s.1));
+        let (rip_a, rip_k) = self.ripple.unwrap_or((0.0, 0.0));
+        let (tr_a, tr_k, tr_x0) = self.track.unwrap_or((0.0, 0.0, 0.0));
+        FxCoeffs {
+            b,
+            theta0,
+            dc,
+            c_n,
+            phi,
+            wn,
+            zeta,
+            zeta2: self.sensor4.unwrap_or(0.0),
+            rip_a,
+            rip_k,
+            h_v: self.h_v,
+            visc_n: self.visc_n,
+            delta: self.delta,
+            spread: self.spread,
+            tau: self.lag.map_or(1.0, |l| l.0),
+            tr_a,
+            tr_k,
+            tr_x0,
+        }
+    }
+
     pub fn new(fx: &Effects, f: f64, f_n: f64) -> Resolved {
         let mut r = Resolved {
             any: !fx.is_empty(),

@@ -20,6 +20,7 @@
 
 pub mod base;
 pub mod effects;
+pub mod extended;
 pub mod params;
 pub mod state;
 
@@ -29,6 +30,7 @@ pub use params::{ParamError, Params};
 pub use state::{BASE_DIM, S, V, X};
 
 use effects::Resolved;
+use extended::{FxCoeffs, Shape};
 
 use crate::ode::OdeSystem;
 
@@ -116,6 +118,9 @@ pub struct Rig {
     /// Switch-on time of the vibration \[s\] (docs/model.md; 0: from the start).
     t_on: f64,
     fx: Resolved,
+    /// The right-hand side's terms and the effects' coefficients ([`extended`]), resolved once.
+    shape: Shape,
+    fxc: FxCoeffs<f64>,
 }
 
 impl Rig {
@@ -128,7 +133,10 @@ impl Rig {
             u0: p.u0,
             t_on: p.t_on,
             fx: Resolved::new(&Effects::none(), p.f, p.f_n),
-        })
+            shape: Shape::default(),
+            fxc: FxCoeffs::default(),
+        }
+        .resolved())
     }
 
     /// A rig with model extensions (see [`effects`]).
@@ -142,7 +150,10 @@ impl Rig {
             u0: p.u0 * r.gain,
             t_on: p.t_on,
             fx: r,
-        })
+            shape: Shape::default(),
+            fxc: FxCoeffs::default(),
+        }
+        .resolved())
     }
 
     /// The same rig without vibration (`u0 = 0`), with the same effects.
@@ -154,7 +165,26 @@ impl Rig {
             u0: 0.0,
             t_on: 0.0,
             fx: self.fx,
+            shape: self.shape,
+            fxc: self.fxc,
         }
+    }
+
+    /// The rig with its shape and effect coefficients taken from its resolved effects.
+    fn resolved(mut self) -> Self {
+        self.shape = self.fx.shape();
+        self.fxc = self.fx.coeffs();
+        self
+    }
+
+    /// The terms of its right-hand side, which every lane of a batch shares ([`extended`]).
+    pub fn shape(&self) -> Shape {
+        self.shape
+    }
+
+    /// The effects' coefficients ([`extended`]).
+    pub fn effect_coeffs(&self) -> FxCoeffs<f64> {
+        self.fxc
     }
 
     /// The initial state: all zero (spring relaxed, body at rest, contact unloaded; with the
@@ -250,15 +280,9 @@ impl Rig {
         (y[S] + extra) / n as f64
     }
 
-    /// The coefficients of the base model's right-hand side, `None` where an effect is on (the
-    /// right-hand side then has terms [`base::base_rhs`] does not hold).
-    #[inline]
-    pub fn lane_coeffs(&self) -> Option<BaseCoeffs<f64>> {
-        (!self.fx.any).then(|| self.base_coeffs())
-    }
-
+    /// The coefficients of the base model's right-hand side (with the actuated amplitude).
     #[inline(always)]
-    fn base_coeffs(&self) -> BaseCoeffs<f64> {
+    pub fn base_coeffs(&self) -> BaseCoeffs<f64> {
         let p = &self.p;
         BaseCoeffs {
             u0: self.u0,
@@ -288,101 +312,7 @@ impl Rig {
 
     /// The right-hand side with the effects (see [`effects`] for the equations).
     fn rhs_effects(&self, t: f64, y: &[f64], dy: &mut [f64]) {
-        let p = &self.p;
-        let fx = &self.fx;
-        let v_r = self.relative_velocity(t, y);
-        let a = v_r.abs();
-        // Load factor: normal coupling and friction along the track scale F_c and F_s.
-        let mut nu = 1.0;
-        if let Some((c, phi, fixed)) = fx.normal
-            && t >= self.t_on
-            && self.u0 > 0.0
-        {
-            let swing = if fixed { c } else { c * self.u0 };
-            nu = (1.0 + swing * (self.vibration_phase(t) + phi).sin()).max(0.0);
-        }
-        if let Some((amp, k, x0)) = fx.track {
-            nu *= 1.0 + amp * (k * (y[X] + x0)).sin();
-        }
-        let mut f_s = p.f_s;
-        if let Some((b, theta0, dc, i)) = fx.aging {
-            let theta = y[i].max(0.0);
-            f_s *= 1.0 + b * (theta / theta0).ln_1p();
-            dy[i] = if fx.slip_law {
-                // Ruina's slip law: the state moves only with slip; from a fresh contact's
-                // age of 1 ns (θ = 0 would stay there).
-                let q = a * theta.max(1e-9) / dc;
-                if q > 0.0 { -q * q.ln() } else { 0.0 }
-            } else {
-                1.0 - a * y[i] / dc
-            };
-        }
-        // Stribeck curve (4.7), evaluated at the lagged velocity with frictional lag.
-        let w = match fx.lag {
-            Some((tau, i)) => {
-                dy[i] = if fx.lag_distance {
-                    // A memory distance L (in `tau`'s place): it fades only as the contact slips.
-                    a * (v_r - y[i]) / tau
-                } else {
-                    (v_r - y[i]) / tau
-                };
-                y[i]
-            }
-            None => v_r,
-        };
-        // Multiplied by the reciprocals where the base model's right-hand side is ([`base`]), so
-        // that neutral effects round as it does.
-        let c = self.base_coeffs();
-        let q = (w * c.inv_v_s).abs();
-        let e_s = if fx.rational {
-            1.0 / (1.0 + q.powf(fx.delta))
-        } else if fx.delta == 2.0 {
-            base::gauss(q * q)
-        } else {
-            (-q.powf(fx.delta)).exp()
-        };
-        let g = nu * (p.f_c + (f_s - p.f_c) * e_s) * c.inv_k_t;
-        // Contact damping (4.9).
-        let qd = v_r * c.inv_v_d;
-        let h = p.h_t * base::gauss(qd * qd);
-        // Bristles (4.6): one, or N Maxwell-slip elements of stiffness k_t/N.
-        let n = fx.elements;
-        let (mut sum_s, mut sum_sd) = (0.0, 0.0);
-        for e in 0..n {
-            let i = if e == 0 { S } else { fx.first_extra + e - 1 };
-            let alpha = if n == 1 {
-                1.0
-            } else {
-                1.0 + fx.spread * (2.0 * e as f64 / (n - 1) as f64 - 1.0)
-            };
-            let sd = if g > 0.0 {
-                v_r - a * y[i] / (alpha * g)
-            } else {
-                v_r
-            };
-            dy[i] = sd;
-            sum_s += y[i];
-            sum_sd += sd;
-        }
-        let nf = n as f64;
-        let h_v = if fx.visc_n == 1.0 {
-            p.h_v + fx.h_v
-        } else {
-            p.h_v + fx.h_v * (a / VISCOUS_REFERENCE).powf(fx.visc_n - 1.0)
-        };
-        let force = p.k_t * sum_s / nf + h * sum_sd / nf + h_v * v_r;
-        let f_d = self.drive_force(t, y);
-        dy[X] = y[V];
-        dy[V] = (f_d - force) * c.inv_m; // (4.2)
-        if let Some((wn, zeta, i)) = fx.sensor {
-            dy[i] = y[i + 1];
-            dy[i + 1] = wn * wn * (f_d - y[i]) - 2.0 * zeta * wn * y[i + 1];
-            if let Some(zeta2) = fx.sensor4 {
-                // The second section filters the first's output.
-                dy[i + 2] = y[i + 3];
-                dy[i + 3] = wn * wn * (y[i] - y[i + 2]) - 2.0 * zeta2 * wn * y[i + 3];
-            }
-        }
+        extended::extended_rhs(&self.shape, &self.base_coeffs(), &self.fxc, t, y, dy);
     }
 
     /// Relative velocity `v_r = v − u'(t)` [m/s] (4.7).

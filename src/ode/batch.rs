@@ -14,8 +14,9 @@
 //! job alone, whatever the lane, the batch or the jobs beside it.
 //!
 //! A lane whose job ends takes the next job at once, so lanes idle only once the jobs run out.
-//! Jobs whose system cannot run in lanes ([`Lanewise::in_lanes`] false, or another dimension)
-//! are integrated by the scalar solver in their turn; [`Path`] says which served a job.
+//! Jobs whose system cannot run in lanes ([`Lanewise::in_lanes`] false, another dimension, or
+//! another [`Lanewise::Shape`] than the systems in busy lanes) are integrated by the scalar
+//! solver in their turn; [`Path`] says which served a job.
 //!
 //! The vector instruction set is found at run time (`pulp`: AVX2 and FMA where the machine has
 //! them); without one the same generic code runs as scalar loops, with the same results.
@@ -27,8 +28,12 @@ use super::{Solver, Stats, StepOutcome, Stepper};
 
 impl<S: Lanewise> Lanewise for &S {
     type Pack<const W: usize> = S::Pack<W>;
+    type Shape = S::Shape;
     fn in_lanes(&self) -> bool {
         (**self).in_lanes()
+    }
+    fn shape(&self) -> S::Shape {
+        (**self).shape()
     }
     fn pack<const W: usize>(&self, pack: &mut Self::Pack<W>, lane: usize) {
         (**self).pack(pack, lane);
@@ -48,9 +53,15 @@ impl<S: Lanewise> Lanewise for &S {
 pub trait Lanewise: OdeSystem {
     /// The coefficients of `W` systems, one per lane.
     type Pack<const W: usize>: Default;
+    /// What the systems in one batch's lanes must share besides their dimension (the terms of
+    /// their right-hand side): a system whose shape differs from that of the systems in busy
+    /// lanes runs on the scalar path.
+    type Shape: Copy + PartialEq;
     /// Whether this system can run in lanes (its right-hand side is the one
     /// [`rhs_lanes`](Self::rhs_lanes) evaluates).
     fn in_lanes(&self) -> bool;
+    /// This system's shape.
+    fn shape(&self) -> Self::Shape;
     /// Puts this system's coefficients in lane `lane` of `pack`.
     fn pack<const W: usize>(&self, pack: &mut Self::Pack<W>, lane: usize);
     /// The right-hand sides of the `W` systems of `pack`, each at its own time: the same
@@ -125,6 +136,28 @@ pub fn vector_set() -> &'static str {
     }
 }
 
+/// Largest state dimension [`solve_batch_dim`] runs in lanes; larger systems (a rig with many
+/// extensions at once) run on the scalar path.
+pub const MAX_LANE_DIM: usize = 6;
+
+/// [`solve_batch`] for systems of `dim` states, the dimension chosen at run time (3 to
+/// [`MAX_LANE_DIM`]; jobs of any other dimension are served by the scalar path).
+pub fn solve_batch_dim<S, O>(
+    dim: usize,
+    jobs: impl IntoIterator<Item = Job<S, O>>,
+    done: impl FnMut(Job<S, O>, RunReport, Path),
+) where
+    S: Lanewise,
+    O: Observe,
+{
+    match dim {
+        4 => solve_batch::<S, O, 4>(jobs, done),
+        5 => solve_batch::<S, O, 5>(jobs, done),
+        6 => solve_batch::<S, O, 6>(jobs, done),
+        _ => solve_batch::<S, O, 3>(jobs, done),
+    }
+}
+
 /// Integrates every job of `jobs` with Dormand–Prince 5(4), `WIDTH` at a time, and hands each
 /// back to `done` with its report and the path that served it, in the order the jobs end.
 pub fn solve_batch<S, O, const N: usize>(
@@ -140,13 +173,17 @@ pub fn solve_batch<S, O, const N: usize>(
     let mut pack = S::Pack::<WIDTH>::default();
     let mut lanes: [Option<Lane<S, O>>; WIDTH] = std::array::from_fn(|_| None);
     let mut scalar: Option<Solver> = None;
+    let mut shape: Option<S::Shape> = None;
     loop {
         // Every idle lane takes the next job that still needs a step.
-        for (i, slot) in lanes.iter_mut().enumerate() {
+        for i in 0..WIDTH {
             loop {
-                if slot.is_none() {
+                if lanes[i].is_none() {
                     let Some(mut job) = jobs.next() else { break };
-                    if !job.sys.in_lanes() || job.sys.dim() != N {
+                    if lanes.iter().all(|l| l.is_none()) {
+                        shape = Some(job.sys.shape());
+                    }
+                    if !job.sys.in_lanes() || job.sys.dim() != N || shape != Some(job.sys.shape()) {
                         let s = scalar.get_or_insert_with(|| Solver::new(Method::Dopri5));
                         let r = s.solve_envelope(
                             &job.sys,
@@ -163,7 +200,7 @@ pub fn solve_batch<S, O, const N: usize>(
                     }
                     job.sys.pack(&mut pack, i);
                     match Lane::begin(job, &mut b, i) {
-                        Ok(l) => *slot = Some(l),
+                        Ok(l) => lanes[i] = Some(l),
                         Err(b) => {
                             let (job, r) = *b;
                             done(job, r, Path::Lanes);
@@ -171,12 +208,12 @@ pub fn solve_batch<S, O, const N: usize>(
                         }
                     }
                 }
-                let l = slot.as_mut().expect("a lane with a job");
+                let l = lanes[i].as_mut().expect("a lane with a job");
                 let mut view = LaneView { b: &mut b, i };
                 match l.drive.before(&mut view, &mut l.job.y) {
                     None => break,
                     Some(r) => {
-                        let l = slot.take().expect("a lane with a job");
+                        let l = lanes[i].take().expect("a lane with a job");
                         done(l.job, r, Path::Lanes);
                     }
                 }

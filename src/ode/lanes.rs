@@ -58,6 +58,11 @@ pub trait Real:
     fn pow2i(shifted: Self) -> Self;
     /// Bits 0 and 1 of an integer `k` (its quadrant, for [`cos`]), given `k + 1.5·2^52`.
     fn quadrant(shifted: Self) -> (Self::Mask, Self::Mask);
+    /// `f` applied lane by lane: for the platform's own functions (`ln`, `sin`, `powf`) where a
+    /// right-hand side must round as the scalar path does and no generic form is written here.
+    fn each(self, f: impl Fn(f64) -> f64) -> Self;
+    /// `f` applied lane by lane to two operands.
+    fn each2(self, o: Self, f: impl Fn(f64, f64) -> f64) -> Self;
 }
 
 impl Real for f64 {
@@ -110,6 +115,14 @@ impl Real for f64 {
     fn quadrant(shifted: Self) -> (bool, bool) {
         let b = shifted.to_bits();
         (b & 1 != 0, b & 2 != 0)
+    }
+    #[inline(always)]
+    fn each(self, f: impl Fn(f64) -> f64) -> Self {
+        f(self)
+    }
+    #[inline(always)]
+    fn each2(self, o: Self, f: impl Fn(f64, f64) -> f64) -> Self {
+        f(self, o)
     }
 }
 
@@ -256,6 +269,14 @@ impl<const W: usize> Real for Lanes<W> {
             b[i] = 0u64.wrapping_sub((bits >> 1) & 1);
         }
         (a, b)
+    }
+    #[inline(always)]
+    fn each(self, f: impl Fn(f64) -> f64) -> Self {
+        self.map(f)
+    }
+    #[inline(always)]
+    fn each2(self, o: Self, f: impl Fn(f64, f64) -> f64) -> Self {
+        self.zip(o, f)
     }
 }
 

@@ -1,6 +1,7 @@
-//! Many runs at once: the runs the full model serves with Dormand–Prince step for step (the
-//! base model, one stage, `dopri5`, or `auto` under envelope following, which keeps it
-//! explicit) integrate their main span side by side in vector lanes
+//! Many runs at once: the runs the full model serves with Dormand–Prince step for step (one
+//! stage, `dopri5`, or `auto` under envelope following, which keeps it explicit; the base
+//! model or extensions without states of their own) integrate their main span side by side in
+//! vector lanes
 //! ([`crate::ode::batch`]); every other run, and everything a lane's run does after its main
 //! span (a limit cycle's replay, a continuation while it settles, the integration again with
 //! every period, the measures), is the scalar path's own code. A run's result is therefore bit
@@ -15,9 +16,9 @@ use super::tier::Tier;
 use super::window::end_time;
 use super::{SimError, serve};
 use crate::averaged::store::TableStore;
-use crate::model::{Effects, Params, Rig};
+use crate::model::{BASE_DIM, Effects, Params, Rig};
 use crate::ode::batch::{Job, Observe, Path, WIDTH, solve_batch};
-use crate::ode::{Method, Solver};
+use crate::ode::{Method, OdeSystem, Solver};
 use std::cell::RefCell;
 
 /// One run asked of [`simulate_batch`]: its caller's name for it, parameters and options.
@@ -40,8 +41,10 @@ impl Observe for Run {
 fn lane_ready(rig: &Rig, opts: &RunOptions) -> bool {
     let p = &rig.p;
     let two_stage = p.two_stage();
+    // Extensions with states of their own run on the scalar path here (a sweep's lanes are
+    // compiled for the base model's three states; a campaign's for more: `campaign::batch`).
     !two_stage
-        && !rig.has_effects()
+        && rig.dim() == BASE_DIM
         && match opts.method {
             Method::Dopri5 => true,
             Method::Auto => opts.envelope.is_some() && p.vibrates(),
@@ -173,7 +176,7 @@ pub fn simulate_batch(
             }));
         }
     });
-    solve_batch::<_, _, 3>(jobs, |job, rep, path| {
+    solve_batch::<_, _, BASE_DIM>(jobs, |job, rep, path| {
         let meta = lanes.borrow_mut()[job.id]
             .take()
             .expect("a lane's run comes back once");
