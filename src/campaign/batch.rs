@@ -26,6 +26,13 @@ pub struct GridAsk {
     pub tol: f64,
 }
 
+impl GridAsk {
+    /// The last sample's time \[s\]: the simulation's end.
+    fn t_end(&self) -> f64 {
+        self.t0 + self.dt * (self.n - 1) as f64
+    }
+}
+
 /// A simulation's trace and the CPU time it took \[ns\] (a lane's share of its batch: the
 /// batch's time while it ran over [`WIDTH`]).
 pub type GridResult = (Result<SimTrace, RigError>, u64);
@@ -89,7 +96,7 @@ pub fn simulate_grids(asks: &[GridAsk]) -> Vec<GridResult> {
             Ok(_) => scalar.push(i),
         }
     }
-    let span = |a: &GridAsk| (a.t0 + a.dt * (a.n - 1) as f64) * a.p.f;
+    let span = |a: &GridAsk| a.t_end() * a.p.f;
     lanes.sort_by(|x, y| span(&asks[y.0]).total_cmp(&span(&asks[x.0])));
     let done: Mutex<Vec<(usize, GridResult)>> = Mutex::new(Vec::new());
     rayon::join(
@@ -137,7 +144,7 @@ fn in_lanes(asks: &[GridAsk], lanes: Vec<(usize, Rig)>, done: &Mutex<Vec<(usize,
                     id: i,
                     sys: rig.clone(),
                     t0: 0.0,
-                    t1: a.t0 + a.dt * (a.n - 1) as f64,
+                    t1: a.t_end(),
                     y: rig.initial_state(),
                     opts: Options {
                         rtol: a.tol,

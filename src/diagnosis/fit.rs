@@ -1349,17 +1349,17 @@ mod tests {
         .expect("runs");
         assert_ne!(a.f_d, b.f_d, "with vibration the parameters act");
         let cache = SimCache::default();
-        let first = cache.features(&m, &vibrated, Fidelity::Full, &mut s);
-        let again = cache.features(&m, &vibrated, Fidelity::Full, &mut s);
+        let first = cache.features(&m, &vibrated, Fidelity::Full);
+        let again = cache.features(&m, &vibrated, Fidelity::Full);
         let fresh = predict_one(&m, &vibrated, &mut s);
         assert_eq!(format!("{first:?}"), format!("{fresh:?}"));
         assert_eq!(format!("{again:?}"), format!("{fresh:?}"));
         // The search fidelity is an entry of its own on a vibrated recording (another
         // tolerance, other numbers), and the full one's on a resting recording (the same run).
-        let search = cache.features(&m, &vibrated, Fidelity::Search, &mut s);
+        let search = cache.features(&m, &vibrated, Fidelity::Search);
         assert_ne!(format!("{search:?}"), format!("{fresh:?}"));
-        let rest_full = cache.features(&m, &resting, Fidelity::Full, &mut s);
-        let rest_search = cache.features(&m, &resting, Fidelity::Search, &mut s);
+        let rest_full = cache.features(&m, &resting, Fidelity::Full);
+        let rest_search = cache.features(&m, &resting, Fidelity::Search);
         assert_eq!(format!("{rest_full:?}"), format!("{rest_search:?}"));
         let runs = |f: Fidelity| cache.simulations[f as usize].load(Ordering::Relaxed);
         assert_eq!((runs(Fidelity::Full), runs(Fidelity::Search)), (2, 1));

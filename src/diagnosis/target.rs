@@ -318,46 +318,33 @@ impl SimCache {
                 (f, nanos)
             })
             .collect();
+        let mut map = self.map.lock().unwrap_or_else(|e| e.into_inner());
         for (&i, (f, nanos)) in missed.iter().zip(feats) {
             let key = keyed[i].1.clone();
             self.count(key.1, nanos);
-            let mut map = self.map.lock().unwrap_or_else(|e| e.into_inner());
             if map.len() < Self::CAPACITY {
                 map.insert(key, f.clone());
             }
             out[i] = Some(f);
         }
+        drop(map);
         out.into_iter()
             .map(|f| f.expect("every ask answered"))
             .collect()
     }
 
-    /// The features of `rec` under `model` at `fidelity`, simulated where not cached.
+    /// The features of `rec` under `model` at `fidelity`, simulated where not cached (one ask of
+    /// [`SimCache::features_many`]).
     #[cfg(test)]
     pub(crate) fn features(
         &self,
         model: &Model,
         rec: &Recording,
         fidelity: Fidelity,
-        solvers: &mut Solvers,
     ) -> Vec<FeatureSet> {
-        let (m, key) = Self::key(model, rec, fidelity);
-        let lock = || self.map.lock().unwrap_or_else(|e| e.into_inner());
-        if let Some(f) = lock().get(&key) {
-            self.hits.fetch_add(1, Ordering::Relaxed);
-            return f.clone();
-        }
-        let clock = Instant::now();
-        let f = predict_at(&m, rec, fidelity, solvers);
-        self.count(
-            key.1,
-            u64::try_from(clock.elapsed().as_nanos()).unwrap_or(u64::MAX),
-        );
-        let mut map = lock();
-        if map.len() < Self::CAPACITY {
-            map.insert(key, f.clone());
-        }
-        f
+        self.features_many(&[(model, rec)], fidelity)
+            .pop()
+            .expect("one answer")
     }
 }
 

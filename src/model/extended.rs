@@ -233,10 +233,6 @@ impl crate::ode::batch::Lanewise for super::Rig {
     type Pack<const W: usize> = RigPack<W>;
     type Shape = Shape;
 
-    fn in_lanes(&self) -> bool {
-        true
-    }
-
     fn shape(&self) -> Shape {
         super::Rig::shape(self)
     }

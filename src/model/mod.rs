@@ -127,16 +127,16 @@ impl Rig {
     /// A rig from validated parameters: docs/model.md's model.
     pub fn new(p: Params) -> Result<Self, ParamError> {
         p.validate()?;
+        let fx = Resolved::new(&Effects::none(), p.f, p.f_n);
         Ok(Rig {
             p,
             omega: p.omega(),
             u0: p.u0,
             t_on: p.t_on,
-            fx: Resolved::new(&Effects::none(), p.f, p.f_n),
-            shape: Shape::default(),
-            fxc: FxCoeffs::default(),
-        }
-        .resolved())
+            shape: fx.shape(),
+            fxc: fx.coeffs(),
+            fx,
+        })
     }
 
     /// A rig with model extensions (see [`effects`]).
@@ -149,11 +149,10 @@ impl Rig {
             omega: p.omega(),
             u0: p.u0 * r.gain,
             t_on: p.t_on,
+            shape: r.shape(),
+            fxc: r.coeffs(),
             fx: r,
-            shape: Shape::default(),
-            fxc: FxCoeffs::default(),
-        }
-        .resolved())
+        })
     }
 
     /// The same rig without vibration (`u0 = 0`), with the same effects.
@@ -168,13 +167,6 @@ impl Rig {
             shape: self.shape,
             fxc: self.fxc,
         }
-    }
-
-    /// The rig with its shape and effect coefficients taken from its resolved effects.
-    fn resolved(mut self) -> Self {
-        self.shape = self.fx.shape();
-        self.fxc = self.fx.coeffs();
-        self
     }
 
     /// The terms of its right-hand side, which every lane of a batch shares ([`extended`]).

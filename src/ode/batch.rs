@@ -14,9 +14,9 @@
 //! job alone, whatever the lane, the batch or the jobs beside it.
 //!
 //! A lane whose job ends takes the next job at once, so lanes idle only once the jobs run out.
-//! Jobs whose system cannot run in lanes ([`Lanewise::in_lanes`] false, another dimension, or
-//! another [`Lanewise::Shape`] than the systems in busy lanes) are integrated by the scalar
-//! solver in their turn; [`Path`] says which served a job.
+//! Jobs whose system cannot run in these lanes (another dimension, or another
+//! [`Lanewise::Shape`] than the systems in busy lanes) are integrated by the scalar solver in
+//! their turn; [`Path`] says which served a job.
 //!
 //! The vector instruction set is found at run time (`pulp`: AVX2 and FMA where the machine has
 //! them); without one the same generic code runs as scalar loops, with the same results.
@@ -29,9 +29,6 @@ use super::{Solver, Stats, StepOutcome, Stepper};
 impl<S: Lanewise> Lanewise for &S {
     type Pack<const W: usize> = S::Pack<W>;
     type Shape = S::Shape;
-    fn in_lanes(&self) -> bool {
-        (**self).in_lanes()
-    }
     fn shape(&self) -> S::Shape {
         (**self).shape()
     }
@@ -57,9 +54,6 @@ pub trait Lanewise: OdeSystem {
     /// their right-hand side): a system whose shape differs from that of the systems in busy
     /// lanes runs on the scalar path.
     type Shape: Copy + PartialEq;
-    /// Whether this system can run in lanes (its right-hand side is the one
-    /// [`rhs_lanes`](Self::rhs_lanes) evaluates).
-    fn in_lanes(&self) -> bool;
     /// This system's shape.
     fn shape(&self) -> Self::Shape;
     /// Puts this system's coefficients in lane `lane` of `pack`.
@@ -183,7 +177,7 @@ pub fn solve_batch<S, O, const N: usize>(
                     if lanes.iter().all(|l| l.is_none()) {
                         shape = Some(job.sys.shape());
                     }
-                    if !job.sys.in_lanes() || job.sys.dim() != N || shape != Some(job.sys.shape()) {
+                    if job.sys.dim() != N || shape != Some(job.sys.shape()) {
                         let s = scalar.get_or_insert_with(|| Solver::new(Method::Dopri5));
                         let r = s.solve_envelope(
                             &job.sys,
