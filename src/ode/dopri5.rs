@@ -2,7 +2,7 @@
 //! extension of Dormand & Prince (Hairer, Nørsett & Wanner, *Solving ODEs I*, Sect. II.5–II.6;
 //! the DOPRI5 code). First-same-as-last: 6 right-hand sides per accepted step.
 
-use super::lanes::Real;
+use super::lanes::{self, Real};
 use super::{OdeSystem, Stats, StepOutcome, Stepper, error_norm};
 
 const C2: f64 = 1.0 / 5.0;
@@ -71,7 +71,7 @@ impl Control {
     pub(crate) fn new() -> Self {
         Control {
             facold: 1e-4,
-            facold_beta: 1e-4f64.powf(BETA),
+            facold_beta: lanes::exp(BETA * LN_1E_4),
             reject: false,
         }
     }
@@ -80,17 +80,21 @@ impl Control {
     /// non-finite error cuts the step tenfold.
     #[inline]
     pub(crate) fn judge(&mut self, err: f64, h: f64) -> Judged {
+        self.judge_with(err, h, Powers::of(err))
+    }
+
+    /// [`Control::judge`] with the error's powers computed already (for all lanes at once, in
+    /// the batch integrator: they are the same numbers).
+    #[inline]
+    pub(crate) fn judge_with(&mut self, err: f64, h: f64, pw: Powers<f64>) -> Judged {
         if !err.is_finite() {
             self.reject = true;
             return Judged::Rejected(h * 0.1);
         }
-        // The two powers from one logarithm (`pow` costs a logarithm and an exponential each).
-        let ln_err = err.ln();
-        let fac11 = ((0.2 - BETA * 0.75) * ln_err).exp();
-        let fac = (fac11 / self.facold_beta / SAFE).clamp(1.0 / FAC2, 1.0 / FAC1);
+        let fac = (pw.fac11 / self.facold_beta / SAFE).clamp(1.0 / FAC2, 1.0 / FAC1);
         if err <= 1.0 {
             self.facold = err.max(1e-4);
-            self.facold_beta = (BETA * ln_err.max(LN_1E_4)).exp();
+            self.facold_beta = pw.facold_beta;
             let mut hnew = h / fac;
             if self.reject {
                 hnew = hnew.min(h);
@@ -99,7 +103,27 @@ impl Control {
             Judged::Accepted(hnew)
         } else {
             self.reject = true;
-            Judged::Rejected(h / (1.0 / FAC1).min(fac11 / SAFE))
+            Judged::Rejected(h / (1.0 / FAC1).min(pw.fac11 / SAFE))
+        }
+    }
+}
+
+/// The powers of an attempt's error norm the controller takes: `err^(1/5 − 0.75 β)` and
+/// `max(err, 1e-4)^β`, both from one logarithm ([`lanes::ln`], [`lanes::exp`]: written once
+/// for one number or for lanes, so that a lane's step sizes are its run's alone).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Powers<T> {
+    pub(crate) fac11: T,
+    pub(crate) facold_beta: T,
+}
+
+impl<T: Real> Powers<T> {
+    #[inline(always)]
+    pub(crate) fn of(err: T) -> Self {
+        let ln_err = lanes::ln(err);
+        Powers {
+            fac11: lanes::exp(T::splat(0.2 - BETA * 0.75) * ln_err),
+            facold_beta: lanes::exp(T::splat(BETA) * ln_err.max(T::splat(LN_1E_4))),
         }
     }
 }

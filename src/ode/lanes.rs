@@ -7,10 +7,11 @@
 //! a point's result cannot depend on the lane or batch it ran in. Branches become
 //! [`Real::select`]s, which evaluate both sides (as the scalar instance then does too).
 //!
-//! The transcendental functions the right-hand side needs, [`exp`] and [`cos`], are written here
-//! in the same generic arithmetic (the platform's `libm` has no vector form, and a vector form of
-//! another library would not round as the scalar path does). Both are within 1 ulp of the
-//! correctly rounded result on the ranges the rig uses (tests below, against `std`).
+//! The transcendental functions the right-hand side needs, [`exp`], [`cos`], [`sin`], [`ln`],
+//! [`ln_1p`] and [`pow`], are written here in the same generic arithmetic (the platform's `libm`
+//! has no vector form, and a vector form of another library would not round as the scalar path
+//! does). Each is within an ulp or a few of the platform's on the ranges the rig uses (tests
+//! below, against `std`).
 //!
 //! [`Lanes<W>`] holds `[f64; W]` and every operation is an element-wise loop marked
 //! `#[inline(always)]`: inside a function compiled for a vector instruction set
@@ -58,11 +59,9 @@ pub trait Real:
     fn pow2i(shifted: Self) -> Self;
     /// Bits 0 and 1 of an integer `k` (its quadrant, for [`cos`]), given `k + 1.5·2^52`.
     fn quadrant(shifted: Self) -> (Self::Mask, Self::Mask);
-    /// `f` applied lane by lane: for the platform's own functions (`ln`, `sin`, `powf`) where a
-    /// right-hand side must round as the scalar path does and no generic form is written here.
-    fn each(self, f: impl Fn(f64) -> f64) -> Self;
-    /// `f` applied lane by lane to two operands.
-    fn each2(self, o: Self, f: impl Fn(f64, f64) -> f64) -> Self;
+    /// For a positive normal `x`: `(m, e)` with `x = m · 2^e`, `m` in [1, 2) and `e` an
+    /// integer, as a double (for [`ln`]).
+    fn split_exp(self) -> (Self, Self);
 }
 
 impl Real for f64 {
@@ -117,12 +116,11 @@ impl Real for f64 {
         (b & 1 != 0, b & 2 != 0)
     }
     #[inline(always)]
-    fn each(self, f: impl Fn(f64) -> f64) -> Self {
-        f(self)
-    }
-    #[inline(always)]
-    fn each2(self, o: Self, f: impl Fn(f64, f64) -> f64) -> Self {
-        f(self, o)
+    fn split_exp(self) -> (Self, Self) {
+        let b = self.to_bits();
+        let e = ((b >> 52) & 0x7ff) as i64 - 1023;
+        let m = f64::from_bits((b & ((1u64 << 52) - 1)) | (1023u64 << 52));
+        (m, e as f64)
     }
 }
 
@@ -271,12 +269,12 @@ impl<const W: usize> Real for Lanes<W> {
         (a, b)
     }
     #[inline(always)]
-    fn each(self, f: impl Fn(f64) -> f64) -> Self {
-        self.map(f)
-    }
-    #[inline(always)]
-    fn each2(self, o: Self, f: impl Fn(f64, f64) -> f64) -> Self {
-        self.zip(o, f)
+    fn split_exp(self) -> (Self, Self) {
+        let (mut m, mut e) = ([0.0; W], [0.0; W]);
+        for i in 0..W {
+            (m[i], e[i]) = self.0[i].split_exp();
+        }
+        (Lanes(m), Lanes(e))
     }
 }
 
@@ -361,15 +359,10 @@ const PIO2_1: f64 = 1.570_796_340_703_964_2;
 const PIO2_2: f64 = -1.390_906_767_539_945_6e-8;
 const PIO2_3: f64 = 6.123_233_995_736_766e-17;
 
-/// `cos x` for |x| below 2·10⁸.
-///
-/// Range reduction `x = k π/2 + r`, `|r| ≤ π/4`, in three parts (Cody and Waite); `cos r` and
-/// `sin r` by their Taylor series to `r¹⁶` and `r¹⁷` (truncation below 3e-18), the quadrant
-/// `k mod 4` choosing `cos r`, `−sin r`, `−cos r` or `sin r`. Within 1 ulp of `std`'s `cos` on
-/// 0 ..= 10⁶ away from its zeros, and within 2.3e-16 (an ulp of 1) absolute everywhere (test
-/// `cos_matches_std`).
+/// `x = k π/2 + r`, `|r| ≤ π/4`, in three parts (Cody and Waite); `cos r` and `sin r` by their
+/// Taylor series to `r¹⁶` and `r¹⁷` (truncation below 3e-18); and bits 0 and 1 of `k`.
 #[inline(always)]
-pub fn cos<T: Real>(x: T) -> T {
+fn reduce_quadrant<T: Real>(x: T) -> (T, T, T::Mask, T::Mask) {
     let (k, shifted) = round_int(x * T::splat(TWO_OVER_PI));
     let r = ((x - k * T::splat(PIO2_1)) - k * T::splat(PIO2_2)) - k * T::splat(PIO2_3);
     let z = r * r;
@@ -396,12 +389,121 @@ pub fn cos<T: Real>(x: T) -> T {
     let c = T::splat(1.0) + z * (T::splat(-0.5) + z * estrin(z, &CC));
     let s = r + r * (z * estrin(z, &CS));
     let (odd, second) = T::quadrant(shifted);
+    (c, s, odd, second)
+}
+
+/// `−v` where `neg` (a mask given as a double: 1 or 0), else `v`.
+#[inline(always)]
+fn negate_where<T: Real>(neg: T, v: T) -> T {
+    T::select(T::gt(neg, T::splat(0.5)), -v, v)
+}
+
+/// `cos x` for |x| below 2·10⁸.
+///
+/// Range reduction `x = k π/2 + r` and its series (`reduce_quadrant`), the quadrant
+/// `k mod 4` choosing `cos r`, `−sin r`, `−cos r` or `sin r`. Within 1 ulp of `std`'s `cos` on
+/// 0 ..= 10⁶ away from its zeros, and within 2.3e-16 (an ulp of 1) absolute everywhere (test
+/// `cos_matches_std`).
+#[inline(always)]
+pub fn cos<T: Real>(x: T) -> T {
+    let (c, s, odd, second) = reduce_quadrant(x);
     // Quadrants 0..3: cos r, −sin r, −cos r, sin r.
     let v = T::select(odd, s, c);
     let flip = T::select(odd, T::splat(1.0), T::splat(0.0));
     // Negate in quadrants 1 and 2: where bit 0 and bit 1 differ.
     let neg = T::select(second, T::splat(1.0) - flip, flip);
-    T::select(T::gt(neg, T::splat(0.5)), -v, v)
+    negate_where(neg, v)
+}
+
+/// `sin x` for |x| below 2·10⁸: as [`cos`], the quadrant choosing `sin r`, `cos r`, `−sin r`
+/// or `−cos r`. Within 1 ulp of `std`'s `sin` away from its zeros, and within an ulp of 1
+/// absolute everywhere (test `sin_matches_std`).
+#[inline(always)]
+pub fn sin<T: Real>(x: T) -> T {
+    let (c, s, odd, second) = reduce_quadrant(x);
+    let v = T::select(odd, c, s);
+    // Negate in quadrants 2 and 3.
+    negate_where(T::select(second, T::splat(1.0), T::splat(0.0)), v)
+}
+
+/// `2^54`: scales a subnormal into the normal range for [`ln`].
+const TWO_54: f64 = 18_014_398_509_481_984.0;
+
+/// `ln x`: −∞ at 0, NaN below 0 or at NaN, +∞ at +∞.
+///
+/// `x = 2^k m`, `m` in [√½, √2); with `f = m − 1` and `s = f / (2 + f)`,
+/// `ln m = 2 atanh s = f − (f²/2 − s (f²/2 + R))`, `R = Σ 2 s²ⁿ / (2n + 1)` for n = 1 to 11
+/// (`s² ≤ 0.0295`: truncation below 2e-17 relative), summed as fdlibm's `e_log.c` does, and
+/// `k ln 2` added in the two parts of [`exp`]. Within 1 ulp of `std`'s `ln` (test
+/// `ln_matches_std`).
+#[inline(always)]
+pub fn ln<T: Real>(x: T) -> T {
+    let one = T::splat(1.0);
+    let tiny = x.lt(T::splat(f64::MIN_POSITIVE));
+    let (m, e) = T::select(tiny, x * T::splat(TWO_54), x).split_exp();
+    let big = m.gt(T::splat(std::f64::consts::SQRT_2));
+    let m = T::select(big, m * T::splat(0.5), m);
+    let k = e + T::select(big, one, T::splat(0.0)) - T::select(tiny, T::splat(54.0), T::splat(0.0));
+    // Exact: m lies within a factor of two of 1 (Sterbenz).
+    let f = m - one;
+    let s = f / (T::splat(2.0) + f);
+    let z = s * s;
+    // 2 / (2n + 1) for n = 1 to 11.
+    const C: [f64; 11] = [
+        2.0 / 3.0,
+        2.0 / 5.0,
+        2.0 / 7.0,
+        2.0 / 9.0,
+        2.0 / 11.0,
+        2.0 / 13.0,
+        2.0 / 15.0,
+        2.0 / 17.0,
+        2.0 / 19.0,
+        2.0 / 21.0,
+        2.0 / 23.0,
+    ];
+    let r = z * estrin(z, &C);
+    let hfsq = T::splat(0.5) * f * f;
+    let v = k * T::splat(LN2_HI) - ((hfsq - (s * (hfsq + r) + k * T::splat(LN2_LO))) - f);
+    // The ends: 0, the negative numbers and NaN, +∞.
+    let v = T::select(x.eq(T::splat(0.0)), T::splat(f64::NEG_INFINITY), v);
+    let v = T::select(x.gt(T::splat(f64::MAX)), x, v);
+    T::select(
+        x.gt(T::splat(0.0)),
+        v,
+        T::select(x.eq(T::splat(0.0)), v, T::splat(f64::NAN)),
+    )
+}
+
+/// `ln(1 + x)` for `x > −1`, accurate for small `x`: `ln u · x / (u − 1)` with `u = 1 + x`
+/// rounded (the quotient corrects the rounding of `u`; Goldberg 1991, Theorem 4), and `x`
+/// itself where `u` rounds to 1. Within 2 ulp of `std`'s `ln_1p` (test `ln_1p_matches_std`).
+#[inline(always)]
+pub fn ln_1p<T: Real>(x: T) -> T {
+    let one = T::splat(1.0);
+    let u = one + x;
+    let d = u - one;
+    let same = d.eq(T::splat(0.0));
+    // The quotient where u differs from 1; 1 elsewhere (its value there is not used).
+    let q = x / T::select(same, one, d);
+    T::select(same, x, ln(u) * q)
+}
+
+/// `x^y` for `x ≥ 0`: `e^(y ln x)` ([`exp`] and [`ln`]), exactly 0 at `x = 0` for `y > 0`, 1
+/// for `y = 0`, and +∞ for `y < 0`. The relative error grows with `|y ln x|` (the rounding of
+/// the product `y ln x`, which `e^·` turns into a relative error): within
+/// `2e-15 (1 + |y ln x|)` of `std`'s `powf` (test `pow_matches_std`). A result above `e^709`
+/// is capped there, as [`exp`]'s is.
+#[inline(always)]
+pub fn pow<T: Real>(x: T, y: T) -> T {
+    let zero = T::splat(0.0);
+    let v = exp(y * ln(x));
+    let at_zero = T::select(
+        y.gt(zero),
+        zero,
+        T::select(y.eq(zero), T::splat(1.0), T::splat(f64::INFINITY)),
+    );
+    T::select(x.eq(zero), at_zero, v)
 }
 
 #[cfg(test)]
@@ -456,14 +558,95 @@ mod tests {
     }
 
     #[test]
+    fn sin_matches_std() {
+        let (mut worst, mut worst_abs) = (0, 0.0f64);
+        for u in points(200_000) {
+            let x = if u < 0.5 { 40.0 * u - 10.0 } else { 1e6 * u };
+            let (a, b) = (sin(x), x.sin());
+            worst_abs = worst_abs.max((a - b).abs());
+            if b.abs() > 1e-3 {
+                worst = worst.max(ulps(a, b));
+            }
+        }
+        assert!(worst <= 1, "sin is {worst} ulp from std");
+        assert!(worst_abs <= f64::EPSILON, "sin is {worst_abs} from std");
+        assert_eq!(sin(0.0), 0.0);
+        // Odd: the quadrants of negative phases.
+        assert_eq!(sin(-1.0), -sin(1.0));
+    }
+
+    #[test]
+    fn ln_matches_std() {
+        let mut worst = 0;
+        for u in points(200_000) {
+            // From 1e-300 to 1e300, and densely about 1 (where ln is small and cancels).
+            for x in [(690.0 * (2.0 * u - 1.0)).exp(), 0.5 + u] {
+                let (a, b) = (ln(x), x.ln());
+                if b != 0.0 {
+                    worst = worst.max(ulps(a, b));
+                }
+            }
+        }
+        assert!(worst <= 1, "ln is {worst} ulp from std");
+        assert_eq!(ln(1.0), 0.0);
+        assert_eq!(ln(0.0), f64::NEG_INFINITY);
+        assert!(ln(-1.0).is_nan() && ln(f64::NAN).is_nan());
+        assert_eq!(ln(f64::INFINITY), f64::INFINITY);
+        // Subnormal.
+        let d = 1e-310;
+        assert!(ulps(ln(d), d.ln()) <= 1);
+    }
+
+    #[test]
+    fn ln_1p_matches_std() {
+        let mut worst = 0;
+        for u in points(200_000) {
+            for x in [(60.0 * u - 50.0).exp(), 0.999 * (2.0 * u - 1.0)] {
+                let (a, b) = (ln_1p(x), x.ln_1p());
+                if b != 0.0 {
+                    worst = worst.max(ulps(a.abs(), b.abs()));
+                }
+            }
+        }
+        assert!(worst <= 2, "ln_1p is {worst} ulp from std");
+        assert_eq!(ln_1p(0.0), 0.0);
+        assert_eq!(ln_1p(1e-20), 1e-20);
+    }
+
+    #[test]
+    fn pow_matches_std() {
+        let mut worst = 0.0f64;
+        for (u, w) in points(100_000).zip(points(100_001).skip(1)) {
+            // Bases from 1e-4 to 1e4, exponents from 0.25 to 4 and −1 to 1: |y ln x| ≤ 37.
+            let x = (9.2 * (2.0 * u - 1.0)).exp();
+            for y in [0.25 + 3.75 * w, 2.0 * w - 1.0] {
+                let (a, b) = (pow(x, y), x.powf(y));
+                let rel = ((a - b) / b).abs() / (1.0 + (y * x.ln()).abs());
+                worst = worst.max(rel);
+            }
+        }
+        assert!(worst <= 2e-15, "pow is {worst:e} (1 + |y ln x|) from std");
+        assert_eq!(pow(0.0, 1.5), 0.0);
+        assert_eq!(pow(0.0, 0.0), 1.0);
+        assert_eq!(pow(0.0, -0.5), f64::INFINITY);
+        assert_eq!(pow(2.0, 0.0), 1.0);
+    }
+
+    #[test]
     fn lanes_round_as_the_scalar_path() {
         let xs: Vec<f64> = points(4096).map(|u| 3e5 * u - 60.0).collect();
         for c in xs.chunks_exact(4) {
             let l = Lanes([c[0], c[1], c[2], c[3]]);
-            let (e, k) = (exp(-l.abs()), cos(l));
+            let (e, k, s) = (exp(-l.abs()), cos(l), sin(l));
+            let (g, p) = (ln(l.abs()), pow(l.abs(), l * Lanes([1e-5; 4])));
+            let g1 = ln_1p(l.abs());
             for i in 0..4 {
                 assert_eq!(e.get(i).to_bits(), exp(-c[i].abs()).to_bits());
                 assert_eq!(k.get(i).to_bits(), cos(c[i]).to_bits());
+                assert_eq!(s.get(i).to_bits(), sin(c[i]).to_bits());
+                assert_eq!(g.get(i).to_bits(), ln(c[i].abs()).to_bits());
+                assert_eq!(g1.get(i).to_bits(), ln_1p(c[i].abs()).to_bits());
+                assert_eq!(p.get(i).to_bits(), pow(c[i].abs(), c[i] * 1e-5).to_bits());
             }
         }
     }
