@@ -512,6 +512,14 @@ pub fn harmonics(y: &[f64], t0: f64, dt: f64, freq: f64, t_on: f64) -> [Option<H
     let cols = 3 + 2 * ks.len();
     // Per block: residual RMS and the complex coefficients (S_k, C_k).
     let mut fits: Vec<(f64, [f64; 4])> = vec![];
+    // Each sample's `sin kφ`, `cos kφ` for k = 1, 2: one `sin_cos` a sample, the second
+    // harmonic's by the double angle (they fill the blocks' columns).
+    let trig: Vec<[f64; 4]> = (i0..n)
+        .map(|i| {
+            let (s1, c1) = (omega * (t0 + i as f64 * dt - t_on)).sin_cos();
+            [s1, c1, 2.0 * s1 * c1, (c1 - s1) * (c1 + s1)]
+        })
+        .collect();
     let mut start = i0;
     while start + m <= n {
         let tm = t0 + (start as f64 + 0.5 * m as f64) * dt;
@@ -522,11 +530,7 @@ pub fn harmonics(y: &[f64], t0: f64, dt: f64, freq: f64, t_on: f64) -> [Option<H
                 0 => 1.0,
                 1 => tau,
                 2 => tau * tau,
-                _ => {
-                    let k = ks[(j - 3) / 2] as f64 + 1.0;
-                    let ph = k * omega * (t - t_on);
-                    if (j - 3) % 2 == 0 { ph.sin() } else { ph.cos() }
-                }
+                _ => trig[start + i - i0][2 * ks[(j - 3) / 2] + (j - 3) % 2],
             }
         });
         let b = Mat::from_fn(m, 1, |i, _| y[start + i]);
