@@ -290,9 +290,11 @@ fn rig_load_swing_with_the_acceleration_names_its_form() {
 }
 
 /// An acquisition's fourth-order Bessel anti-alias filter with a delay on the force channel:
-/// `sensor_dynamics`, in its fourth-order form.
+/// `sensor_dynamics`, in its fourth-order form. A known miss at this code: `unexplained` (the
+/// fourth-order sensor cuts the held-out gap by a third at most, not enough to be named). The
+/// assertion is the verdict wanted.
 #[test]
-#[ignore = "in the second rig's whole panel; left out of .ci/run for its time budget"]
+#[ignore = "fails at this code (a known miss: unexplained); part of the second rig's whole panel"]
 fn rig2_antialias_filter_with_delay_names_a_fourth_order_sensor() {
     right_in_form(RIG2, "daq-bessel-delay");
 }
