@@ -2,8 +2,8 @@
 
 use crate::campaign::{self, Campaign, CampaignError};
 use crate::cli::{
-    BenchArgs, BoundaryArgs, CalibrateArgs, CliError, Command, DiagnoseArgs, MergeArgs, PlotArgs,
-    RunArgs, SlurmArgs, StatusArgs, SweepArgs, SynthArgs,
+    BenchArgs, BoundaryArgs, CalibrateArgs, CliError, Command, DiagnoseArgs, MergeArgs, PlanArgs,
+    PlotArgs, RunArgs, SlurmArgs, StatusArgs, SweepArgs, SynthArgs,
 };
 use crate::diagnosis;
 use crate::ode::Solver;
@@ -41,6 +41,12 @@ pub enum AppError {
     /// The simulation ran but did not succeed.
     #[error("the run did not succeed: {0}")]
     Failed(String),
+    /// A plan could not be made.
+    #[error(transparent)]
+    Plan(#[from] crate::planning::PlanError),
+    /// A bad design space.
+    #[error(transparent)]
+    Space(#[from] crate::planning::space::SpaceError),
 }
 
 impl AppError {
@@ -51,6 +57,7 @@ impl AppError {
             | AppError::Sim(_)
             | AppError::Slurm(SlurmError::Flag { .. } | SlurmError::Unsafe(_)) => 2,
             AppError::Campaign(CampaignError::Malformed { .. } | CampaignError::Config(_)) => 2,
+            AppError::Plan(_) | AppError::Space(_) => 2,
             _ => 1,
         }
     }
@@ -67,29 +74,11 @@ pub fn execute(cmd: Command) -> Result<(), AppError> {
         Command::Synth(a) => synth_cmd(&a),
         Command::Calibrate(a) => calibrate_cmd(&a),
         Command::Diagnose(a) => diagnose_cmd(&a),
+        Command::Plan(a) => plan_cmd(&a),
         Command::Merge(a) => merge_cmd(&a),
         Command::Status(a) => status_cmd(&a),
         Command::Slurm(a) => slurm_cmd(&a),
     }
-}
-
-/// The model extensions that were on, as `{"name": {"param": value, ...}, ...}` (empty for
-/// the base model).
-pub fn effects_json(fx: &crate::model::Effects) -> serde_json::Value {
-    fx.list
-        .iter()
-        .map(|(k, v)| {
-            let ps: serde_json::Map<String, serde_json::Value> = k
-                .info()
-                .params
-                .iter()
-                .zip(v)
-                .map(|(p, x)| (p.name.to_string(), serde_json::json!(x)))
-                .collect();
-            (k.name().to_string(), serde_json::Value::from(ps))
-        })
-        .collect::<serde_json::Map<_, _>>()
-        .into()
 }
 
 /// `stickslip synth`.
@@ -122,9 +111,12 @@ pub fn synth_cmd(a: &SynthArgs) -> Result<(), AppError> {
         }
     }
     let start = std::time::Instant::now();
-    let recs = campaign::synth::synth(&a.dir, &spec)?;
+    let recs = match &a.conditions {
+        Some(plan_dir) => campaign::synth::synth_planned(&a.dir, plan_dir, &spec)?,
+        None => campaign::synth::synth(&a.dir, &spec)?,
+    };
     if let Some(path) = &a.truth {
-        let effects = effects_json(&spec.effects);
+        let effects = spec.effects.to_json();
         let truth = serde_json::json!({"effects": effects, "base": spec.base, "seed": spec.seed});
         output::ensure_parent(path)?;
         std::fs::write(
@@ -333,6 +325,180 @@ pub fn diagnose(a: &DiagnoseArgs) -> Result<Diagnosed, AppError> {
         skipped,
         out,
         written,
+    })
+}
+
+/// Whether `path` holds a diagnosis of exactly these recordings by this version (its
+/// `recordings_digest` and `code_version`), and the diagnosis.
+fn matching_diagnosis(path: &std::path::Path, c: &Campaign) -> Result<serde_json::Value, String> {
+    let text = std::fs::read_to_string(path).map_err(|e| e.to_string())?;
+    let j: serde_json::Value =
+        serde_json::from_str(&text).map_err(|e| format!("not a diagnosis JSON: {e}"))?;
+    let digest = campaign::digest(&c.recordings);
+    if j["recordings_digest"].as_str() != Some(digest.as_str()) {
+        return Err("it is of other recordings (or written before plans existed)".into());
+    }
+    if j["code_version"].as_str() != Some(env!("CARGO_PKG_VERSION")) {
+        return Err(format!(
+            "it was written by version {}, this is {}",
+            j["code_version"].as_str().unwrap_or("?"),
+            env!("CARGO_PKG_VERSION")
+        ));
+    }
+    Ok(j)
+}
+
+/// A plan's results: what `stickslip plan` prints and writes.
+pub struct Planned {
+    /// The plan as written to `plan.json`.
+    pub json: serde_json::Value,
+    /// The printed summary.
+    pub summary: String,
+    /// Files written.
+    pub written: Vec<std::path::PathBuf>,
+    /// Where the diagnosis came from.
+    pub diagnosis: String,
+}
+
+/// `stickslip plan`.
+pub fn plan_cmd(a: &PlanArgs) -> Result<(), AppError> {
+    let p = plan(a)?;
+    crate::console::print(format_args!("{}", p.summary));
+    for w in p.written {
+        crate::say!("wrote {}", w.display());
+    }
+    Ok(())
+}
+
+/// The plan of `stickslip plan`, returned rather than printed. Files in the output folder are
+/// replaced only where a plan wrote them (a conditions file with a `plan` table, `plan.json`,
+/// `plan.png`, `plan.svg`, `diagnosis.json`).
+pub fn plan(a: &PlanArgs) -> Result<Planned, AppError> {
+    let (opts, out, json_path) = a.resolve()?;
+    let c = Campaign::load(&a.campaign)?;
+    let space = match &a.space {
+        Some(f) => crate::planning::space::Space::of(&c).with_file(f)?,
+        None => crate::planning::space::Space::of(&c),
+    };
+    let name = a
+        .campaign
+        .file_name()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "campaign".into());
+    // Refuse to write over files a plan did not write.
+    if out.is_dir() {
+        for e in std::fs::read_dir(&out).map_err(|e| CampaignError::Io {
+            path: out.display().to_string(),
+            msg: e.to_string(),
+        })? {
+            let path = e
+                .map_err(|e| CampaignError::Io {
+                    path: out.display().to_string(),
+                    msg: e.to_string(),
+                })?
+                .path();
+            let is_csv = path.extension().is_some_and(|x| x == "csv");
+            if is_csv {
+                return Err(CliError::Flag {
+                    flag: "out".into(),
+                    value: out.display().to_string(),
+                    msg: format!(
+                        "holds recordings ({}); a plan's folder holds conditions to record, give another --out",
+                        path.display()
+                    ),
+                }
+                .into());
+            }
+            let is_toml = path.extension().is_some_and(|x| x == "toml");
+            if is_toml {
+                let text = std::fs::read_to_string(&path).unwrap_or_default();
+                if !text.contains("\n[plan]\n") {
+                    return Err(CliError::Flag {
+                        flag: "out".into(),
+                        value: out.display().to_string(),
+                        msg: format!(
+                            "holds {}, which no plan wrote; give another --out",
+                            path.display()
+                        ),
+                    }
+                    .into());
+                }
+            }
+        }
+    }
+    let say = |line: &str| crate::note!("plan: {line}");
+    let candidates = [
+        a.diagnosis.clone(),
+        Some(
+            std::path::PathBuf::from("results")
+                .join(format!("diagnose-{name}"))
+                .join("diagnosis.json"),
+        ),
+        Some(out.join("diagnosis.json")),
+    ];
+    let mut diag = None;
+    for (k, path) in candidates.iter().enumerate() {
+        let Some(path) = path else { continue };
+        if !path.is_file() {
+            if k == 0 {
+                return Err(CliError::Flag {
+                    flag: "diagnosis".into(),
+                    value: path.display().to_string(),
+                    msg: "no such file".into(),
+                }
+                .into());
+            }
+            continue;
+        }
+        match matching_diagnosis(path, &c) {
+            Ok(j) => {
+                diag = Some((j, path.display().to_string()));
+                break;
+            }
+            Err(why) if k == 0 => {
+                return Err(CliError::Flag {
+                    flag: "diagnosis".into(),
+                    value: path.display().to_string(),
+                    msg: format!("cannot plan from it: {why}"),
+                }
+                .into());
+            }
+            Err(why) => say(&format!("{} not used: {why}", path.display())),
+        }
+    }
+    let (diag, source) = match diag {
+        Some(d) => d,
+        None => {
+            say("no diagnosis of these recordings found: diagnosing first");
+            let d = diagnosis::diagnose::diagnose(&c, &Default::default())?;
+            let j = diagnosis::report::json(&c, &d);
+            std::fs::create_dir_all(&out).map_err(|e| CampaignError::Io {
+                path: out.display().to_string(),
+                msg: e.to_string(),
+            })?;
+            let path = out.join("diagnosis.json");
+            std::fs::write(&path, serde_json::to_string_pretty(&j).unwrap_or_default()).map_err(
+                |e| CampaignError::Io {
+                    path: path.display().to_string(),
+                    msg: e.to_string(),
+                },
+            )?;
+            (j, format!("{} (run now)", path.display()))
+        }
+    };
+    say(&format!(
+        "from the diagnosis {source}: {}",
+        diag["verdict"].as_str().unwrap_or("?")
+    ));
+    let plan = crate::planning::plan(&c, &diag, &space, &opts, &say)?;
+    let plan_name = format!("plan-{name}");
+    let written =
+        crate::planning::report::write(&out, &c, &plan, &plan_name, &json_path, a.no_plots)?;
+    Ok(Planned {
+        json: crate::planning::report::json(&c, &plan, &plan_name),
+        summary: crate::planning::report::summary(&plan),
+        written,
+        diagnosis: source,
     })
 }
 
@@ -973,7 +1139,7 @@ pub fn failure_reason(res: &CaseResult, case: &crate::config::Case) -> String {
 pub fn run_report_json(res: &CaseResult, case: &crate::config::Case) -> serde_json::Value {
     let mut v = case_json(res, &case.run);
     let obj = v.as_object_mut().expect("object");
-    obj.insert("effects".into(), effects_json(&case.effects));
+    obj.insert("effects".into(), case.effects.to_json());
     obj.insert(
         "effects_described".into(),
         serde_json::json!(case.effects.describe()),

@@ -61,6 +61,113 @@ pub enum Command {
     /// feature, phase and condition, rank the candidate effects by held-out gap reduction,
     /// decide, quantify; terminal summary, JSON, HDF5 and plots.
     Diagnose(DiagnoseArgs),
+    /// Plan the next recordings: the ones that best tell apart the explanations a campaign's
+    /// diagnosis leaves standing, within the rig's design space, checked by simulation; one
+    /// conditions file per recording, plan.json, plan.png.
+    Plan(PlanArgs),
+}
+
+/// Arguments of `stickslip plan`.
+#[derive(Args, Debug)]
+pub struct PlanArgs {
+    /// Campaign directory.
+    pub campaign: PathBuf,
+    /// Recordings to plan (1 to 30).
+    #[arg(long, default_value_t = 6)]
+    pub recordings: usize,
+    /// Design space file (TOML: springs, v_d, f, va_ratio, max_u0, max_duration, rate, t_on);
+    /// default: the campaign's own ranges.
+    #[arg(long, value_name = "FILE")]
+    pub space: Option<PathBuf>,
+    /// Output directory for the planned conditions files and the figure. Default
+    /// results/plan-NAME.
+    #[arg(long, value_name = "DIR")]
+    pub out: Option<PathBuf>,
+    /// JSON plan file. Default OUT/plan.json.
+    #[arg(long, value_name = "FILE")]
+    pub json: Option<PathBuf>,
+    /// The campaign's diagnosis (diagnosis.json) to plan from. Default: results/diagnose-NAME/
+    /// or OUT/ where one of these recordings and this version lies there; else one is run and
+    /// written to OUT/diagnosis.json.
+    #[arg(long, value_name = "FILE")]
+    pub diagnosis: Option<PathBuf>,
+    /// Candidates whose rivals' Jacobians are differenced (at least --recordings, at most 200).
+    #[arg(long, default_value_t = 24)]
+    pub finalists: usize,
+    /// Skip the check by simulation (each rival as the truth, every rival refitted).
+    #[arg(long)]
+    pub no_check: bool,
+    /// Seed of the simulated noise.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Draw the recordings at random from the design space (seeded by --seed) instead of
+    /// choosing them: the baseline a plan must beat.
+    #[arg(long)]
+    pub random: bool,
+    /// Skip the figure.
+    #[arg(long)]
+    pub no_plots: bool,
+}
+
+impl PlanArgs {
+    /// The plan's options, checked, and its output folder and JSON file.
+    pub fn resolve(&self) -> Result<(crate::planning::PlanOptions, PathBuf, PathBuf), CliError> {
+        let o = crate::planning::PlanOptions {
+            recordings: self.recordings,
+            finalists: self.finalists.max(self.recordings),
+            check: !self.no_check,
+            seed: self.seed,
+            random: self.random,
+        };
+        o.validate().map_err(|e| match e {
+            crate::planning::PlanError::Option {
+                field,
+                value,
+                allowed,
+            } => CliError::Flag {
+                flag: field.into(),
+                value,
+                msg: allowed,
+            },
+            other => CliError::Flag {
+                flag: "recordings".into(),
+                value: self.recordings.to_string(),
+                msg: other.to_string(),
+            },
+        })?;
+        let name = self
+            .campaign
+            .file_name()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "campaign".into());
+        let out = self
+            .out
+            .clone()
+            .unwrap_or_else(|| PathBuf::from("results").join(format!("plan-{name}")));
+        let json = self.json.clone().unwrap_or_else(|| out.join("plan.json"));
+        let inputs = campaign_files(&self.campaign);
+        let mut inputs: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
+        if let Some(s) = &self.space {
+            inputs.push(s);
+        }
+        if let Some(d) = &self.diagnosis {
+            inputs.push(d);
+        }
+        check_output("json", &json, &inputs)?;
+        let same = |a: &Path, b: &Path| match (a.canonicalize(), b.canonicalize()) {
+            (Ok(x), Ok(y)) => x == y,
+            _ => a == b,
+        };
+        if same(&out, &self.campaign) {
+            return Err(CliError::Flag {
+                flag: "out".into(),
+                value: out.display().to_string(),
+                msg: "is the campaign itself; a plan is written beside it, and its recordings are copied in once recorded".into(),
+            });
+        }
+        check_output("out", &out.join("plan.json"), &inputs)?;
+        Ok((o, out, json))
+    }
 }
 
 /// Arguments of `stickslip synth`.
@@ -102,6 +209,10 @@ pub struct SynthArgs {
     /// Replace recordings already in the directory.
     #[arg(long)]
     pub overwrite: bool,
+    /// Record the conditions a plan proposes (`stickslip plan`'s output folder: every NAME.toml
+    /// with a [plan] table) instead of a design, each with its duration and rate.
+    #[arg(long, value_name = "PLANDIR", conflicts_with = "design")]
+    pub conditions: Option<PathBuf>,
     #[command(flatten)]
     pub params: ParamArgs,
 }

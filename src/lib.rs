@@ -27,6 +27,7 @@ pub mod measures;
 pub mod model;
 pub mod ode;
 pub mod output;
+pub mod planning;
 pub mod plot;
 pub mod progress;
 pub mod sim;

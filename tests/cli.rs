@@ -343,6 +343,104 @@ fn synth_then_diagnose_writes_the_verdict_json_hdf5_and_plots() {
     }
     python("check_diagnosis.py", &[&res.join("diagnosis.h5"), &json]);
 
+    // A plan of three recordings from that diagnosis, inside the campaign's ranges.
+    let plan = dir.path().join("plan");
+    let p = plan.to_str().unwrap();
+    let j = json.to_str().unwrap();
+    let args = |extra: &[&'static str]| {
+        let mut a = vec!["plan", c, "--diagnosis", j, "--out", p, "--recordings", "3"];
+        a.extend(["--finalists", "8", "--no-plots"]);
+        a.extend(extra);
+        a
+    };
+    let out = stickslip(&args(&[]));
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{text}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let pj: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(plan.join("plan.json")).unwrap()).unwrap();
+    let recs = pj["recordings"].as_array().unwrap();
+    assert_eq!(recs.len(), 3, "{pj}");
+    assert_eq!(pj["rivals"][0]["name"], "base");
+    assert!(
+        pj["rivals"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|r| r["name"] == "viscous")
+    );
+    // The small design's ranges: springs 11 700, 17 900 and 20 000 N/m, v_d 0.7 to 2 mm/s,
+    // 1000 to 1500 Hz at v_a/v_d 0.4 to 1.5, or no vibration.
+    for r in recs {
+        let cnd = &r["conditions"];
+        let (k_d, v_d, f, ratio) = (
+            cnd["k_d"].as_f64().unwrap(),
+            cnd["v_d"].as_f64().unwrap(),
+            cnd["f"].as_f64().unwrap(),
+            cnd["va_ratio"].as_f64().unwrap(),
+        );
+        assert!([11_700.0, 17_900.0, 20_000.0].contains(&k_d), "{r}");
+        assert!((0.7e-3 - 1e-12..=2e-3 + 1e-12).contains(&v_d), "{r}");
+        assert!(
+            f == 0.0
+                || ((1000.0..=1500.0).contains(&f) && (0.4 - 1e-9..=1.5 + 1e-9).contains(&ratio)),
+            "{r}"
+        );
+        let toml =
+            std::fs::read_to_string(plan.join(format!("{}.toml", r["name"].as_str().unwrap())));
+        assert!(toml.unwrap().contains("\n[plan]\n"));
+    }
+    // Viscous friction as the truth: the planned recordings add evidence for it against the
+    // base model, by the criterion and by simulation.
+    let o = pj["outcomes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|o| o["truth"] == "viscous" && o["other"] == "base")
+        .unwrap();
+    let now = o["ln_odds_now"].as_f64().unwrap();
+    assert!(o["ln_odds_expected"].as_f64().unwrap() > now, "{o}");
+    assert!(o["ln_odds_simulated"].as_f64().unwrap() > now, "{o}");
+    // A plan never writes over what it did not write: the campaign, or a folder of other files.
+    let bad = stickslip(&["plan", c, "--diagnosis", j, "--out", c]);
+    assert_eq!(bad.status.code(), Some(2));
+    std::fs::write(plan.join("notes.toml"), "a = 1\n").unwrap();
+    let bad = stickslip(&args(&["--no-check"]));
+    assert_eq!(bad.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("no plan wrote"));
+    std::fs::remove_file(plan.join("notes.toml")).unwrap();
+    // Recorded with the truth (synth --conditions) and added to the campaign, the planned
+    // recordings load as any other and are counted as a plan's.
+    let rec = dir.path().join("rec");
+    let out = stickslip(&[
+        "synth",
+        rec.to_str().unwrap(),
+        "--conditions",
+        p,
+        "--effect",
+        "viscous:h_v=80",
+        "--seed",
+        "6",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    for r in recs {
+        let name = r["name"].as_str().unwrap();
+        for ext in ["csv", "toml"] {
+            let from = rec.join(format!("{name}.{ext}"));
+            std::fs::copy(&from, camp.join(format!("{name}.{ext}"))).unwrap();
+        }
+    }
+    let loaded = stickslip::campaign::Campaign::load(&camp).unwrap();
+    assert_eq!(loaded.planned.len(), 3);
+    assert_eq!(loaded.recordings.len(), 19);
+
     let out = stickslip(&["calibrate", c, "--effect", "viscous", "--max-iter", "3"]);
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(

@@ -312,6 +312,20 @@ fn diagnose(py: Python<'_>, args: Vec<String>) -> PyResult<(String, String, Stri
     ))
 }
 
+/// `stickslip plan DIR ARGS`: the plan's JSON text, its summary and the files written.
+#[pyfunction]
+fn plan(py: Python<'_>, args: Vec<String>) -> PyResult<(String, String, Vec<String>)> {
+    let Command::Plan(a) = parse(std::iter::once("plan".into()).chain(args).collect())? else {
+        unreachable!("the command is plan")
+    };
+    let p = compute(py, move || app::plan(&a), |_| Ok(()))?.map_err(py_err)?;
+    Ok((
+        p.json.to_string(),
+        p.summary,
+        p.written.iter().map(|p| p.display().to_string()).collect(),
+    ))
+}
+
 /// Checks a campaign folder as `calibrate` and `diagnose` would read it: loads it and returns
 /// the number of recordings, or raises the CLI's error.
 #[pyfunction]
@@ -347,6 +361,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(boundary, m)?)?;
     m.add_function(wrap_pyfunction!(calibrate, m)?)?;
     m.add_function(wrap_pyfunction!(diagnose, m)?)?;
+    m.add_function(wrap_pyfunction!(plan, m)?)?;
     m.add_function(wrap_pyfunction!(check_campaign, m)?)?;
     m.add_function(wrap_pyfunction!(parameters, m)?)?;
     m.add_function(wrap_pyfunction!(version, m)?)?;

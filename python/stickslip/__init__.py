@@ -46,6 +46,8 @@ __all__ = [
     "Calibration",
     "diagnose",
     "Diagnosis",
+    "plan",
+    "Plan",
     "parameters",
     "__version__",
 ]
@@ -796,3 +798,90 @@ def diagnose(
     finally:
         if tmp is not None:
             tmp.cleanup()
+
+
+class Plan(_Report):
+    """A plan of recordings from ``stickslip plan``: the JSON's fields as attributes
+    (``rivals``, ``open_pairs``, ``recordings`` (each with its ``conditions``, ``duration``,
+    ``rate``, ``discrimination``, ``features`` and ``why``), ``outcomes``, ``space``, ...),
+    :meth:`to_dict`, the printed summary as ``summary``, the files written as ``files``, and the
+    planned recordings as :meth:`recordings_table` and the expected evidence as
+    :meth:`outcomes_table` (both :class:`xarray.Dataset`)."""
+
+    def __init__(self, data: dict[str, Any], summary: str, written: Sequence[str]) -> None:
+        self.json = data
+        self.summary = summary
+        self.files = list(written)
+
+    def __repr__(self) -> str:
+        j = self.json
+        names = [r["name"] for r in j.get("recordings", [])]
+        return f"Plan(rivals={[r['name'] for r in j.get('rivals', [])]!r}, recordings={names!r})"
+
+    def recordings_table(self) -> xr.Dataset:
+        """The planned recordings along a ``recording`` dimension (their names): conditions
+        (``v_d`` [m/s], ``k_d`` [N/m], ``f`` [Hz], ``u0`` [m], ``va_ratio``, ``t_on`` [s]),
+        ``duration`` [s], ``rate`` [Hz] and ``order``."""
+        recs = self.json.get("recordings", [])
+        names = [r["name"] for r in recs]
+        units = {"v_d": "m/s", "k_d": "N/m", "f": "Hz", "u0": "m", "va_ratio": "1", "t_on": "s"}
+        data: dict[str, Any] = {
+            k: ("recording", np.array([r["conditions"][k] for r in recs], float), {"units": u})
+            for k, u in units.items()
+        }
+        data["duration"] = ("recording", np.array([r["duration"] for r in recs], float), {"units": "s"})
+        data["rate"] = ("recording", np.array([r["rate"] for r in recs], float), {"units": "Hz"})
+        data["order"] = ("recording", np.array([r["order"] for r in recs], int), {})
+        return xr.Dataset(data, coords={"recording": names})
+
+    def outcomes_table(self) -> xr.Dataset:
+        """Ln odds [nats] for each rival as the ``truth`` against each ``other``: ``now`` (the
+        diagnosis's held-out evidence), ``expected`` (the criterion) and ``simulated`` (the
+        plan's check by simulation; NaN where not checked)."""
+        rivals = [r["name"] for r in self.json.get("rivals", [])]
+        n = len(rivals)
+        cols = {"now": "ln_odds_now", "expected": "ln_odds_expected", "simulated": "ln_odds_simulated"}
+        arrays = {k: np.full((n, n), np.nan) for k in cols}
+        for o in self.json.get("outcomes", []):
+            i, j = rivals.index(o["truth"]), rivals.index(o["other"])
+            for k, key in cols.items():
+                v = o.get(key)
+                arrays[k][i, j] = np.nan if v is None else v
+        data = {k: (("truth", "other"), a, {"units": "nats"}) for k, a in arrays.items()}
+        return xr.Dataset(data, coords={"truth": rivals, "other": rivals})
+
+
+def plan(
+    campaign: Union[Campaign, PathLike],
+    n: int = 6,
+    space: Optional[PathLike] = None,
+    out: Optional[PathLike] = None,
+    diagnosis: Optional[PathLike] = None,
+    check: bool = True,
+    random: bool = False,
+    seed: int = 1,
+    plots: bool = True,
+) -> Plan:
+    """The ``n`` recordings that best tell apart the explanations a campaign's diagnosis leaves
+    standing, within the design space (the campaign's own ranges, or the TOML file ``space``),
+    as ``stickslip plan``. It reuses the campaign's ``diagnosis.json`` (``diagnosis``, else
+    ``results/diagnose-NAME/`` or ``out``) where it is of the same recordings and version, and
+    diagnoses first otherwise. ``out`` receives one conditions file per planned recording,
+    ``plan.json`` and ``plan.png`` (default ``results/plan-NAME``); ``check=False`` skips the
+    check by simulation; ``random=True`` draws the recordings at random (the baseline).
+    """
+    args = [_campaign_dir(campaign), "--recordings", str(n), "--seed", str(seed)]
+    if space is not None:
+        args += ["--space", os.fspath(space)]
+    if out is not None:
+        args += ["--out", os.fspath(out)]
+    if diagnosis is not None:
+        args += ["--diagnosis", os.fspath(diagnosis)]
+    if not check:
+        args.append("--no-check")
+    if random:
+        args.append("--random")
+    if not plots:
+        args.append("--no-plots")
+    text, summary, written = _native.plan(args)
+    return Plan(json.loads(text), summary, written)

@@ -309,6 +309,12 @@ impl Campaign {
                 .filter(|r| !names.contains(&r.name))
                 .cloned()
                 .collect(),
+            planned: self
+                .planned
+                .iter()
+                .filter(|n| !names.contains(n))
+                .cloned()
+                .collect(),
         }
     }
 }

@@ -70,6 +70,44 @@ pub struct Campaign {
     pub dir: PathBuf,
     /// Recordings sorted by name.
     pub recordings: Vec<Recording>,
+    /// The names of the recordings a plan proposed (their conditions file has a `plan` key:
+    /// `stickslip plan`), in the order of [`Campaign::recordings`].
+    pub planned: Vec<String>,
+}
+
+/// A digest of recordings (names, conditions and every sample), hexadecimal: whether a
+/// diagnosis written beside a campaign is of these very recordings. FNV-1a over the bits.
+pub fn digest(recs: &[Recording]) -> String {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    let mut eat = |bytes: &[u8]| {
+        for b in bytes {
+            h ^= *b as u64;
+            h = h.wrapping_mul(0x0100_0000_01b3);
+        }
+    };
+    for r in recs {
+        eat(r.name.as_bytes());
+        for name in crate::model::params::names() {
+            eat(&r
+                .params
+                .get(name)
+                .unwrap_or(f64::NAN)
+                .to_bits()
+                .to_le_bytes());
+        }
+        for ch in [Some(&r.t), Some(&r.f_d), r.x_s.as_ref(), r.x_d.as_ref()] {
+            match ch {
+                Some(v) => {
+                    eat(&(v.len() as u64).to_le_bytes());
+                    for x in v {
+                        eat(&x.to_bits().to_le_bytes());
+                    }
+                }
+                None => eat(b"none"),
+            }
+        }
+    }
+    format!("{h:016x}")
 }
 
 /// A malformed campaign.
@@ -144,6 +182,7 @@ impl Campaign {
             None
         };
         let mut recordings = vec![];
+        let mut planned = vec![];
         for (stem, (csv, toml)) in stems {
             let csv_path = dir.join(format!("{stem}.csv"));
             let toml_path = dir.join(format!("{stem}.toml"));
@@ -163,7 +202,10 @@ impl Campaign {
                     ),
                 });
             }
-            let params = read_conditions(&toml_path, defaults.as_ref())?;
+            let (params, from_plan) = read_conditions(&toml_path, defaults.as_ref())?;
+            if from_plan {
+                planned.push(stem.clone());
+            }
             let (t, f_d, x_s, x_d) = read_csv(&csv_path)?;
             recordings.push(Recording {
                 name: stem,
@@ -184,12 +226,16 @@ impl Campaign {
         Ok(Campaign {
             dir: dir.to_path_buf(),
             recordings,
+            planned,
         })
     }
 }
 
-fn read_conditions(path: &Path, defaults: Option<&Doc>) -> Result<Params, CampaignError> {
-    let doc = Doc::read(path)?;
+/// A recording's conditions, and whether a plan proposed them (a `plan` key, which holds the
+/// plan's notes and is otherwise ignored).
+fn read_conditions(path: &Path, defaults: Option<&Doc>) -> Result<(Params, bool), CampaignError> {
+    let mut doc = Doc::read(path)?;
+    let from_plan = doc.table.remove("plan").is_some();
     let mut p = Params::default();
     let mut seen: Vec<String> = doc.table.keys().cloned().collect();
     let unknown = |d: &Doc, k: &str| -> CampaignError {
@@ -244,7 +290,7 @@ fn read_conditions(path: &Path, defaults: Option<&Doc>) -> Result<Params, Campai
             msg: "missing the vibration amplitude: give `u0` [m] or `v_a` [m/s] (0 without vibration)".into(),
         });
     }
-    Ok(p)
+    Ok((p, from_plan))
 }
 
 type Columns = (Vec<f64>, Vec<f64>, Option<Vec<f64>>, Option<Vec<f64>>);

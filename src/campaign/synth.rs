@@ -297,14 +297,37 @@ pub fn synth(dir: &Path, spec: &SynthSpec) -> Result<Vec<Recording>, CampaignErr
         path: dir.display().to_string(),
         msg: e.to_string(),
     })?;
-    let conds = spec.conditions();
     let dt = 1.0 / spec.rate;
+    let conds: Vec<(String, Params, usize)> = spec
+        .conditions()
+        .into_iter()
+        .map(|(name, p)| {
+            let t_end = sim::planned_time(&p, spec.min_cycles);
+            let n = (t_end / dt).floor() as usize + 1;
+            (name, p, n)
+        })
+        .collect();
+    let recs = record(&conds, dt, spec)?;
+    std::fs::create_dir_all(dir).map_err(|e| super::io(dir, e))?;
+    for rec in &recs {
+        write_recording(dir, rec)?;
+    }
+    Ok(recs)
+}
+
+/// Simulates recordings of the given conditions (name, conditions, samples at spacing `dt`)
+/// with `spec`'s effects and noise, each from its own random stream.
+fn record(
+    conds: &[(String, Params, usize)],
+    dt: f64,
+    spec: &SynthSpec,
+) -> Result<Vec<Recording>, CampaignError> {
     // Each recording's own random stream (the same campaign whatever the thread count), its
     // effects (a track's offset drawn first from that stream) and its simulation; the
     // simulations run together, side by side in vector lanes where they can.
     let mut rngs = Vec::with_capacity(conds.len());
     let mut asks = Vec::with_capacity(conds.len());
-    for (i, (_, p)) in conds.iter().enumerate() {
+    for (i, (_, p, n)) in conds.iter().enumerate() {
         let mut rng =
             StdRng::seed_from_u64(spec.seed.wrapping_mul(1_000_003).wrapping_add(i as u64));
         let mut fx = spec.effects.clone();
@@ -313,15 +336,13 @@ pub fn synth(dir: &Path, spec: &SynthSpec) -> Result<Vec<Recording>, CampaignErr
             let off: f64 = rng.random::<f64>() * lambda;
             fx.set(EffectKind::Track, "offset", off).expect("in range");
         }
-        let t_end = sim::planned_time(p, spec.min_cycles);
-        let n = (t_end / dt).floor() as usize + 1;
         rngs.push(rng);
         asks.push(GridAsk {
             p: *p,
             fx,
             t0: 0.0,
             dt,
-            n,
+            n: *n,
             tol: 1e-6,
         });
     }
@@ -330,7 +351,7 @@ pub fn synth(dir: &Path, spec: &SynthSpec) -> Result<Vec<Recording>, CampaignErr
         .par_iter()
         .zip(rngs)
         .zip(sims)
-        .map(|(((name, p), mut rng), (tr, _))| {
+        .map(|(((name, p, _), mut rng), (tr, _))| {
             let tr = tr.map_err(|e| CampaignError::Io {
                 path: name.clone(),
                 msg: e.to_string(),
@@ -356,10 +377,106 @@ pub fn synth(dir: &Path, spec: &SynthSpec) -> Result<Vec<Recording>, CampaignErr
         .collect();
     // Written only once every recording is simulated: a run that fails leaves no campaign
     // that looks complete with a recording missing.
-    let recs: Vec<Recording> = recs.into_iter().collect::<Result<_, _>>()?;
+    recs.into_iter().collect()
+}
+
+/// One planned recording's conditions file (`stickslip plan`): its stem, its conditions on
+/// `base` (every key of the file but the `plan` table), its duration \[s\] and rate \[Hz\]
+/// (from the `plan` table), and the file's text.
+pub fn read_planned(
+    path: &Path,
+    base: &Params,
+) -> Result<(String, Params, f64, f64, String), CampaignError> {
+    let mut doc = crate::config::Doc::read(path)?;
+    let plan = doc.table.remove("plan");
+    let stem = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let bad = |msg: String| CampaignError::Malformed {
+        file: path.display().to_string(),
+        line: 0,
+        msg,
+    };
+    let plan = plan
+        .and_then(|v| v.as_table().cloned())
+        .ok_or_else(|| bad("no `[plan]` table: not a conditions file a plan wrote".into()))?;
+    let get = |k: &str, lo: f64, hi: f64| -> Result<f64, CampaignError> {
+        let v = plan
+            .get(k)
+            .and_then(|v| v.as_float().or_else(|| v.as_integer().map(|i| i as f64)))
+            .ok_or_else(|| bad(format!("`plan.{k}` missing or not a number")))?;
+        if !(lo..=hi).contains(&v) {
+            return Err(bad(format!("`plan.{k}` = {v}: allowed {lo} to {hi}")));
+        }
+        Ok(v)
+    };
+    let duration = get("duration", 0.01, 3600.0)?;
+    let rate = get("rate", 1000.0, 1e6)?;
+    let mut p = *base;
+    let table = doc.table.clone();
+    let rest = crate::config::apply_params(&doc, "", &table, &mut p)?;
+    if let Some(k) = rest.first() {
+        return Err(doc
+            .err("", k, "unknown key in a planned recording's conditions")
+            .into());
+    }
+    let text = std::fs::read_to_string(path).map_err(|e| super::io(path, e))?;
+    Ok((stem, p, duration, rate, text))
+}
+
+/// Records the recordings a plan proposes (every conditions file with a `[plan]` table in
+/// `plan_dir`) into `dir`, with `spec`'s effects, base parameters and noise: each `NAME.csv`
+/// beside a copy of its `NAME.toml`, so that the campaign they join counts them as planned.
+/// A plan's rate is the same for all of its recordings (its design space's).
+pub fn synth_planned(
+    dir: &Path,
+    plan_dir: &Path,
+    spec: &SynthSpec,
+) -> Result<Vec<Recording>, CampaignError> {
+    spec.validate().map_err(|e| CampaignError::Io {
+        path: dir.display().to_string(),
+        msg: e.to_string(),
+    })?;
+    let mut files: Vec<std::path::PathBuf> = std::fs::read_dir(plan_dir)
+        .map_err(|e| super::io(plan_dir, e))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|x| x == "toml"))
+        .collect();
+    files.sort();
+    let mut planned = vec![];
+    for f in &files {
+        planned.push(read_planned(f, &spec.base)?);
+    }
+    if planned.is_empty() {
+        return Err(CampaignError::Malformed {
+            file: plan_dir.display().to_string(),
+            line: 0,
+            msg: "no planned conditions (NAME.toml with a [plan] table) in this directory".into(),
+        });
+    }
+    let rate = planned[0].3;
+    if let Some(other) = planned.iter().find(|x| x.3 != rate) {
+        return Err(CampaignError::Malformed {
+            file: other.0.clone(),
+            line: 0,
+            msg: format!(
+                "rate {} differs from the plan's {rate}; record one plan at one rate",
+                other.3
+            ),
+        });
+    }
+    let dt = 1.0 / rate;
+    let conds: Vec<(String, Params, usize)> = planned
+        .iter()
+        .map(|(name, p, dur, _, _)| (name.clone(), *p, (dur / dt).floor() as usize + 1))
+        .collect();
+    let recs = record(&conds, dt, spec)?;
     std::fs::create_dir_all(dir).map_err(|e| super::io(dir, e))?;
-    for rec in &recs {
+    for (rec, (_, _, _, _, text)) in recs.iter().zip(&planned) {
         write_recording(dir, rec)?;
+        let path = dir.join(format!("{}.toml", rec.name));
+        std::fs::write(&path, text).map_err(|e| super::io(&path, e))?;
     }
     Ok(recs)
 }

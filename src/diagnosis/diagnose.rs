@@ -1107,6 +1107,7 @@ mod tests {
         Campaign {
             dir: "mem".into(),
             recordings,
+            planned: vec![],
         }
     }
 

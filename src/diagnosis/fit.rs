@@ -163,12 +163,12 @@ pub fn fit(target: &Target, start: &Model, effects: &[EffectKind], opts: FitOpti
 /// between starts by their gap does not evaluate the chosen one twice ([`fit_from`]).
 pub struct Start {
     /// The start with `effects` enabled: the template the coordinates are set in.
-    model: Model,
-    effects: Vec<EffectKind>,
-    cs: Vec<Coord>,
-    theta: Vec<f64>,
+    pub(crate) model: Model,
+    pub(crate) effects: Vec<EffectKind>,
+    pub(crate) cs: Vec<Coord>,
+    pub(crate) theta: Vec<f64>,
     /// Cost and residuals at `theta` (no residuals: a failed simulation).
-    at: (f64, Vec<f64>),
+    pub(crate) at: (f64, Vec<f64>),
 }
 
 impl Start {
@@ -510,7 +510,7 @@ fn build_model(template: &Model, cs: &[Coord], theta: &[f64]) -> Model {
 /// Forward-difference Jacobian of the residuals `z` (at `theta`) in the coordinates `cs`, the
 /// given columns of it: the perturbed models in one parallel batch, each step taken
 /// inward at an upper bound.
-fn fd_jacobian(
+pub(crate) fn fd_jacobian(
     target: &Target,
     template: &Model,
     cs: &[Coord],

@@ -3,7 +3,8 @@
 //!
 //! Rooms, from the bottom: [`features`] (what is compared: the features of a force signal and
 //! their noise floors), [`fit`] (models, plausible bounds, predictions on the campaign's
-//! recordings with the shared simulation cache, Levenberg-Marquardt fits), [`fingerprint`] (the
+//! recordings with the shared simulation cache, Levenberg-Marquardt fits; [`linearised`], a fit's
+//! residuals and Jacobian at its optimum), [`fingerprint`] (the
 //! signatures an effect must leave beyond the features), [`diagnose`] (calibration, screens,
 //! held-out folds, evidence and the verdict; [`decide`], the rule that names or ties), [`report`] (JSON, HDF5, text and figures of a
 //! diagnosis). Each imports only the rooms above it in this list and [`crate::campaign`]; a
@@ -18,6 +19,7 @@ pub mod fit;
 pub mod folds;
 pub mod forms;
 pub mod limits;
+pub mod linearised;
 pub mod model;
 pub mod report;
 pub mod screen;

@@ -290,3 +290,46 @@ pub(crate) fn fit_range(kind: EffectKind, param: &str) -> Option<(f64, f64)> {
         _ => None,
     }
 }
+
+impl Model {
+    /// The model as JSON, every parameter exact (`{"F_s", "F_c", "v_s", "h_d", "effects":
+    /// {name: {param: value, ...}}}`), the effects' unfitted parameters and forms included:
+    /// what [`Model::from_json`] reads back bit for bit.
+    pub fn to_json(&self) -> serde_json::Value {
+        let effects = self.effects.to_json();
+        serde_json::json!({
+            "F_s": self.f_s, "F_c": self.f_c, "v_s": self.v_s, "h_d": self.h_d,
+            "effects": effects,
+        })
+    }
+
+    /// Reads [`Model::to_json`]'s form; the message names what is missing or wrong.
+    pub fn from_json(v: &serde_json::Value) -> Result<Model, String> {
+        let num = |o: &serde_json::Value, k: &str| {
+            o.get(k)
+                .and_then(|x| x.as_f64())
+                .ok_or_else(|| format!("model: `{k}` missing or not a number"))
+        };
+        let mut m = Model {
+            f_s: num(v, "F_s")?,
+            f_c: num(v, "F_c")?,
+            v_s: num(v, "v_s")?,
+            h_d: num(v, "h_d")?,
+            effects: Effects::none(),
+        };
+        if let Some(fx) = v.get("effects").and_then(|e| e.as_object()) {
+            for (name, ps) in fx {
+                let k = EffectKind::from_name(name)
+                    .ok_or_else(|| format!("model: unknown effect `{name}`"))?;
+                let vals = k
+                    .info()
+                    .params
+                    .iter()
+                    .map(|p| num(ps, p.name))
+                    .collect::<Result<Vec<f64>, String>>()?;
+                *m.effects.enable(k) = vals;
+            }
+        }
+        Ok(m)
+    }
+}

@@ -39,6 +39,9 @@ pub fn json(c: &Campaign, d: &Diagnosis) -> serde_json::Value {
     json!({
         "campaign": c.dir.display().to_string(),
         "recordings": c.recordings.len(),
+        "recordings_digest": crate::campaign::digest(&c.recordings),
+        "code_version": env!("CARGO_PKG_VERSION"),
+        "planned_recordings": c.planned,
         "held_out": d.held_out,
         "verdict": d.verdict.name(),
         "best_effect": d.best_effect.map(|k| k.name()),
@@ -109,9 +112,14 @@ pub fn json(c: &Campaign, d: &Diagnosis) -> serde_json::Value {
             "evaluations": d.base.evaluations,
             "iterations": d.base.iterations,
             "converged": d.base.converged,
+            "model": d.base.model.to_json(),
         },
         "second": d.second.iter().map(|r| json!({
             "effect": r.effect.name(),
+            "model": r.fit.model.to_json(),
+            "fitted_effects": r.fit.effects.iter().map(|k| k.name()).collect::<Vec<_>>(),
+            "per_recording": r.per_recording.iter().map(|g| num(*g)).collect::<Vec<_>>(),
+            "per_recording_n": r.per_recording_n,
             "name": r.name,
             "form": r.form.map(|f| f.name),
             "form_charge": r.form_charge,
@@ -131,6 +139,10 @@ pub fn json(c: &Campaign, d: &Diagnosis) -> serde_json::Value {
         }))).collect::<Vec<_>>(),
         "ranking": d.ranking.iter().map(|r| json!({
             "effect": r.effect.name(),
+            "model": r.fit.model.to_json(),
+            "fitted_effects": r.fit.effects.iter().map(|k| k.name()).collect::<Vec<_>>(),
+            "per_recording": r.per_recording.iter().map(|g| num(*g)).collect::<Vec<_>>(),
+            "per_recording_n": r.per_recording_n,
             "name": r.name,
             "form": r.form.map(|f| f.name),
             "form_charge": r.form_charge,
@@ -301,6 +313,15 @@ pub fn summary(c: &Campaign, d: &Diagnosis) -> String {
         d.folds,
         d.held_out.len(),
     );
+    if !c.planned.is_empty() {
+        let _ = writeln!(
+            s,
+            "  {} of the {} recordings were added by a plan (stickslip plan): {}",
+            c.planned.len(),
+            c.recordings.len(),
+            c.planned.join(", ")
+        );
+    }
     for n in &d.not_checked {
         let _ = writeln!(s, "  not checked: {n}");
     }

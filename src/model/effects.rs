@@ -772,6 +772,25 @@ pub struct Effects {
 }
 
 impl Effects {
+    /// The extensions that are on, as `{"name": {"param": value, ...}, ...}` (empty for the
+    /// base model), every parameter exact, forms as their codes.
+    pub fn to_json(&self) -> serde_json::Value {
+        self.list
+            .iter()
+            .map(|(k, v)| {
+                let ps: serde_json::Map<String, serde_json::Value> = k
+                    .info()
+                    .params
+                    .iter()
+                    .zip(v)
+                    .map(|(p, x)| (p.name.to_string(), serde_json::json!(x)))
+                    .collect();
+                (k.name().to_string(), serde_json::Value::from(ps))
+            })
+            .collect::<serde_json::Map<_, _>>()
+            .into()
+    }
+
     /// No effects: the base model.
     pub fn none() -> Effects {
         Effects::default()

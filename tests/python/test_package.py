@@ -406,6 +406,50 @@ def test_diagnose_from_frames_gives_the_cli_verdict(small_campaign: Path, tmp_pa
                 assert g["strength"][0] == pytest.approx(c["strength"], rel=1e-12)
 
 
+def test_plan_returns_the_cli_plan_as_xarray(small_campaign: Path, tmp_path: Path) -> None:
+    """A plan from a diagnosis of the effect-free small campaign: with no candidate standing it
+    says there is nothing to tell apart; with a rival added to that diagnosis (viscous friction
+    at h_v = 60 N s/m, as a diagnosis would list a candidate it could not tell from the base
+    model) it plans, inside the campaign's ranges, the same recordings as the CLI."""
+    cli("diagnose", str(small_campaign), "--out", str(tmp_path / "d"), "--no-limits", "--no-plots")
+    djson = tmp_path / "d" / "diagnosis.json"
+    d = json.loads(djson.read_text())
+    if not d["ranking"]:
+        with pytest.raises(ValueError, match="nothing to tell apart"):
+            stickslip.plan(small_campaign, n=2, diagnosis=djson, out=tmp_path / "p0")
+    model = json.loads(json.dumps(d["calibration"]["model"]))
+    model["effects"] = {"viscous": {"h_v": 60.0, "exponent": 1.0}}
+    n = d["recordings"]
+    d["ranking"] = [{
+        "effect": "viscous", "name": "viscous", "model": model, "fitted_effects": ["viscous"],
+        "evidence": {"ln_odds": 1.0, "clear": False}, "per_recording": [1.0] * n,
+        "per_recording_n": [10] * n, "params": {"F_s": {}, "F_c": {}, "v_s": {}, "h_d": {}, "viscous.h_v": {}},
+        "short_of_leader": None,
+    }]
+    d["verdict"], d["tie"], d["effects"] = "tie", ["viscous"], []
+    rivals = tmp_path / "rivals.json"
+    rivals.write_text(json.dumps(d))
+    p = stickslip.plan(small_campaign, n=2, diagnosis=rivals, out=tmp_path / "py", plots=False)
+    cli("plan", str(small_campaign), "--recordings", "2", "--diagnosis", str(rivals),
+        "--out", str(tmp_path / "cli"), "--no-plots")
+    by_cli = json.loads((tmp_path / "cli" / "plan.json").read_text())
+    assert [r["name"] for r in p.rivals] == ["base", "viscous"]
+    assert [r["name"] for r in p.recordings] == [r["name"] for r in by_cli["recordings"]]
+    t = p.recordings_table()
+    assert t.sizes["recording"] == 2 and t["k_d"].attrs["units"] == "N/m"
+    springs = {r["conditions"]["k_d"] for r in by_cli["recordings"]}
+    assert springs <= set(by_cli["space"]["springs"])
+    assert (t["duration"] <= by_cli["space"]["max_duration"] + 1e-9).all()
+    o = p.outcomes_table()
+    # Viscous as the truth: the planned recordings add evidence for it, by the criterion and
+    # by simulation.
+    assert o["expected"].sel(truth="viscous", other="base") > o["now"].sel(truth="viscous", other="base")
+    assert np.isfinite(o["simulated"].sel(truth="viscous", other="base"))
+    for r in by_cli["recordings"]:
+        text = (tmp_path / "cli" / f"{r['name']}.toml").read_text()
+        assert "[plan]" in text and "v_d" in text
+
+
 def test_hostile_paths_are_only_paths(tmp_path: Path) -> None:
     """Folders with a space, a quote, `$(...)` and backticks: written where asked, nothing run."""
     odd = tmp_path / "a b$(touch pwned) `touch pwned2` 'q'"

@@ -1,0 +1,1002 @@
+//! Planning the next recordings: the recordings that best tell apart the explanations a
+//! diagnosis leaves standing ([`rivals`]), chosen one after another from the rig's design space
+//! ([`space`]) by the discrimination criterion ([`criterion`]), then checked by simulation:
+//! each rival taken as the truth, the planned recordings simulated from it with the campaign's
+//! noise and every rival refitted ([`verify`]). [`report`] writes the plan (one conditions file
+//! per recording, `plan.json`, `plan.png`) and its summary.
+//!
+//! This room sits beside [`crate::diagnosis`] and imports it (and [`crate::campaign`]); neither
+//! imports this one.
+//!
+//! # Choice of recordings
+//! Greedy maximin: each recording maximises, given the ones chosen before it, the smallest
+//! pairwise discrimination `min(D_ij, D_ji)` over the pairs of rivals the existing evidence
+//! leaves open ([`criterion`] module docs), ties broken by the sum over pairs. Maximin rather
+//! than Box and Hill's weighting by the rivals' current probabilities: a diagnosis that ends in a
+//! tie or `unexplained` is exactly one whose probabilities do not separate the rivals, and a
+//! verdict needs *every* open pair told apart, so the pair worst told apart is what to improve.
+//! A pair is closed (left out of the maximin, still reported) where one of its rivals is the
+//! base model and the other's held-out evidence against it is clear.
+
+pub mod criterion;
+pub mod report;
+pub mod space;
+pub mod verify;
+
+use crate::campaign::{Campaign, GridAsk, Recording, simulate_grids};
+use crate::diagnosis::evidence::evidence;
+use crate::diagnosis::features::{FeatureSet, noise_sd};
+use crate::diagnosis::fit::{Model, Target, trace_features};
+use crate::diagnosis::linearised::{Linearised, linearise};
+use crate::model::EffectKind;
+use criterion::{Existing, Predicted, Rows, carriers, covariance, discrimination, refit_alone};
+use rand::{SeedableRng, rngs::StdRng};
+use rayon::prelude::*;
+use space::{Candidate, Space};
+
+/// Most rivals a plan tells apart: the base model and the four best-supported others (every
+/// rival adds its simulations on every candidate recording).
+pub const MAX_RIVALS: usize = 5;
+
+/// Options of a plan.
+#[derive(Clone, Debug)]
+pub struct PlanOptions {
+    /// Recordings to plan. Default 6; 1 to 30.
+    pub recordings: usize,
+    /// Candidates of the grid whose rivals' Jacobians are differenced (the best by their
+    /// discrimination before any refit); at least [`PlanOptions::recordings`]. Default 24;
+    /// up to 200.
+    pub finalists: usize,
+    /// Check the plan by simulation ([`verify`]): each rival as the truth, every rival refitted
+    /// to the existing and the planned recordings. Default true.
+    pub check: bool,
+    /// Seed of the simulated noise. Default 1.
+    pub seed: u64,
+    /// Draw the recordings at random from the design space's candidates (seeded by
+    /// [`PlanOptions::seed`]) instead of by the criterion: the baseline a plan must beat. No
+    /// simulation runs. Default false.
+    pub random: bool,
+}
+
+impl Default for PlanOptions {
+    fn default() -> Self {
+        PlanOptions {
+            recordings: 6,
+            finalists: 24,
+            check: true,
+            seed: 1,
+            random: false,
+        }
+    }
+}
+
+/// A plan that cannot be made.
+#[derive(Debug, thiserror::Error)]
+pub enum PlanError {
+    /// A bad option.
+    #[error("`{field}` = {value}: {allowed}")]
+    Option {
+        /// The option.
+        field: &'static str,
+        /// Its value.
+        value: String,
+        /// What is allowed.
+        allowed: String,
+    },
+    /// The diagnosis does not give what a plan needs.
+    #[error("the diagnosis: {0}")]
+    Diagnosis(String),
+    /// Nothing to plan for.
+    #[error("{0}")]
+    Nothing(String),
+}
+
+impl PlanOptions {
+    /// Checks every option, naming the bound violated.
+    pub fn validate(&self) -> Result<(), PlanError> {
+        if !(1..=30).contains(&self.recordings) {
+            return Err(PlanError::Option {
+                field: "recordings",
+                value: self.recordings.to_string(),
+                allowed: "from 1 to 30".into(),
+            });
+        }
+        if !(self.recordings..=200).contains(&self.finalists) {
+            return Err(PlanError::Option {
+                field: "finalists",
+                value: self.finalists.to_string(),
+                allowed: format!("from the recordings planned ({}) to 200", self.recordings),
+            });
+        }
+        Ok(())
+    }
+}
+
+/// One explanation a diagnosis leaves standing.
+#[derive(Clone, Debug)]
+pub struct Rival {
+    /// Its name in reports (`base`, `sensor_dynamics[order4]`, `aging+viscous`).
+    pub name: String,
+    /// Why it is a rival (named, tied, not clearly worse than the leader, ...).
+    pub role: String,
+    /// The fitted model.
+    pub model: Model,
+    /// Its effects fitted beside the base parameters.
+    pub effects: Vec<EffectKind>,
+    /// Its held-out ln odds against the base model \[nats\] (0 for the base model).
+    pub ln_odds: f64,
+    /// Whether that evidence is clear ([`crate::diagnosis::evidence::Evidence::clear`]).
+    pub clear: bool,
+}
+
+fn entry_rival(e: &serde_json::Value, role: &str) -> Result<Rival, PlanError> {
+    let name = e["name"].as_str().unwrap_or("?").to_string();
+    let model = Model::from_json(&e["model"]).map_err(|m| {
+        PlanError::Diagnosis(format!(
+            "candidate {name}: {m} (a diagnosis.json written before plans existed: diagnose again)"
+        ))
+    })?;
+    let effects = e["fitted_effects"]
+        .as_array()
+        .map(|a| {
+            a.iter()
+                .filter_map(|x| x.as_str().and_then(EffectKind::from_name))
+                .collect()
+        })
+        .unwrap_or_default();
+    Ok(Rival {
+        name,
+        role: role.to_string(),
+        model,
+        effects,
+        ln_odds: e["evidence"]["ln_odds"].as_f64().unwrap_or(f64::NAN),
+        clear: e["evidence"]["clear"].as_bool().unwrap_or(false),
+    })
+}
+
+fn gaps(e: &serde_json::Value) -> (Vec<f64>, Vec<usize>) {
+    let g = e["per_recording"]
+        .as_array()
+        .map(|a| a.iter().map(|x| x.as_f64().unwrap_or(f64::NAN)).collect())
+        .unwrap_or_default();
+    let n = e["per_recording_n"]
+        .as_array()
+        .map(|a| a.iter().map(|x| x.as_u64().unwrap_or(0) as usize).collect())
+        .unwrap_or_default();
+    (g, n)
+}
+
+fn n_params(e: &serde_json::Value) -> f64 {
+    e["params"].as_object().map_or(0, |p| p.len()) as f64
+}
+
+/// The rivals of a diagnosis (its `diagnosis.json`): the base model; the named effects (with a
+/// second named effect, the model of both); every member of a tie; every other fitted
+/// candidate, another form of the named effect included, whose held-out evidence against the
+/// leader is not clear (the [`evidence`] of their per-recording held-out gaps); a second
+/// effect tried and not named; for `unexplained`, the three best candidates. At most [`MAX_RIVALS`], the best supported first; candidates whose screen
+/// stopped short of the leader (never fitted) are not rivals.
+pub fn rivals(diag: &serde_json::Value) -> Result<Vec<Rival>, PlanError> {
+    let verdict = diag["verdict"].as_str().unwrap_or("");
+    let base = Model::from_json(&diag["calibration"]["model"]).map_err(|m| {
+        PlanError::Diagnosis(format!(
+            "the base calibration: {m} (a diagnosis.json written before plans existed: diagnose again)"
+        ))
+    })?;
+    let mut out = vec![Rival {
+        name: "base".into(),
+        role: "the base model".into(),
+        model: base,
+        effects: vec![],
+        ln_odds: 0.0,
+        clear: false,
+    }];
+    let empty = vec![];
+    let ranking: Vec<&serde_json::Value> = diag["ranking"]
+        .as_array()
+        .unwrap_or(&empty)
+        .iter()
+        .filter(|e| e["short_of_leader"].is_null() && !e["model"].is_null())
+        .collect();
+    let second: Vec<&serde_json::Value> = diag["second"]
+        .as_array()
+        .unwrap_or(&empty)
+        .iter()
+        .filter(|e| e["short_of_leader"].is_null() && !e["model"].is_null())
+        .collect();
+    let names = |k: &str| -> Vec<String> {
+        diag[k]
+            .as_array()
+            .map(|a| {
+                a.iter()
+                    .filter_map(|x| x.as_str().map(String::from))
+                    .collect()
+            })
+            .unwrap_or_default()
+    };
+    let named = names("effects");
+    let tie = names("tie");
+    let first_of = |effect: &str| ranking.iter().find(|e| e["effect"] == effect).copied();
+    let push = |r: Rival, out: &mut Vec<Rival>| {
+        if !out.iter().any(|x| x.name == r.name) {
+            out.push(r);
+        }
+    };
+    let mut leader: Option<&serde_json::Value> = None;
+    if named.len() >= 2
+        && let Some(s) = second.iter().find(|e| e["effect"] == named[1].as_str())
+    {
+        {
+            let mut r = entry_rival(s, "the named effects")?;
+            r.name = format!("{}+{}", named[0], s["name"].as_str().unwrap_or("?"));
+            // Its evidence is against the first effect: add the first's against the base.
+            if let Some(f) = first_of(&named[0]) {
+                r.ln_odds += f["evidence"]["ln_odds"].as_f64().unwrap_or(0.0);
+                leader = Some(f);
+            }
+            push(r, &mut out);
+        }
+    }
+    if let Some(first) = named.first()
+        && let Some(e) = first_of(first)
+    {
+        push(entry_rival(e, "named")?, &mut out);
+        leader = leader.or(Some(e));
+    }
+    for t in &tie {
+        if let Some(e) = first_of(t) {
+            push(entry_rival(e, "tied")?, &mut out);
+            leader = leader.or(Some(e));
+        }
+    }
+    let leader = leader.or(ranking.first().copied());
+    // Every fitted candidate, each form of an effect its own (a form the data did not settle
+    // is a rival like another effect).
+    let mut others = vec![];
+    let mut best_three = 0;
+    for e in &ranking {
+        let Some(l) = leader else { break };
+        if std::ptr::eq(*e, l) {
+            continue;
+        }
+        let (gl, nl) = gaps(l);
+        let (gc, nc) = gaps(e);
+        let ev = evidence(&gl, &nl, &gc, &nc, n_params(l) - n_params(e));
+        if !ev.clear() {
+            others.push((*e, "not clearly worse than the leader"));
+        } else if verdict == "unexplained" && best_three < 3 {
+            others.push((*e, "one of the best three of an unexplained gap"));
+        }
+        best_three += 1;
+    }
+    for (e, role) in others {
+        push(entry_rival(e, role)?, &mut out);
+    }
+    if named.len() < 2
+        && let Some(s) = second.first()
+    {
+        let mut r = entry_rival(s, "a second effect tried and not named")?;
+        if let Some(first) = named.first().or(tie.first()) {
+            r.name = format!("{first}+{}", r.name);
+            if let Some(f) = first_of(first) {
+                r.ln_odds += f["evidence"]["ln_odds"].as_f64().unwrap_or(0.0);
+            }
+        }
+        push(r, &mut out);
+    }
+    // The base model first, then the best supported.
+    let mut rest = out.split_off(1);
+    rest.sort_by(|a, b| b.ln_odds.total_cmp(&a.ln_odds));
+    rest.truncate(MAX_RIVALS - 1);
+    out.extend(rest);
+    if out.len() < 2 {
+        return Err(PlanError::Nothing(format!(
+            "the diagnosis ({verdict}) leaves no candidate standing beside the base model, so \
+             there is nothing to tell apart; its detection limits say what the campaign could \
+             not have seen (`limits` in diagnosis.json)"
+        )));
+    }
+    Ok(out)
+}
+
+/// The campaign's noise: the force's standard deviation \[N\] and the displacements' \[m\]
+/// where every recording has them (the median over recordings of [`noise_sd`]).
+pub fn noise_of(c: &Campaign) -> (f64, Option<f64>) {
+    let med = |mut v: Vec<f64>| {
+        v.retain(|x| x.is_finite());
+        v.sort_by(f64::total_cmp);
+        if v.is_empty() {
+            f64::NAN
+        } else {
+            v[v.len() / 2]
+        }
+    };
+    let f = med(c.recordings.iter().map(|r| noise_sd(&r.f_d)).collect());
+    let has_x = c
+        .recordings
+        .iter()
+        .all(|r| r.x_s.is_some() && r.x_d.is_some());
+    let x = has_x.then(|| {
+        med(c
+            .recordings
+            .iter()
+            .flat_map(|r| {
+                [r.x_s.as_deref(), r.x_d.as_deref()]
+                    .into_iter()
+                    .flatten()
+                    .map(noise_sd)
+            })
+            .collect())
+    });
+    (f, x)
+}
+
+/// A recording of a candidate's conditions without samples (zeros), its channels those the
+/// campaign records: what predictions on it are computed against.
+pub fn blank(name: &str, x: &Candidate, rate: f64, has_x: bool) -> Recording {
+    let n = (x.duration * rate).floor() as usize + 1;
+    let dt = 1.0 / rate;
+    Recording {
+        name: name.to_string(),
+        params: x.params,
+        t: (0..n).map(|k| k as f64 * dt).collect(),
+        f_d: vec![0.0; n],
+        x_s: has_x.then(|| vec![0.0; n]),
+        x_d: has_x.then(|| vec![0.0; n]),
+    }
+}
+
+/// The features of `model` simulated on each recording (`None` where a run fails), in
+/// parallel, with the traces kept for noise where asked. `tol`: integration tolerance.
+fn simulate_on(asks: &[(Model, &Recording)], tol: f64) -> Vec<Option<crate::campaign::SimTrace>> {
+    let grid: Vec<GridAsk> = asks
+        .iter()
+        .map(|(m, rec)| GridAsk {
+            p: m.params_for(rec),
+            fx: m.effects.clone(),
+            t0: rec.t[0],
+            dt: rec.dt(),
+            n: rec.t.len(),
+            tol,
+        })
+        .collect();
+    simulate_grids(&grid)
+        .into_iter()
+        .map(|(r, _)| r.ok().filter(|t| t.status == crate::ode::Status::Success))
+        .collect()
+}
+
+fn features_of(rec: &Recording, tr: Option<&crate::campaign::SimTrace>) -> Vec<FeatureSet> {
+    match tr {
+        Some(tr) => trace_features(
+            rec,
+            &tr.f_d,
+            rec.x_s.as_ref().map(|_| &tr.x_s[..]),
+            rec.x_d.as_ref().map(|_| &tr.x_d[..]),
+        ),
+        None => {
+            let n = crate::diagnosis::features::stages(&rec.t, &rec.params).len();
+            vec![FeatureSet::nan(); n]
+        }
+    }
+}
+
+/// A trace with the campaign's noise added (seeded per recording and rival).
+pub fn noisy(
+    tr: &crate::campaign::SimTrace,
+    noise: (f64, Option<f64>),
+    seed: u64,
+) -> crate::campaign::SimTrace {
+    use rand::RngExt;
+    let mut rng = StdRng::seed_from_u64(seed);
+    let mut draw = |s: f64| s * rng.sample::<f64, _>(rand_distr::StandardNormal);
+    let (sf, sx) = (noise.0.max(0.0), noise.1.unwrap_or(0.0).max(0.0));
+    crate::campaign::SimTrace {
+        f_d: tr.f_d.iter().map(|v| v + draw(sf)).collect(),
+        x_s: tr.x_s.iter().map(|v| v + draw(sx)).collect(),
+        x_d: tr.x_d.iter().map(|v| v + draw(sx)).collect(),
+        status: tr.status,
+    }
+}
+
+/// What a planned recording is expected to add to one pair of rivals.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct PairGain {
+    /// The two rivals (indices into [`Plan::rivals`]).
+    pub pair: (usize, usize),
+    /// The discrimination it adds \[nats\], `min(D_ab, D_ba)` after it less before it.
+    pub nats: f64,
+}
+
+/// One planned recording.
+#[derive(Clone, Debug)]
+pub struct Planned {
+    /// Its name (the stem of its conditions file).
+    pub name: String,
+    /// Its conditions and duration.
+    pub candidate: Candidate,
+    /// What it adds to each open pair.
+    pub gains: Vec<PairGain>,
+    /// The pair worst told apart before it (the one it was chosen for), and the features that
+    /// carry its discrimination of that pair, with their RMS standardised difference.
+    pub chosen_for: (usize, usize),
+    /// Features carrying it, with their root summed squares of standardised differences.
+    pub carriers: Vec<(&'static str, f64)>,
+    /// One sentence why.
+    pub why: String,
+}
+
+/// One ordered pair of rivals after the plan: `truth` true, evidence for it against `other`.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Outcome {
+    /// The rival taken as the truth.
+    pub truth: usize,
+    /// The rival it is compared with.
+    pub other: usize,
+    /// Held-out ln odds for `truth` against `other` now \[nats\] (from the diagnosis).
+    pub now: f64,
+    /// Expected after the planned recordings, by the criterion: `now + D_truth,other`.
+    pub expected: f64,
+    /// Simulated ([`verify`]): `now` plus the ln odds of the planned recordings after every
+    /// rival is refitted to recordings simulated from `truth` (None: not checked).
+    pub simulated: Option<f64>,
+    /// Its jackknife standard error over the planned recordings.
+    pub simulated_stderr: Option<f64>,
+    /// Whether the simulated evidence would then be clear (ln odds at least ln 20 with any one
+    /// planned recording left out).
+    pub clear: Option<bool>,
+}
+
+/// A plan of recordings.
+#[derive(Clone, Debug)]
+pub struct Plan {
+    /// The rivals, the base model first.
+    pub rivals: Vec<Rival>,
+    /// The open pairs (the maximin's); the others are closed by the existing evidence.
+    pub open: Vec<(usize, usize)>,
+    /// The planned recordings, in the order chosen.
+    pub recordings: Vec<Planned>,
+    /// Every ordered pair after the plan.
+    pub outcomes: Vec<Outcome>,
+    /// The design space.
+    pub space: Space,
+    /// Candidates of the grid, and how many were finalists.
+    pub candidates: usize,
+    /// Finalists whose Jacobians were differenced.
+    pub finalists: usize,
+    /// Every candidate's smallest open-pair discrimination before any refit (for the figure):
+    /// `(candidate, nats)`.
+    pub screened: Vec<(Candidate, f64)>,
+    /// The campaign's noise used: force \[N\], displacement \[m\].
+    pub noise: (f64, Option<f64>),
+    /// Simulations run, and wall time \[s\].
+    pub simulations: usize,
+    /// Wall time \[s\].
+    pub wall_time: f64,
+    /// What the reader must know.
+    pub warnings: Vec<String>,
+    /// Whether the recordings were drawn at random ([`PlanOptions::random`]).
+    pub random: bool,
+}
+
+/// `min(D_ab, D_ba)` of each open pair for the planned set `chosen` (finalist indices).
+fn pair_scores(
+    open: &[(usize, usize)],
+    rows: &[Vec<Vec<Rows>>],
+    ex: &[Existing],
+    delta0: &[Vec<f64>],
+    chosen: &[usize],
+) -> Vec<(f64, f64)> {
+    open.iter()
+        .map(|&(a, b)| {
+            let d = |i: usize, j: usize| {
+                let planned: Vec<&Rows> = chosen.iter().map(|&x| &rows[x][i][j]).collect();
+                discrimination(&ex[j], &planned, &delta0[j]).nats
+            };
+            (d(a, b), d(b, a))
+        })
+        .collect()
+}
+
+/// Plans `opts.recordings` recordings for the campaign `c` whose diagnosis is `diag` (its
+/// JSON), within `space`. `say` gets a line at each stage.
+pub fn plan(
+    c: &Campaign,
+    diag: &serde_json::Value,
+    space: &Space,
+    opts: &PlanOptions,
+    say: &(dyn Fn(&str) + Sync),
+) -> Result<Plan, PlanError> {
+    opts.validate()?;
+    let start = std::time::Instant::now();
+    let rivals = rivals(diag)?;
+    let r = rivals.len();
+    let mut warnings = vec![];
+    let tried_second = diag["second"].as_array().is_some_and(|a| !a.is_empty());
+    if diag["partial"].as_bool() == Some(true) && !tried_second {
+        warnings.push(
+            "the named effect explains the gap only in part and the diagnosis fitted no second              effect beside it: the plan tells apart only the rivals it fitted, and cannot aim at              an effect it never fitted (what the named effect leaves is in the diagnosis's              `remaining` and warnings)"
+                .into(),
+        );
+    }
+    say(&format!(
+        "{} rivals: {}",
+        r,
+        rivals
+            .iter()
+            .map(|x| x.name.as_str())
+            .collect::<Vec<_>>()
+            .join(", ")
+    ));
+    let recs: Vec<&Recording> = c.recordings.iter().collect();
+    let target = Target::new(recs);
+    say("linearising each rival on the campaign's recordings");
+    let lins: Vec<Linearised> = rivals
+        .iter()
+        .map(|x| linearise(&target, &x.model, &x.effects))
+        .collect();
+    for (x, l) in rivals.iter().zip(&lins) {
+        if l.z.is_empty() {
+            return Err(PlanError::Diagnosis(format!(
+                "rival {} cannot be simulated on every recording of the campaign",
+                x.name
+            )));
+        }
+    }
+    let row_rec = target.row_recordings();
+    let ex: Vec<Existing> = lins
+        .iter()
+        .map(|l| Existing {
+            lin: l,
+            row_rec: &row_rec,
+            n_recs: c.recordings.len(),
+        })
+        .collect();
+    let delta0: Vec<Vec<f64>> = ex.iter().map(refit_alone).collect();
+    let covs: Vec<Option<faer::Mat<f64>>> = lins.iter().map(covariance).collect();
+    let noise = noise_of(c);
+    if !noise.0.is_finite() || noise.0 <= 0.0 {
+        return Err(PlanError::Diagnosis(
+            "the campaign's force noise could not be estimated (flat recordings?)".into(),
+        ));
+    }
+    // Open pairs: all but a base-model pair the other rival's clear evidence closes.
+    let mut open = vec![];
+    for a in 0..r {
+        for b in a + 1..r {
+            let closed = (a == 0 && rivals[b].clear) || (b == 0 && rivals[a].clear);
+            if !closed {
+                open.push((a, b));
+            }
+        }
+    }
+    if open.is_empty() {
+        warnings.push(
+            "every pair of rivals is closed by the existing evidence: the plan tells all pairs \
+             apart instead"
+                .into(),
+        );
+        for a in 0..r {
+            for b in a + 1..r {
+                open.push((a, b));
+            }
+        }
+    }
+    let cands = space.candidates(&c.recordings[0].params);
+    if cands.len() < opts.recordings {
+        return Err(PlanError::Nothing(format!(
+            "the design space admits {} candidate recordings, fewer than the {} asked",
+            cands.len(),
+            opts.recordings
+        )));
+    }
+    if opts.random {
+        return Ok(random_plan(
+            c, rivals, open, cands, space, opts, noise, start, warnings,
+        ));
+    }
+    let has_x = noise.1.is_some();
+    let blanks: Vec<Recording> = cands
+        .iter()
+        .enumerate()
+        .map(|(k, x)| blank(&format!("candidate{k}"), x, space.rate, has_x))
+        .collect();
+    say(&format!(
+        "simulating {} rivals on {} candidate recordings",
+        r,
+        cands.len()
+    ));
+    let tol = crate::campaign::FIT_TOLERANCE;
+    let asks: Vec<(Model, &Recording)> = blanks
+        .iter()
+        .flat_map(|b| lins.iter().map(move |l| (l.at(&l.theta), b)))
+        .collect();
+    let traces = simulate_on(&asks, tol);
+    let mut simulations = asks.len();
+    // Per candidate and rival: noiseless features, and the measured ones of a noisy recording.
+    let per: Vec<(Vec<FeatureSet>, Vec<FeatureSet>)> = (0..asks.len())
+        .into_par_iter()
+        .map(|q| {
+            let rec = asks[q].1;
+            let clean = features_of(rec, traces[q].as_ref());
+            let meas = match &traces[q] {
+                Some(tr) => {
+                    let nz = noisy(
+                        tr,
+                        noise,
+                        opts.seed.wrapping_mul(7919).wrapping_add(q as u64),
+                    );
+                    let mut m = features_of(rec, Some(&nz));
+                    for (mm, cl) in m.iter_mut().zip(&clean) {
+                        mm.value = cl.value;
+                        mm.cycles = cl.cycles;
+                    }
+                    criterion::without_r(m)
+                }
+                None => clean.clone(),
+            };
+            (clean, meas)
+        })
+        .collect();
+    drop(traces);
+    let pred0 = |k: usize, j: usize| &per[k * r + j].0;
+    let meas = |k: usize, i: usize| &per[k * r + i].1;
+    // The screen: each candidate's smallest open-pair distance before any refit.
+    let screened: Vec<(Candidate, f64)> = (0..cands.len())
+        .map(|k| {
+            let ok = (0..r).all(|j| {
+                pred0(k, j)
+                    .iter()
+                    .any(|f| f.value.iter().any(|v| v.is_finite()))
+            });
+            let s = if !ok {
+                f64::NAN
+            } else {
+                open.iter()
+                    .map(|&(a, b)| {
+                        let d = |i: usize, j: usize| {
+                            let (z, _) = criterion_rows(meas(k, i), pred0(k, j));
+                            let n = z.len() as f64;
+                            let ss: f64 = z.iter().map(|v| v * v).sum();
+                            if n > 0.0 {
+                                0.5 * n * (1.0 + ss / n).ln()
+                            } else {
+                                0.0
+                            }
+                        };
+                        d(a, b).min(d(b, a))
+                    })
+                    .fold(f64::INFINITY, f64::min)
+            };
+            (cands[k], s)
+        })
+        .collect();
+    let mut order: Vec<usize> = (0..cands.len())
+        .filter(|&k| screened[k].1.is_finite())
+        .collect();
+    let failed = cands.len() - order.len();
+    if failed > 0 {
+        warnings.push(format!(
+            "{failed} candidate recordings could not be simulated under every rival and were left out"
+        ));
+    }
+    order.sort_by(|&a, &b| screened[b].1.total_cmp(&screened[a].1));
+    // Finalists: the best by the screen, and the best of each frequency and rest so that a
+    // recording the refit favours is not lost to one the screen favours.
+    let mut fin: Vec<usize> = vec![];
+    let mut kinds: Vec<(u64, u64)> = vec![];
+    for &k in &order {
+        let kind = (cands[k].params.f.to_bits(), cands[k].params.k_d.to_bits());
+        if !kinds.contains(&kind) {
+            kinds.push(kind);
+            fin.push(k);
+        }
+    }
+    for &k in &order {
+        if fin.len() >= opts.finalists {
+            break;
+        }
+        if !fin.contains(&k) {
+            fin.push(k);
+        }
+    }
+    fin.truncate(opts.finalists.max(opts.recordings));
+    if fin.len() < opts.recordings {
+        return Err(PlanError::Nothing(format!(
+            "only {} candidate recordings could be simulated under every rival, fewer than the {} asked",
+            fin.len(),
+            opts.recordings
+        )));
+    }
+    say(&format!(
+        "differencing the rivals' predictions on {} finalists",
+        fin.len()
+    ));
+    let mut fd_asks: Vec<(Model, &Recording)> = vec![];
+    let mut fd_index: Vec<(usize, usize, usize)> = vec![];
+    let mut steps: Vec<Vec<f64>> = vec![];
+    for l in &lins {
+        steps.push((0..l.theta.len()).map(|k| l.step_at(k, &l.theta)).collect());
+    }
+    for (fi, &k) in fin.iter().enumerate() {
+        for (j, l) in lins.iter().enumerate() {
+            for c_ in 0..l.theta.len() {
+                let mut th = l.theta.clone();
+                th[c_] += steps[j][c_];
+                fd_asks.push((l.at(&th), &blanks[k]));
+                fd_index.push((fi, j, c_));
+            }
+        }
+    }
+    let fd_traces = simulate_on(&fd_asks, tol);
+    simulations += fd_asks.len();
+    let fd_feats: Vec<Vec<FeatureSet>> = fd_asks
+        .par_iter()
+        .zip(&fd_traces)
+        .map(|((_, rec), tr)| features_of(rec, tr.as_ref()))
+        .collect();
+    drop(fd_traces);
+    let mut predicted: Vec<Predicted> = fin
+        .iter()
+        .map(|&k| Predicted {
+            candidate: cands[k],
+            pred: (0..r).map(|j| vec![pred0(k, j).clone()]).collect(),
+            steps: steps.clone(),
+            meas: (0..r).map(|i| meas(k, i).clone()).collect(),
+        })
+        .collect();
+    for (q, &(fi, j, _)) in fd_index.iter().enumerate() {
+        predicted[fi].pred[j].push(fd_feats[q].clone());
+    }
+    // Rows of every (finalist, truth, rival).
+    let rows: Vec<Vec<Vec<Rows>>> = predicted
+        .par_iter()
+        .map(|pr| {
+            (0..r)
+                .map(|i| (0..r).map(|j| pr.rows(i, j, covs[i].as_ref())).collect())
+                .collect()
+        })
+        .collect();
+    say(&format!("choosing {} recordings", opts.recordings));
+    let mut chosen: Vec<usize> = vec![];
+    let mut before = pair_scores(&open, &rows, &ex, &delta0, &chosen);
+    let mut planned = vec![];
+    for step in 0..opts.recordings {
+        let best = (0..fin.len())
+            .into_par_iter()
+            .filter(|x| !chosen.contains(x))
+            .map(|x| {
+                let mut with = chosen.clone();
+                with.push(x);
+                let s = pair_scores(&open, &rows, &ex, &delta0, &with);
+                let worst = s.iter().map(|p| p.0.min(p.1)).fold(f64::INFINITY, f64::min);
+                let sum: f64 = s.iter().map(|p| p.0.min(p.1)).sum();
+                (x, worst, sum, s)
+            })
+            .reduce_with(|a, b| {
+                // Larger worst pair, then larger sum, then the lower index: deterministic.
+                let ka = (a.1, a.2);
+                let kb = (b.1, b.2);
+                match kb.0.total_cmp(&ka.0).then(kb.1.total_cmp(&ka.1)) {
+                    std::cmp::Ordering::Greater => b,
+                    std::cmp::Ordering::Less => a,
+                    std::cmp::Ordering::Equal => {
+                        if a.0 < b.0 {
+                            a
+                        } else {
+                            b
+                        }
+                    }
+                }
+            })
+            .expect("finalists outnumber the recordings planned");
+        let (x, _, _, after) = best;
+        // The pair worst told apart before it.
+        let wp = (0..open.len())
+            .min_by(|&p, &q| {
+                before[p]
+                    .0
+                    .min(before[p].1)
+                    .total_cmp(&before[q].0.min(before[q].1))
+            })
+            .expect("at least one open pair");
+        let (a, b) = open[wp];
+        // Its weaker direction, and the features carrying this recording's share of it.
+        let (ti, tj) = if after[wp].0 <= after[wp].1 {
+            (a, b)
+        } else {
+            (b, a)
+        };
+        let mut with = chosen.clone();
+        with.push(x);
+        let planned_rows: Vec<&Rows> = with.iter().map(|&y| &rows[y][ti][tj]).collect();
+        let d = discrimination(&ex[tj], &planned_rows, &delta0[tj]);
+        let (_, by) = d.per_planned.last().expect("the new recording").clone();
+        let carry = carriers(&by, 3);
+        let gains: Vec<PairGain> = open
+            .iter()
+            .enumerate()
+            .map(|(p, &pair)| PairGain {
+                pair,
+                nats: after[p].0.min(after[p].1) - before[p].0.min(before[p].1),
+            })
+            .collect();
+        let cand = predicted[x].candidate;
+        let name = unique_name(
+            c,
+            &planned,
+            &format!("plan{:02}_{}", step + 1, cand.label()),
+        );
+        let why = sentence(
+            &cand,
+            &rivals[tj].name,
+            &rivals[ti].name,
+            &carry,
+            gains[wp].nats,
+        );
+        planned.push(Planned {
+            name,
+            candidate: cand,
+            gains,
+            chosen_for: (a, b),
+            carriers: carry,
+            why,
+        });
+        chosen.push(x);
+        before = after;
+    }
+    // Expected ln odds for every ordered pair.
+    let now = |i: usize, j: usize| rivals[i].ln_odds - rivals[j].ln_odds;
+    let mut outcomes = vec![];
+    for i in 0..r {
+        for j in 0..r {
+            if i == j {
+                continue;
+            }
+            let planned_rows: Vec<&Rows> = chosen.iter().map(|&y| &rows[y][i][j]).collect();
+            let d = discrimination(&ex[j], &planned_rows, &delta0[j]).nats;
+            outcomes.push(Outcome {
+                truth: i,
+                other: j,
+                now: now(i, j),
+                expected: now(i, j) + d,
+                simulated: None,
+                simulated_stderr: None,
+                clear: None,
+            });
+        }
+    }
+    let mut plan = Plan {
+        rivals,
+        open,
+        recordings: planned,
+        outcomes,
+        space: space.clone(),
+        candidates: cands.len(),
+        finalists: fin.len(),
+        screened,
+        noise,
+        simulations,
+        wall_time: 0.0,
+        warnings,
+        random: false,
+    };
+    if opts.check {
+        say("checking the plan: each rival as the truth, every rival refitted");
+        plan.simulations += verify::check(&target, &lins, &mut plan, opts.seed, say);
+    }
+    plan.wall_time = start.elapsed().as_secs_f64();
+    Ok(plan)
+}
+
+/// The rows of a prediction against a measurement (see [`criterion`]), for the screen.
+fn criterion_rows(meas: &[FeatureSet], pred: &[FeatureSet]) -> (Vec<f64>, usize) {
+    let mut z = vec![];
+    for (m, p) in meas.iter().zip(pred) {
+        z.extend(crate::diagnosis::fit::zscores(m, p));
+    }
+    let n = z.len();
+    (z, n)
+}
+
+fn unique_name(c: &Campaign, planned: &[Planned], want: &str) -> String {
+    let taken =
+        |n: &str| c.recordings.iter().any(|r| r.name == n) || planned.iter().any(|p| p.name == n);
+    let mut name = want.to_string();
+    let mut k = 2;
+    while taken(&name) {
+        name = format!("{want}_{k}");
+        k += 1;
+    }
+    name
+}
+
+fn sentence(
+    x: &Candidate,
+    refitted: &str,
+    truth: &str,
+    carry: &[(&'static str, f64)],
+    gain: f64,
+) -> String {
+    let p = &x.params;
+    let at = if p.vibrates() {
+        format!(
+            "At {:.0} Hz and v_a/v_d = {:.2} (k_d {:.0} N/m, v_d {:.2} mm/s)",
+            p.f,
+            x.va_ratio(),
+            p.k_d,
+            p.v_d * 1e3
+        )
+    } else {
+        format!(
+            "Without vibration (k_d {:.0} N/m, v_d {:.2} mm/s)",
+            p.k_d,
+            p.v_d * 1e3
+        )
+    };
+    let feats = if carry.is_empty() {
+        "no single feature".to_string()
+    } else {
+        carry
+            .iter()
+            .map(|(f, z)| format!("{f} ({z:.1} standard errors)"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    format!(
+        "{at}, even refitted to every recording {refitted} misses what {truth} predicts in {feats}: \
+         the pair the recordings so far told apart least gains {gain:.1} nats."
+    )
+}
+
+/// [`PlanOptions::random`]: `opts.recordings` distinct candidates drawn uniformly (a seeded
+/// shuffle), nothing simulated.
+#[allow(clippy::too_many_arguments)]
+fn random_plan(
+    c: &Campaign,
+    rivals: Vec<Rival>,
+    open: Vec<(usize, usize)>,
+    cands: Vec<Candidate>,
+    space: &Space,
+    opts: &PlanOptions,
+    noise: (f64, Option<f64>),
+    start: std::time::Instant,
+    mut warnings: Vec<String>,
+) -> Plan {
+    use rand::seq::SliceRandom;
+    let mut idx: Vec<usize> = (0..cands.len()).collect();
+    idx.shuffle(&mut StdRng::seed_from_u64(opts.seed));
+    let mut recordings: Vec<Planned> = vec![];
+    for (step, &k) in idx.iter().take(opts.recordings).enumerate() {
+        let x = cands[k];
+        let name = unique_name(
+            c,
+            &recordings,
+            &format!("rand{:02}_{}", step + 1, x.label()),
+        );
+        recordings.push(Planned {
+            name,
+            candidate: x,
+            gains: vec![],
+            chosen_for: open[0],
+            carriers: vec![],
+            why: "drawn at random from the design space (the baseline a plan must beat)".into(),
+        });
+    }
+    warnings.push("recordings drawn at random: no discrimination computed".into());
+    Plan {
+        rivals,
+        open,
+        recordings,
+        outcomes: vec![],
+        space: space.clone(),
+        candidates: cands.len(),
+        finalists: 0,
+        screened: cands.iter().map(|x| (*x, f64::NAN)).collect(),
+        noise,
+        simulations: 0,
+        wall_time: start.elapsed().as_secs_f64(),
+        warnings,
+        random: true,
+    }
+}
