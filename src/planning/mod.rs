@@ -20,6 +20,7 @@
 
 pub mod criterion;
 pub mod report;
+pub mod second;
 pub mod space;
 pub mod verify;
 
@@ -509,16 +510,40 @@ pub fn plan(
 ) -> Result<Plan, PlanError> {
     opts.validate()?;
     let start = std::time::Instant::now();
-    let rivals = rivals(diag)?;
-    let r = rivals.len();
+    let mut rivals = rivals(diag)?;
     let mut warnings = vec![];
+    let recs: Vec<&Recording> = c.recordings.iter().collect();
+    let target = Target::new(recs);
     let tried_second = diag["second"].as_array().is_some_and(|a| !a.is_empty());
-    if diag["partial"].as_bool() == Some(true) && !tried_second {
-        warnings.push(
-            "the named effect explains the gap only in part and the diagnosis fitted no second              effect beside it: the plan tells apart only the rivals it fitted, and cannot aim at              an effect it never fitted (what the named effect leaves is in the diagnosis's              `remaining` and warnings)"
-                .into(),
-        );
+    let named = rivals.iter().position(|x| x.role == "named");
+    if diag["partial"].as_bool() == Some(true)
+        && !tried_second
+        && let Some(i) = named
+    {
+        say(&format!(
+            "the diagnosis names {} only in part and fitted nothing beside it: fitting second effects",
+            rivals[i].name
+        ));
+        let extra = second::rivals(&target, &rivals[i], &EffectKind::candidates(), say);
+        warnings.push(format!(
+            "the diagnosis named {} only in part and tried no second effect; the plan fitted \
+             each candidate beside it (in-sample) and kept {}: {}",
+            rivals[i].name,
+            extra.len(),
+            if extra.is_empty() {
+                "none lowered its gap enough, so the plan cannot aim at a second effect".to_string()
+            } else {
+                extra
+                    .iter()
+                    .map(|x| x.name.clone())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            }
+        ));
+        rivals.extend(extra);
+        rivals.truncate(MAX_RIVALS);
     }
+    let r = rivals.len();
     say(&format!(
         "{} rivals: {}",
         r,
@@ -528,8 +553,6 @@ pub fn plan(
             .collect::<Vec<_>>()
             .join(", ")
     ));
-    let recs: Vec<&Recording> = c.recordings.iter().collect();
-    let target = Target::new(recs);
     say("linearising each rival on the campaign's recordings");
     let lins: Vec<Linearised> = rivals
         .iter()

@@ -1,0 +1,116 @@
+//! Second-effect rivals a plan fits itself: where a diagnosis names an effect only in part and
+//! fitted nothing beside it (its fit leaves a fingerprint absent, or ends on a bound, and the
+//! diagnosis then tries no second effect: it would be credited with the first's misfit), the
+//! plan still needs the hypotheses "the named effect and another" to aim at. They are
+//! hypotheses to tell apart, not verdicts: each is fitted here on the campaign's recordings
+//! (in-sample, from the named fit with the other effect at its neutral values), and only those
+//! that lower the named fit's gap by [`MIN_GAIN`] of it on a screen of the recordings it misses
+//! most are kept, the best [`MAX_SECOND`].
+
+use super::Rival;
+use crate::diagnosis::evidence::evidence;
+use crate::diagnosis::fit::{self, FitOptions, Target, gap, neutral_start};
+use crate::model::EffectKind;
+
+/// Share of the named fit's gap on the screen's recordings a second effect must remove to be
+/// kept as a rival (the diagnosis's screen bar).
+pub const MIN_GAIN: f64 = crate::diagnosis::screen::SCREEN_BAR;
+/// Second-effect rivals kept at most.
+pub const MAX_SECOND: usize = 2;
+/// Recordings of the screen (the diagnosis's).
+pub const SCREEN_RECORDINGS: usize = crate::diagnosis::screen::SCREEN_RECORDINGS;
+
+/// Root mean square residual per recording of `target` (rows as [`Target::row_recordings`]).
+fn per_recording(target: &Target, z: &[f64]) -> (Vec<f64>, Vec<usize>) {
+    let n = target.recs.len();
+    let mut ss = vec![0.0; n];
+    let mut k = vec![0usize; n];
+    let rows = target.row_recordings();
+    if rows.len() == z.len() {
+        for (&r, v) in rows.iter().zip(z) {
+            ss[r] += v * v;
+            k[r] += 1;
+        }
+    }
+    let g = ss
+        .iter()
+        .zip(&k)
+        .map(|(s, &n)| {
+            if n > 0 {
+                (s / n as f64).sqrt()
+            } else {
+                f64::NAN
+            }
+        })
+        .collect();
+    (g, k)
+}
+
+/// The second-effect rivals beside `named` (module docs), among `candidates`.
+pub fn rivals(
+    target: &Target,
+    named: &Rival,
+    candidates: &[EffectKind],
+    say: &(dyn Fn(&str) + Sync),
+) -> Vec<Rival> {
+    let z = target.residuals(&target.predict(&named.model));
+    if z.is_empty() {
+        return vec![];
+    }
+    let sub = fit::subset(target, &z, SCREEN_RECORDINGS);
+    let g0 = gap(&sub.residuals(&sub.predict(&named.model)));
+    let bar = (1.0 - MIN_GAIN) * g0;
+    let screen = FitOptions {
+        max_iter: crate::diagnosis::screen::SCREEN_ITERATIONS,
+        rel_tol: crate::diagnosis::screen::SCREEN_REL_TOL,
+        final_jacobian: false,
+        reach: bar,
+    };
+    let mut kept = vec![];
+    for &k in candidates {
+        if named.effects.contains(&k) {
+            continue;
+        }
+        let mut effects = named.effects.clone();
+        effects.push(k);
+        let start = neutral_start(&named.model, k, k.default_form());
+        let fr = fit::fit(&sub, &start, &effects, screen);
+        say(&format!(
+            "  {} beside {}: gap {:.2} on the screen's {} recordings (to keep: at most {:.2})",
+            k.name(),
+            named.name,
+            fr.gap,
+            sub.recs.len(),
+            bar
+        ));
+        if fr.gap <= bar {
+            kept.push((fr.gap, k, effects, fr.model));
+        }
+    }
+    kept.sort_by(|a, b| a.0.total_cmp(&b.0));
+    kept.truncate(MAX_SECOND);
+    let (g_named, n_named) = per_recording(target, &z);
+    kept.into_iter()
+        .map(|(_, k, effects, model)| {
+            let opts = FitOptions {
+                max_iter: 6,
+                final_jacobian: false,
+                ..FitOptions::default()
+            };
+            let fr = fit::fit(target, &model, &effects, opts);
+            let (g, n) = per_recording(target, &fr.z);
+            let extra = fit::effect_params(&[k], &fr.model.effects) as f64;
+            let ev = evidence(&g, &n, &g_named, &n_named, extra);
+            Rival {
+                name: format!("{}+{}", named.name, k.name()),
+                role: "a second effect beside the named one, fitted by the plan (in-sample \
+                       evidence: the diagnosis tried none)"
+                    .into(),
+                model: fr.model,
+                effects,
+                ln_odds: named.ln_odds + ev.ln_odds,
+                clear: false,
+            }
+        })
+        .collect()
+}
