@@ -100,6 +100,10 @@ pub struct PlanArgs {
     /// Seed of the simulated noise.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+    /// Where the diagnosis names an effect only in part and tried nothing beside it, fit each
+    /// candidate beside it first and keep those that lower its gap as rivals (minutes more).
+    #[arg(long)]
+    pub second_effects: bool,
     /// Draw the recordings at random from the design space (seeded by --seed) instead of
     /// choosing them: the baseline a plan must beat.
     #[arg(long)]
@@ -117,6 +121,7 @@ impl PlanArgs {
             finalists: self.finalists.max(self.recordings),
             check: !self.no_check,
             seed: self.seed,
+            second_effects: self.second_effects,
             random: self.random,
         };
         o.validate().map_err(|e| match e {

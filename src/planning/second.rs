@@ -3,13 +3,14 @@
 //! diagnosis then tries no second effect: it would be credited with the first's misfit), the
 //! plan still needs the hypotheses "the named effect and another" to aim at. They are
 //! hypotheses to tell apart, not verdicts: each is fitted here on the campaign's recordings
-//! (in-sample, from the named fit with the other effect at its neutral values), and only those
+//! (in-sample, from the named fit with the other effect at the best start of the diagnosis's
+//! scan of its parameters), and only those
 //! that lower the named fit's gap by [`MIN_GAIN`] of it on a screen of the recordings it misses
 //! most are kept, the best [`MAX_SECOND`].
 
 use super::Rival;
 use crate::diagnosis::evidence::evidence;
-use crate::diagnosis::fit::{self, FitOptions, Target, gap, neutral_start};
+use crate::diagnosis::fit::{self, FitOptions, FitResult, Target, gap};
 use crate::model::EffectKind;
 
 /// Share of the named fit's gap on the screen's recordings a second effect must remove to be
@@ -58,6 +59,23 @@ pub fn rivals(
         return vec![];
     }
     let sub = fit::subset(target, &z, SCREEN_RECORDINGS);
+    // The named fit as the scans take it: its model and its residuals on every recording.
+    let from = FitResult {
+        model: named.model.clone(),
+        estimates: vec![],
+        gap: gap(&z),
+        residuals: z.len(),
+        evaluations: 0,
+        effect_params: 0,
+        iterations: 0,
+        converged: true,
+        stalled: false,
+        theta: vec![],
+        z: z.clone(),
+        jacobian: faer::Mat::zeros(0, 0),
+        jacobian_fresh: false,
+        effects: named.effects.clone(),
+    };
     let g0 = gap(&sub.residuals(&sub.predict(&named.model)));
     let bar = (1.0 - MIN_GAIN) * g0;
     let screen = FitOptions {
@@ -73,8 +91,14 @@ pub fn rivals(
         }
         let mut effects = named.effects.clone();
         effects.push(k);
-        let start = neutral_start(&named.model, k, k.default_form());
-        let fr = fit::fit(&sub, &start, &effects, screen);
+        // The diagnosis's scan of the candidate's parameters beside the named fit chooses the
+        // screen's starts (its best, and a per-frequency scan's runner-up); the lowest screen
+        // goes on.
+        let fr = fit::starts(target, &from, k, k.default_form())
+            .iter()
+            .map(|start| fit::fit(&sub, start, &effects, screen))
+            .min_by(|a, b| a.gap.total_cmp(&b.gap))
+            .expect("a scan gives a start");
         say(&format!(
             "  {} beside {}: gap {:.2} on the screen's {} recordings (to keep: at most {:.2})",
             k.name(),
