@@ -412,6 +412,41 @@ fn synth_then_diagnose_writes_the_verdict_json_hdf5_and_plots() {
     assert_eq!(bad.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&bad.stderr).contains("no plan wrote"));
     std::fs::remove_file(plan.join("notes.toml")).unwrap();
+    // The baseline: three recordings drawn at random from the same space, nothing simulated.
+    let rand_dir = dir.path().join("random");
+    let out = stickslip(&[
+        "plan",
+        c,
+        "--diagnosis",
+        j,
+        "--out",
+        rand_dir.to_str().unwrap(),
+        "--recordings",
+        "3",
+        "--random",
+        "--no-plots",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let rj: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(rand_dir.join("plan.json")).unwrap()).unwrap();
+    assert_eq!(rj["random"], true);
+    assert_eq!(rj["simulations"], 0);
+    let names: Vec<&str> = rj["recordings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| r["name"].as_str().unwrap())
+        .collect();
+    assert_eq!(names.len(), 3);
+    assert!(
+        names
+            .iter()
+            .all(|n| n.starts_with("rand") && rand_dir.join(format!("{n}.toml")).is_file())
+    );
     // Recorded with the truth (synth --conditions) and added to the campaign, the planned
     // recordings load as any other and are counted as a plan's.
     let rec = dir.path().join("rec");

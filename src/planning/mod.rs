@@ -568,30 +568,6 @@ pub fn plan(
             .collect::<Vec<_>>()
             .join(", ")
     ));
-    say("linearising each rival on the campaign's recordings");
-    let lins: Vec<Linearised> = rivals
-        .iter()
-        .map(|x| linearise(&target, &x.model, &x.effects))
-        .collect();
-    for (x, l) in rivals.iter().zip(&lins) {
-        if l.z.is_empty() {
-            return Err(PlanError::Diagnosis(format!(
-                "rival {} cannot be simulated on every recording of the campaign",
-                x.name
-            )));
-        }
-    }
-    let row_rec = target.row_recordings();
-    let ex: Vec<Existing> = lins
-        .iter()
-        .map(|l| Existing {
-            lin: l,
-            row_rec: &row_rec,
-            n_recs: c.recordings.len(),
-        })
-        .collect();
-    let delta0: Vec<Vec<f64>> = ex.iter().map(refit_alone).collect();
-    let covs: Vec<Option<faer::Mat<f64>>> = lins.iter().map(covariance).collect();
     let noise = noise_of(c);
     if !noise.0.is_finite() || noise.0 <= 0.0 {
         return Err(PlanError::Diagnosis(
@@ -633,6 +609,30 @@ pub fn plan(
             c, rivals, open, cands, space, opts, noise, start, warnings,
         ));
     }
+    say("linearising each rival on the campaign's recordings");
+    let lins: Vec<Linearised> = rivals
+        .iter()
+        .map(|x| linearise(&target, &x.model, &x.effects))
+        .collect();
+    for (x, l) in rivals.iter().zip(&lins) {
+        if l.z.is_empty() {
+            return Err(PlanError::Diagnosis(format!(
+                "rival {} cannot be simulated on every recording of the campaign",
+                x.name
+            )));
+        }
+    }
+    let row_rec = target.row_recordings();
+    let ex: Vec<Existing> = lins
+        .iter()
+        .map(|l| Existing {
+            lin: l,
+            row_rec: &row_rec,
+            n_recs: c.recordings.len(),
+        })
+        .collect();
+    let delta0: Vec<Vec<f64>> = ex.iter().map(refit_alone).collect();
+    let covs: Vec<Option<faer::Mat<f64>>> = lins.iter().map(covariance).collect();
     let has_x = noise.1.is_some();
     let blanks: Vec<Recording> = cands
         .iter()
