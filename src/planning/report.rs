@@ -250,22 +250,24 @@ impl Figure for SpaceFigure<'_> {
                 .label_style(("sans-serif", 13))
                 .draw()
                 .map_err(e)?;
-            ch.draw_series(
-                self.plan
-                    .screened
-                    .iter()
-                    .filter(|(c, _)| same(c.params.k_d))
-                    .map(|(c, s)| {
-                        let w = shade(*s);
-                        let col = RGBColor((40.0 + 215.0 * w) as u8, 60, (255.0 - 215.0 * w) as u8);
-                        let f = if c.params.vibrates() {
-                            c.params.f * 1e-3
-                        } else {
-                            0.0
-                        };
-                        Circle::new((f, c.va_ratio()), 4, col.filled())
-                    }),
-            )
+            // Several drive velocities share a point: the most discriminating on top.
+            let mut dots: Vec<&(super::space::Candidate, f64)> = self
+                .plan
+                .screened
+                .iter()
+                .filter(|(c, _)| same(c.params.k_d))
+                .collect();
+            dots.sort_by(|a, b| a.1.total_cmp(&b.1));
+            ch.draw_series(dots.into_iter().map(|(c, s)| {
+                let w = shade(*s);
+                let col = RGBColor((40.0 + 215.0 * w) as u8, 60, (255.0 - 215.0 * w) as u8);
+                let f = if c.params.vibrates() {
+                    c.params.f * 1e-3
+                } else {
+                    0.0
+                };
+                Circle::new((f, c.va_ratio()), 4, col.filled())
+            }))
             .map_err(e)?;
             ch.draw_series(
                 self.c
@@ -296,7 +298,8 @@ impl Figure for SpaceFigure<'_> {
                 let pt = (x, c.va_ratio());
                 ch.draw_series([Circle::new(pt, 10, BLACK.stroke_width(2))])
                     .map_err(e)?;
-                ch.draw_series([Text::new(format!("{}", k + 1), pt, ("sans-serif", 16))])
+                let label = (pt.0 + 0.02 * fmax, pt.1 + 0.02 * rmax);
+                ch.draw_series([Text::new(format!("{}", k + 1), label, ("sans-serif", 18))])
                     .map_err(e)?;
             }
         }
