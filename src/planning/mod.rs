@@ -305,6 +305,34 @@ pub fn rivals(diag: &serde_json::Value) -> Result<Vec<Rival>, PlanError> {
     Ok(out)
 }
 
+/// Per recording of `target`, the root mean square of the residuals `z` (rows as
+/// [`Target::row_recordings`]; NaN where a recording has none) and their number: the
+/// per-recording gaps the evidence takes.
+pub(crate) fn per_recording(target: &Target, z: &[f64]) -> (Vec<f64>, Vec<usize>) {
+    let n = target.recs.len();
+    let rows = target.row_recordings();
+    let mut ss = vec![0.0; n];
+    let mut k = vec![0usize; n];
+    if z.len() == rows.len() {
+        for (&rec, v) in rows.iter().zip(z) {
+            ss[rec] += v * v;
+            k[rec] += 1;
+        }
+    }
+    let g = ss
+        .iter()
+        .zip(&k)
+        .map(|(s, &n)| {
+            if n > 0 {
+                (s / n as f64).sqrt()
+            } else {
+                f64::NAN
+            }
+        })
+        .collect();
+    (g, k)
+}
+
 /// The campaign's noise: the force's standard deviation \[N\] and the displacements' \[m\]
 /// where every recording has them (the median over recordings of [`noise_sd`]).
 pub fn noise_of(c: &Campaign) -> (f64, Option<f64>) {

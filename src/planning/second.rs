@@ -8,7 +8,7 @@
 //! that lower the named fit's gap by [`MIN_GAIN`] of it on a screen of the recordings it misses
 //! most are kept, the best [`MAX_SECOND`].
 
-use super::Rival;
+use super::{Rival, per_recording};
 use crate::diagnosis::evidence::evidence;
 use crate::diagnosis::fit::{self, FitOptions, FitResult, Target, gap};
 use crate::model::EffectKind;
@@ -20,32 +20,6 @@ pub const MIN_GAIN: f64 = crate::diagnosis::screen::SCREEN_BAR;
 pub const MAX_SECOND: usize = 2;
 /// Recordings of the screen (the diagnosis's).
 pub const SCREEN_RECORDINGS: usize = crate::diagnosis::screen::SCREEN_RECORDINGS;
-
-/// Root mean square residual per recording of `target` (rows as [`Target::row_recordings`]).
-fn per_recording(target: &Target, z: &[f64]) -> (Vec<f64>, Vec<usize>) {
-    let n = target.recs.len();
-    let mut ss = vec![0.0; n];
-    let mut k = vec![0usize; n];
-    let rows = target.row_recordings();
-    if rows.len() == z.len() {
-        for (&r, v) in rows.iter().zip(z) {
-            ss[r] += v * v;
-            k[r] += 1;
-        }
-    }
-    let g = ss
-        .iter()
-        .zip(&k)
-        .map(|(s, &n)| {
-            if n > 0 {
-                (s / n as f64).sqrt()
-            } else {
-                f64::NAN
-            }
-        })
-        .collect();
-    (g, k)
-}
 
 /// The second-effect rivals beside `named` (module docs), among `candidates`.
 pub fn rivals(

@@ -5,7 +5,7 @@
 //! as the diagnosis computes it ([`evidence`]: one scale per recording, the jackknife over
 //! recordings) on the planned recordings and on what the refit changed on the existing ones.
 
-use super::{Plan, blank, noisy};
+use super::{Plan, blank, noisy, per_recording};
 use crate::campaign::Recording;
 use crate::diagnosis::evidence::{LN_PRIOR_ODDS, evidence};
 use crate::diagnosis::fit::{FitOptions, Target, fit};
@@ -13,33 +13,6 @@ use crate::diagnosis::linearised::Linearised;
 
 /// Iterations of each refit: they start at the rival's optimum on the existing recordings.
 pub const REFIT_ITERATIONS: usize = 4;
-
-/// Per recording of `target`, the root mean square of the residuals `z` (rows as
-/// [`Target::row_recordings`]) and their number.
-fn per_recording(target: &Target, z: &[f64]) -> (Vec<f64>, Vec<usize>) {
-    let n = target.recs.len();
-    let rows = target.row_recordings();
-    let mut ss = vec![0.0; n];
-    let mut k = vec![0usize; n];
-    if z.len() == rows.len() {
-        for (&rec, v) in rows.iter().zip(z) {
-            ss[rec] += v * v;
-            k[rec] += 1;
-        }
-    }
-    let g = ss
-        .iter()
-        .zip(&k)
-        .map(|(s, &n)| {
-            if n > 0 {
-                (s / n as f64).sqrt()
-            } else {
-                f64::NAN
-            }
-        })
-        .collect();
-    (g, k)
-}
 
 /// Checks `plan` by simulation (module docs) and fills each outcome's simulated evidence.
 /// Returns the simulations run.
