@@ -362,6 +362,46 @@ def write_campaign(out, name, seed, cycles=2, extra=None):
         json.dump(truth, fh, indent=1)
 
 
+def record_plan(out, name, plan_dir, seed, extra=None):
+    """The recordings a plan proposes (`stickslip plan`: every TOML with a [plan] table in
+    `plan_dir`), made on this rig with the campaign `name`'s effects (and `extra`) and noise, for
+    the plan's duration at the plan's rate; each STEM.toml is the plan's own, so the campaign
+    they join counts them as planned."""
+    import shutil
+    import tomllib
+
+    spec = dict(PANEL[name])
+    if extra:
+        spec["effects"] = {**spec["effects"], **extra}
+    os.makedirs(out, exist_ok=True)
+    rng = np.random.default_rng(seed + 7919)
+    made = 0
+    for f in sorted(x for x in os.listdir(plan_dir) if x.endswith(".toml")):
+        with open(os.path.join(plan_dir, f), "rb") as fh:
+            t = tomllib.load(fh)
+        if "plan" not in t:
+            continue
+        rate = t["plan"]["rate"]
+        sub = max(1, math.ceil(1.0 / (rate * 5e-6)))
+        vib = t.get("f", 0.0) > 0 and t.get("u0", 0.0) > 0
+        cond = dict(v_d=t["v_d"], k_d=t["k_d"], f=t["f"] if vib else 0.0,
+                    va_ratio=2 * math.pi * t["f"] * t["u0"] / t["v_d"] if vib else 0.0,
+                    t_on=t.get("t_on", 0.0))
+        p = param_vector(cond, spec["effects"])
+        F, X, XD = simulate(p, t["plan"]["duration"], rate, sub)
+        F = F + spec["noise"] * rng.standard_normal(F.size)
+        X = X + 5e-9 * rng.standard_normal(X.size)
+        XD = XD + 5e-9 * rng.standard_normal(XD.size)
+        stem = f[:-5]
+        tt = np.arange(F.size) / rate
+        np.savetxt(os.path.join(out, stem + ".csv"), np.column_stack([tt, F, X, XD]),
+                   delimiter=",", header="t,F_d,x_s,x_d", comments="", fmt="%.9e")
+        shutil.copy(os.path.join(plan_dir, f), os.path.join(out, stem + ".toml"))
+        made += 1
+    if made == 0:
+        sys.exit(f"{plan_dir}: no planned conditions (NAME.toml with a [plan] table)")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("dir", nargs="?")
@@ -371,6 +411,8 @@ def main():
     ap.add_argument("--effect", action="append", default=[], metavar="NAME:k=v,...",
                     help="add an effect in this rig's own form to the campaign (repeatable), "
                          "e.g. aging:b=0.02,theta_0=0.01,d_c=1e-6; the truth then expects it")
+    ap.add_argument("--conditions", metavar="PLANDIR",
+                    help="record the conditions a plan proposes (stickslip plan's folder)")
     a = ap.parse_args()
     if a.list:
         for k, v in PANEL.items():
@@ -391,7 +433,10 @@ def main():
             except ValueError:
                 ap.error(f"--effect {spec}: {k.strip()} = {v!r} is not a number")
         extra[name] = vals
-    write_campaign(a.dir, a.campaign, a.seed, extra=extra)
+    if a.conditions:
+        record_plan(a.dir, a.campaign, a.conditions, a.seed, extra=extra)
+    else:
+        write_campaign(a.dir, a.campaign, a.seed, extra=extra)
 
 
 if __name__ == "__main__":

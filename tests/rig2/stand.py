@@ -331,6 +331,82 @@ PANEL = {
 }
 
 
+def record(out, stem, i, cond, n, rate, per_sample, spec, rng):
+    """One recording of `n` samples at `rate` under the conditions `cond`, with the campaign
+    `spec`'s effects, noise and encoder: STEM.csv and STEM.toml in `out`."""
+    q = params(cond, spec["effects"])
+    noise_v = np.zeros(n)
+    if "drive_noise" in spec["effects"]:
+        e = spec["effects"]["drive_noise"]
+        # Ornstein-Uhlenbeck velocity fluctuation, exact update per sample interval.
+        dt = 1.0 / rate
+        rho = math.exp(-dt / e["tau"])
+        sd = e["rel"] * cond["v_d"]
+        w = rng.standard_normal(n)
+        for j in range(1, n):
+            noise_v[j] = rho * noise_v[j - 1] + sd * math.sqrt(1.0 - rho * rho) * w[j]
+    F, X, XD = run(q, n, per_sample, noise_v)
+    F = F + spec["noise"] * rng.standard_normal(n)
+    t = np.arange(n) / rate
+    cols, names = [t, F], ["t", "F_d"]
+    if spec["quantum"] is not None:
+        qn = spec["quantum"]
+        # An encoder: positions rounded to its quantum (with a little jitter before it).
+        cols += [np.round((X + 2e-9 * rng.standard_normal(n)) / qn) * qn,
+                 np.round((XD + 2e-9 * rng.standard_normal(n)) / qn) * qn]
+        names += ["x_s", "x_d"]
+    # Columns in another order than the first rig's: drive force first.
+    order = [1, 0] + list(range(2, len(cols)))
+    np.savetxt(os.path.join(out, stem + ".csv"), np.column_stack([cols[k] for k in order]),
+               delimiter=",", header=",".join(names[k] for k in order), comments="",
+               fmt="%.10g")
+    with open(os.path.join(out, stem + ".toml"), "w") as fh:
+        fh.write(f"# drive and vibration of {stem}\nv_d = {cond['v_d']!r}\n"
+                 f"k_d = {cond['k_d']!r}\n")
+        if cond.get("f", 0.0) > 0:
+            # u0 on odd recordings, v_a on even ones: both spellings are the user's.
+            if i % 2:
+                fh.write(f"f = {cond['f']!r}\nu0 = {cond['v_a'] / (2 * math.pi * cond['f'])!r}\n")
+            else:
+                fh.write(f"f = {cond['f']!r}\nv_a = {cond['v_a']!r}\n")
+            if cond.get("t_on", 0.0) > 0:
+                fh.write(f"t_on = {cond['t_on']!r}\n")
+        else:
+            fh.write("f = 0.0\nu0 = 0.0\n")
+
+
+def record_plan(out, name, plan_dir, seed):
+    """The recordings a plan proposes (`stickslip plan`: every TOML with a [plan] table in
+    `plan_dir`), made on this stand with the campaign `name`'s effects, noise and encoder, each
+    for the plan's duration at the stand's nearest rate; each STEM.toml is the plan's own, so
+    the campaign they join counts them as planned."""
+    import shutil
+    import tomllib
+
+    spec = PANEL[name]
+    os.makedirs(out, exist_ok=True)
+    rng = np.random.default_rng(seed + 7919)
+    files = sorted(f for f in os.listdir(plan_dir) if f.endswith(".toml"))
+    made = 0
+    for k, f in enumerate(files):
+        with open(os.path.join(plan_dir, f), "rb") as fh:
+            t = tomllib.load(fh)
+        if "plan" not in t:
+            continue
+        per_sample = max(1, round(1.0 / (t["plan"]["rate"] * STEP)))
+        rate = 1.0 / (per_sample * STEP)
+        cond = dict(v_d=t["v_d"], k_d=t["k_d"])
+        if t.get("f", 0.0) > 0 and t.get("u0", 0.0) > 0:
+            cond.update(f=t["f"], v_a=2 * math.pi * t["f"] * t["u0"], t_on=t.get("t_on", 0.0))
+        n = int(math.floor(t["plan"]["duration"] * rate)) + 1
+        stem = f[:-5]
+        record(out, stem, k, cond, n, rate, per_sample, spec, rng)
+        shutil.copy(os.path.join(plan_dir, f), os.path.join(out, stem + ".toml"))
+        made += 1
+    if made == 0:
+        sys.exit(f"{plan_dir}: no planned conditions (NAME.toml with a [plan] table)")
+
+
 def write_campaign(out, name, seed, cycles=2):
     spec = PANEL[name]
     os.makedirs(out, exist_ok=True)
@@ -342,47 +418,8 @@ def write_campaign(out, name, seed, cycles=2):
     # The recorder's clock: samples every per_sample steps (the rate is rounded to it).
     rate = 1.0 / (per_sample * STEP)
     for i, cond in enumerate(conds):
-        q = params(cond, spec["effects"])
         n = int(math.floor(length(cond, cycles) * rate)) + 1
-        noise_v = np.zeros(n)
-        if "drive_noise" in spec["effects"]:
-            e = spec["effects"]["drive_noise"]
-            # Ornstein-Uhlenbeck velocity fluctuation, exact update per sample interval.
-            dt = 1.0 / rate
-            rho = math.exp(-dt / e["tau"])
-            sd = e["rel"] * cond["v_d"]
-            w = rng.standard_normal(n)
-            for j in range(1, n):
-                noise_v[j] = rho * noise_v[j - 1] + sd * math.sqrt(1.0 - rho * rho) * w[j]
-        F, X, XD = run(q, n, per_sample, noise_v)
-        F = F + spec["noise"] * rng.standard_normal(n)
-        stem = f"run_{i + 1:02d}"
-        t = np.arange(n) / rate
-        cols, names = [t, F], ["t", "F_d"]
-        if spec["quantum"] is not None:
-            qn = spec["quantum"]
-            # An encoder: positions rounded to its quantum (with a little jitter before it).
-            cols += [np.round((X + 2e-9 * rng.standard_normal(n)) / qn) * qn,
-                     np.round((XD + 2e-9 * rng.standard_normal(n)) / qn) * qn]
-            names += ["x_s", "x_d"]
-        # Columns in another order than the first rig's: drive force first.
-        order = [1, 0] + list(range(2, len(cols)))
-        np.savetxt(os.path.join(out, stem + ".csv"), np.column_stack([cols[k] for k in order]),
-                   delimiter=",", header=",".join(names[k] for k in order), comments="",
-                   fmt="%.10g")
-        with open(os.path.join(out, stem + ".toml"), "w") as fh:
-            fh.write(f"# drive and vibration of {stem}\nv_d = {cond['v_d']!r}\n"
-                     f"k_d = {cond['k_d']!r}\n")
-            if cond.get("f", 0.0) > 0:
-                # u0 on odd recordings, v_a on even ones: both spellings are the user's.
-                if i % 2:
-                    fh.write(f"f = {cond['f']!r}\nu0 = {cond['v_a'] / (2 * math.pi * cond['f'])!r}\n")
-                else:
-                    fh.write(f"f = {cond['f']!r}\nv_a = {cond['v_a']!r}\n")
-                if cond.get("t_on", 0.0) > 0:
-                    fh.write(f"t_on = {cond['t_on']!r}\n")
-            else:
-                fh.write("f = 0.0\nu0 = 0.0\n")
+        record(out, f"run_{i + 1:02d}", i, cond, n, rate, per_sample, spec, rng)
     truth = dict(name=name, effects=spec["effects"], expect=spec["expect"], form=spec.get("form"),
                  rate=rate,
                  noise=spec["noise"], quantum=spec["quantum"], seed=seed,
@@ -398,6 +435,8 @@ def main():
     ap.add_argument("--campaign", choices=sorted(PANEL))
     ap.add_argument("--seed", type=int, default=3)
     ap.add_argument("--list", action="store_true")
+    ap.add_argument("--conditions", metavar="PLANDIR",
+                    help="record the conditions a plan proposes (stickslip plan's folder)")
     a = ap.parse_args()
     if a.list:
         for k, v in PANEL.items():
@@ -405,7 +444,10 @@ def main():
         return
     if not a.dir or not a.campaign:
         ap.error("give DIR and --campaign (or --list)")
-    write_campaign(a.dir, a.campaign, a.seed)
+    if a.conditions:
+        record_plan(a.dir, a.campaign, a.conditions, a.seed)
+    else:
+        write_campaign(a.dir, a.campaign, a.seed)
 
 
 if __name__ == "__main__":
