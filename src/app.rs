@@ -356,8 +356,6 @@ pub struct Planned {
     pub summary: String,
     /// Files written.
     pub written: Vec<std::path::PathBuf>,
-    /// Where the diagnosis came from.
-    pub diagnosis: String,
 }
 
 /// `stickslip plan`.
@@ -498,7 +496,6 @@ pub fn plan(a: &PlanArgs) -> Result<Planned, AppError> {
         json: crate::planning::report::json(&c, &plan, &plan_name),
         summary: crate::planning::report::summary(&plan),
         written,
-        diagnosis: source,
     })
 }
 

@@ -159,11 +159,7 @@ impl PlanArgs {
             inputs.push(d);
         }
         check_output("json", &json, &inputs)?;
-        let same = |a: &Path, b: &Path| match (a.canonicalize(), b.canonicalize()) {
-            (Ok(x), Ok(y)) => x == y,
-            _ => a == b,
-        };
-        if same(&out, &self.campaign) {
+        if same_file(&out, &self.campaign) {
             return Err(CliError::Flag {
                 flag: "out".into(),
                 value: out.display().to_string(),
@@ -967,6 +963,15 @@ pub enum CliError {
     },
 }
 
+/// Whether two paths name the same file or folder (the same one by another spelling
+/// included; where either does not exist, whether they are spelled alike).
+fn same_file(a: &Path, b: &Path) -> bool {
+    match (a.canonicalize(), b.canonicalize()) {
+        (Ok(x), Ok(y)) => x == y,
+        _ => a == b,
+    }
+}
+
 /// Checks an output location before anything is computed: `path` (given by `--flag`) must not
 /// be a directory, its nearest existing ancestor must be a directory, and it must not be one of
 /// the command's `inputs` (the same file by another spelling included). Refused with a message
@@ -1001,12 +1006,9 @@ pub fn check_output(flag: &str, path: &Path, inputs: &[&Path]) -> Result<(), Cli
         }
         up = d.parent();
     }
-    let same = |a: &Path, b: &Path| match (a.canonicalize(), b.canonicalize()) {
-        (Ok(x), Ok(y)) => x == y,
-        _ => a == b,
-    };
+
     for input in inputs {
-        if same(path, input) {
+        if same_file(path, input) {
             return bad(format!(
                 "is an input of this command ({}); it would be overwritten: give another output",
                 input.display()

@@ -738,7 +738,7 @@ fn predict_at(
 }
 
 /// The features of every stage of `rec` from its simulated trace `tr`.
-fn trace_of(rec: &Recording, tr: &SimTrace) -> Vec<FeatureSet> {
+pub(crate) fn trace_of(rec: &Recording, tr: &SimTrace) -> Vec<FeatureSet> {
     trace_features(
         rec,
         &tr.f_d,

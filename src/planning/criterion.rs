@@ -24,7 +24,7 @@
 //! `min(D_ij, D_ji)`: whichever is true must win.
 
 use super::space::Candidate;
-use crate::diagnosis::features::{FEATURES, Feature, FeatureSet, N_FEATURES};
+use crate::diagnosis::features::{FEATURES, Feature, FeatureSet};
 use crate::diagnosis::fit::zscore;
 use crate::diagnosis::linearised::Linearised;
 use faer::Mat;
@@ -60,7 +60,8 @@ pub struct Rows {
     pub features: Vec<Feature>,
 }
 
-fn rows_raw(meas: &[FeatureSet], pred: &[FeatureSet]) -> (Vec<f64>, Vec<Feature>) {
+/// The standardised residuals of `pred` against `meas`, every stage's, with each row's feature.
+pub(crate) fn rows_raw(meas: &[FeatureSet], pred: &[FeatureSet]) -> (Vec<f64>, Vec<Feature>) {
     let mut r = vec![];
     let mut fs = vec![];
     for (m, p) in meas.iter().zip(pred) {
@@ -79,14 +80,14 @@ impl Predicted {
     /// own parameter uncertainty (`cov_i`, the covariance of `i`'s coordinates; `None`: none).
     pub fn rows(&self, i: usize, j: usize, cov_i: Option<&Mat<f64>>) -> Rows {
         let (r, features) = rows_raw(&self.meas[i], &self.pred[j][0]);
-        let grad = |k: usize, rival: usize| -> Vec<f64> {
+        // Each coordinate's column of `rival`'s rows, from its residuals at the fit `r0`.
+        let grad = |k: usize, rival: usize, r0: &[f64]| -> Vec<f64> {
             let (rk, _) = rows_raw(&self.meas[i], &self.pred[rival][1 + k]);
-            let (r0, _) = rows_raw(&self.meas[i], &self.pred[rival][0]);
             let h = self.steps[rival][k];
-            rk.iter().zip(&r0).map(|(a, b)| (a - b) / h).collect()
+            rk.iter().zip(r0).map(|(a, b)| (a - b) / h).collect()
         };
         let pj = self.steps[j].len();
-        let cols: Vec<Vec<f64>> = (0..pj).map(|k| grad(k, j)).collect();
+        let cols: Vec<Vec<f64>> = (0..pj).map(|k| grad(k, j, &r)).collect();
         let mut jac: Vec<Vec<f64>> = (0..r.len())
             .map(|row| {
                 cols.iter()
@@ -97,7 +98,8 @@ impl Predicted {
         let mut r = r;
         if let Some(cov) = cov_i {
             let pi = self.steps[i].len();
-            let gi: Vec<Vec<f64>> = (0..pi).map(|k| grad(k, i)).collect();
+            let (ri, _) = rows_raw(&self.meas[i], &self.pred[i][0]);
+            let gi: Vec<Vec<f64>> = (0..pi).map(|k| grad(k, i, &ri)).collect();
             for row in 0..r.len() {
                 let g: Vec<f64> = gi
                     .iter()
@@ -314,8 +316,6 @@ pub fn without_r(mut fs: Vec<FeatureSet>) -> Vec<FeatureSet> {
     }
     fs
 }
-
-const _: () = assert!(N_FEATURES > Feature::R as usize);
 
 #[cfg(test)]
 mod tests {

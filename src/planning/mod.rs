@@ -27,8 +27,9 @@ pub mod verify;
 use crate::campaign::{Campaign, GridAsk, Recording, simulate_grids};
 use crate::diagnosis::evidence::evidence;
 use crate::diagnosis::features::{FeatureSet, noise_sd};
-use crate::diagnosis::fit::{Model, Target, trace_features};
+use crate::diagnosis::fit::{Model, Target};
 use crate::diagnosis::linearised::{Linearised, linearise};
+use crate::diagnosis::target::trace_of;
 use crate::model::EffectKind;
 use criterion::{Existing, Predicted, Rows, carriers, covariance, discrimination, refit_alone};
 use rand::{SeedableRng, rngs::StdRng};
@@ -402,12 +403,7 @@ fn simulate_on(asks: &[(Model, &Recording)], tol: f64) -> Vec<Option<crate::camp
 
 fn features_of(rec: &Recording, tr: Option<&crate::campaign::SimTrace>) -> Vec<FeatureSet> {
     match tr {
-        Some(tr) => trace_features(
-            rec,
-            &tr.f_d,
-            rec.x_s.as_ref().map(|_| &tr.x_s[..]),
-            rec.x_d.as_ref().map(|_| &tr.x_d[..]),
-        ),
+        Some(tr) => trace_of(rec, tr),
         None => {
             let n = crate::diagnosis::features::stages(&rec.t, &rec.params).len();
             vec![FeatureSet::nan(); n]
@@ -434,7 +430,7 @@ pub fn noisy(
 }
 
 /// What a planned recording is expected to add to one pair of rivals.
-#[derive(Clone, Debug, serde::Serialize)]
+#[derive(Clone, Debug)]
 pub struct PairGain {
     /// The two rivals (indices into [`Plan::rivals`]).
     pub pair: (usize, usize),
@@ -461,7 +457,7 @@ pub struct Planned {
 }
 
 /// One ordered pair of rivals after the plan: `truth` true, evidence for it against `other`.
-#[derive(Clone, Debug, serde::Serialize)]
+#[derive(Clone, Debug)]
 pub struct Outcome {
     /// The rival taken as the truth.
     pub truth: usize,
@@ -721,7 +717,7 @@ pub fn plan(
                 open.iter()
                     .map(|&(a, b)| {
                         let d = |i: usize, j: usize| {
-                            let (z, _) = criterion_rows(meas(k, i), pred0(k, j));
+                            let (z, _) = criterion::rows_raw(meas(k, i), pred0(k, j));
                             let n = z.len() as f64;
                             let ss: f64 = z.iter().map(|v| v * v).sum();
                             if n > 0.0 {
@@ -953,16 +949,6 @@ pub fn plan(
     }
     plan.wall_time = start.elapsed().as_secs_f64();
     Ok(plan)
-}
-
-/// The rows of a prediction against a measurement (see [`criterion`]), for the screen.
-fn criterion_rows(meas: &[FeatureSet], pred: &[FeatureSet]) -> (Vec<f64>, usize) {
-    let mut z = vec![];
-    for (m, p) in meas.iter().zip(pred) {
-        z.extend(crate::diagnosis::fit::zscores(m, p));
-    }
-    let n = z.len();
-    (z, n)
 }
 
 fn unique_name(c: &Campaign, planned: &[Planned], want: &str) -> String {
