@@ -385,16 +385,22 @@ pub fn plan(a: &PlanArgs) -> Result<Planned, AppError> {
         .unwrap_or_else(|| "campaign".into());
     // Refuse to write over files a plan did not write.
     if out.is_dir() {
+        let mut paths = vec![];
         for e in std::fs::read_dir(&out).map_err(|e| CampaignError::Io {
             path: out.display().to_string(),
             msg: e.to_string(),
         })? {
-            let path = e
-                .map_err(|e| CampaignError::Io {
+            paths.push(
+                e.map_err(|e| CampaignError::Io {
                     path: out.display().to_string(),
                     msg: e.to_string(),
                 })?
-                .path();
+                .path(),
+            );
+        }
+        // Recordings are named before other files, whatever order the folder lists them in.
+        paths.sort_by_key(|p| (p.extension().is_none_or(|x| x != "csv"), p.clone()));
+        for path in paths {
             let is_csv = path.extension().is_some_and(|x| x == "csv");
             if is_csv {
                 return Err(CliError::Flag {

@@ -149,6 +149,13 @@ impl PlanArgs {
             .out
             .clone()
             .unwrap_or_else(|| PathBuf::from("results").join(format!("plan-{name}")));
+        if out.exists() && !out.is_dir() {
+            return Err(CliError::Flag {
+                flag: "out".into(),
+                value: out.display().to_string(),
+                msg: "is a file; give a folder for the plan".into(),
+            });
+        }
         let json = self.json.clone().unwrap_or_else(|| out.join("plan.json"));
         let inputs = campaign_files(&self.campaign);
         let mut inputs: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
@@ -315,6 +322,23 @@ impl SynthArgs {
     /// Resolves the flags into a validated synthesis.
     pub fn resolve(&self) -> Result<crate::campaign::synth::SynthSpec, CliError> {
         use crate::campaign::synth::{SynthSpec, draw};
+        if let Some(plan) = &self.conditions {
+            let bad = |msg: &str| CliError::Flag {
+                flag: "conditions".into(),
+                value: plan.display().to_string(),
+                msg: msg.into(),
+            };
+            if !plan.exists() {
+                return Err(bad(
+                    "no such folder; give the folder a plan wrote (stickslip plan --out)",
+                ));
+            }
+            if !plan.is_dir() {
+                return Err(bad(
+                    "is a file; give the folder a plan wrote (stickslip plan --out)",
+                ));
+            }
+        }
         let mut spec = SynthSpec {
             design: self.design.parse().map_err(|msg| CliError::Flag {
                 flag: "design".into(),

@@ -84,6 +84,11 @@ fn census_of_bad_input() {
     w("afile", "a text file");
     w("prev.h5", "an earlier result that must survive");
     std::fs::create_dir(d.join("outdir")).unwrap();
+    // Design spaces of a plan, and a folder holding a conditions file no plan wrote.
+    w("sp_key.toml", "colour = 1\n");
+    w("sp_neg.toml", "max_duration = -1\n");
+    w("sp_spring.toml", "springs = [0]\n");
+    w("ptoml/x.toml", "v_d = 1e-3\nk_d = 1e4\n");
     // A finished sweep and a run's HDF5 file (not a sweep).
     let ok = run(
         d,
@@ -922,6 +927,97 @@ fn census_of_bad_input() {
             s(&["calibrate", "afile"]),
             2,
             vec!["afile", "is a file", "directory"],
+        ),
+        // plan: every one refused before any diagnosis runs
+        (
+            s(&["plan", "camp", "--recordings", "0"]),
+            2,
+            vec!["--recordings", "0", "from 1 to 30"],
+        ),
+        (
+            s(&["plan", "camp", "--recordings", "30", "--finalists", "201"]),
+            2,
+            vec!["--finalists", "201", "to 200"],
+        ),
+        (
+            s(&["plan", "camp", "--space", "missing.toml"]),
+            2,
+            vec!["missing.toml", "cannot read"],
+        ),
+        (
+            s(&["plan", "camp", "--space", "afile"]),
+            2,
+            vec!["afile:1", "not valid TOML"],
+        ),
+        (
+            s(&["plan", "camp", "--space", "sp_key.toml"]),
+            2,
+            vec!["sp_key.toml", "colour", "unknown key", "max_u0"],
+        ),
+        (
+            s(&["plan", "camp", "--space", "sp_neg.toml"]),
+            2,
+            vec!["sp_neg.toml", "max_duration", "-1", "3600 s"],
+        ),
+        (
+            s(&["plan", "camp", "--space", "sp_spring.toml"]),
+            2,
+            vec!["sp_spring.toml", "springs", "[0]", "1e9 N/m"],
+        ),
+        (
+            s(&["plan", "camp", "--out", "camp"]),
+            2,
+            vec!["--out", "camp", "the campaign itself"],
+        ),
+        (
+            s(&["plan", "camp", "--out", "c_notnum"]),
+            2,
+            vec!["--out", "holds recordings", "a.csv"],
+        ),
+        (
+            s(&["plan", "camp", "--out", "ptoml"]),
+            2,
+            vec!["--out", "x.toml", "which no plan wrote"],
+        ),
+        (
+            s(&["plan", "camp", "--out", "afile"]),
+            2,
+            vec!["--out", "afile", "is a file"],
+        ),
+        (
+            s(&["plan", "camp", "--json", "camp/a.toml"]),
+            2,
+            vec!["--json", "a.toml", "input"],
+        ),
+        (
+            s(&["plan", "camp", "--diagnosis", "missing.json"]),
+            2,
+            vec!["--diagnosis", "missing.json", "no such file"],
+        ),
+        (
+            s(&["plan", "camp", "--diagnosis", "afile"]),
+            2,
+            vec!["--diagnosis", "afile", "not a diagnosis JSON"],
+        ),
+        (
+            s(&["plan", "$(touch pwned)"]),
+            2,
+            vec!["$(touch pwned)", "no such campaign directory"],
+        ),
+        (
+            s(&["synth", "new", "--conditions", "missing"]),
+            2,
+            vec!["--conditions", "missing", "no such folder"],
+        ),
+        (
+            s(&["synth", "new", "--conditions", "afile"]),
+            2,
+            vec!["--conditions", "afile", "is a file"],
+        ),
+        (
+            s(&["synth", "new", "--conditions", "outdir"]),
+            2,
+            vec!["outdir", "no planned conditions", "[plan]"],
         ),
         // bench
         (

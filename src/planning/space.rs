@@ -43,8 +43,7 @@ pub struct Space {
 }
 
 /// A bad design space (`--space` file, or a campaign that gives none).
-#[derive(Debug, thiserror::Error)]
-#[error("{file}: `{field}` = {value}: {allowed}")]
+#[derive(Debug)]
 pub struct SpaceError {
     /// The file (or the campaign directory).
     pub file: String,
@@ -55,6 +54,26 @@ pub struct SpaceError {
     /// What is allowed.
     pub allowed: String,
 }
+
+impl std::fmt::Display for SpaceError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        // A file that cannot be read or parsed has no key to name.
+        if self.field == "file" {
+            match self.allowed.starts_with(&self.file) {
+                true => write!(f, "{}", self.allowed),
+                false => write!(f, "{}: {}", self.file, self.allowed),
+            }
+        } else {
+            write!(
+                f,
+                "{}: `{}` = {}: {}",
+                self.file, self.field, self.value, self.allowed
+            )
+        }
+    }
+}
+
+impl std::error::Error for SpaceError {}
 
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
