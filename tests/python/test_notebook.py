@@ -71,3 +71,15 @@ def test_the_withheld_effect_is_named(executed: list[nbformat.NotebookNode]) -> 
     assert "Campaign(12 recordings" in text_of(executed[4])
     out = text_of(executed[5])
     assert "verdict: effect ['viscous']" in out, out[-2000:]
+
+
+def test_the_plan_cell_plans_inside_the_campaigns_springs(executed: list[nbformat.NotebookNode]) -> None:
+    out = text_of(executed[7])
+    m = re.search(r"(\d+) recordings planned among (\d+) rivals", out)
+    assert m, out[-2000:]
+    assert int(m.group(1)) == 3 and int(m.group(2)) >= 2
+    # The campaign's springs are 10 000 and 15 000 N/m: a plan changes springs, never tunes them.
+    m = re.search(r"springs: \[([^\]]*)\]", out)
+    assert m, out[-2000:]
+    springs = {float(x) for x in m.group(1).split(",")}
+    assert springs and springs <= {10_000.0, 15_000.0}, springs
