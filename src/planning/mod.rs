@@ -181,8 +181,10 @@ fn n_params(e: &serde_json::Value) -> f64 {
 /// second named effect, the model of both); every member of a tie; every other fitted
 /// candidate, another form of the named effect included, whose held-out evidence against the
 /// leader is not clear (the [`evidence`] of their per-recording held-out gaps); a second
-/// effect tried and not named; for `unexplained`, the three best candidates. At most [`MAX_RIVALS`], the best supported first; candidates whose screen
-/// stopped short of the leader (never fitted) are not rivals.
+/// effect tried and not named; for `unexplained`, the three best candidates. At most
+/// [`MAX_RIVALS`], the best supported first. Candidates whose screen stopped short of the
+/// leader, or of the bar (their fit holds no effect: [`holds_effect`]), are not rivals; where
+/// an unexplained gap leaves fewer than three, [`plan`] fits the others itself.
 pub fn rivals(diag: &serde_json::Value) -> Result<Vec<Rival>, PlanError> {
     let verdict = diag["verdict"].as_str().unwrap_or("");
     let base = Model::from_json(&diag["calibration"]["model"]).map_err(|m| {
@@ -203,13 +205,13 @@ pub fn rivals(diag: &serde_json::Value) -> Result<Vec<Rival>, PlanError> {
         .as_array()
         .unwrap_or(&empty)
         .iter()
-        .filter(|e| e["short_of_leader"].is_null() && !e["model"].is_null())
+        .filter(|e| e["short_of_leader"].is_null() && !e["model"].is_null() && holds_effect(e))
         .collect();
     let second: Vec<&serde_json::Value> = diag["second"]
         .as_array()
         .unwrap_or(&empty)
         .iter()
-        .filter(|e| e["short_of_leader"].is_null() && !e["model"].is_null())
+        .filter(|e| e["short_of_leader"].is_null() && !e["model"].is_null() && holds_effect(e))
         .collect();
     let names = |k: &str| -> Vec<String> {
         diag[k]
@@ -257,6 +259,15 @@ pub fn rivals(diag: &serde_json::Value) -> Result<Vec<Rival>, PlanError> {
         }
     }
     let leader = leader.or(ranking.first().copied());
+    // Neither named nor tied (an unexplained gap): the leading candidate is the first of its
+    // best three.
+    if let Some(l) = leader
+        && verdict == "unexplained"
+        && named.is_empty()
+        && tie.is_empty()
+    {
+        push(entry_rival(l, "the best of an unexplained gap")?, &mut out);
+    }
     // Every fitted candidate, each form of an effect its own (a form the data did not settle
     // is a rival like another effect).
     let mut others = vec![];
@@ -271,7 +282,7 @@ pub fn rivals(diag: &serde_json::Value) -> Result<Vec<Rival>, PlanError> {
         let ev = evidence(&gl, &nl, &gc, &nc, n_params(l) - n_params(e));
         if !ev.clear() {
             others.push((*e, "not clearly worse than the leader"));
-        } else if verdict == "unexplained" && best_three < 3 {
+        } else if verdict == "unexplained" && best_three < 2 {
             others.push((*e, "one of the best three of an unexplained gap"));
         }
         best_three += 1;
@@ -296,14 +307,13 @@ pub fn rivals(diag: &serde_json::Value) -> Result<Vec<Rival>, PlanError> {
     rest.sort_by(|a, b| b.ln_odds.total_cmp(&a.ln_odds));
     rest.truncate(MAX_RIVALS - 1);
     out.extend(rest);
-    if out.len() < 2 {
-        return Err(PlanError::Nothing(format!(
-            "the diagnosis ({verdict}) leaves no candidate standing beside the base model, so \
-             there is nothing to tell apart; its detection limits say what the campaign could \
-             not have seen (`limits` in diagnosis.json)"
-        )));
-    }
     Ok(out)
+}
+
+/// Whether a ranking entry's fit holds its effect: one whose screen fell short reports the
+/// model it extends (`fitted_effects` empty), which is the base model, not a rival.
+fn holds_effect(e: &serde_json::Value) -> bool {
+    e["fitted_effects"].as_array().is_none_or(|a| !a.is_empty())
 }
 
 /// Per recording of `target`, the root mean square of the residuals `z` (rows as
@@ -554,7 +564,13 @@ pub fn plan(
                 "the diagnosis names {} only in part and fitted nothing beside it: fitting second effects",
                 rivals[i].name
             ));
-            let extra = second::rivals(&target, &rivals[i], &EffectKind::candidates(), say);
+            let extra = second::rivals(
+                &target,
+                &rivals[i],
+                &EffectKind::candidates(),
+                second::Keep::SECOND,
+                say,
+            );
             warnings.push(format!(
                 "the diagnosis named {} only in part and tried no second effect; the plan fitted \
                  each candidate beside it (in-sample) and kept {}: {}",
@@ -581,6 +597,53 @@ pub fn plan(
                 rivals[i].name
             ));
         }
+    }
+    // An unexplained gap's best three candidates, where the diagnosis's screens left fewer
+    // fitted: the plan fits the candidates itself (hypotheses to tell apart, not verdicts).
+    let fitted = rivals.len() - 1;
+    if diag["verdict"].as_str() == Some("unexplained") && fitted < 3 {
+        say(&format!(
+            "the diagnosis fitted {fitted} candidate{} of the unexplained gap: fitting the others for the best three",
+            if fitted == 1 { "" } else { "s" }
+        ));
+        let have: Vec<EffectKind> = rivals.iter().flat_map(|x| x.effects.clone()).collect();
+        let candidates: Vec<EffectKind> = EffectKind::candidates()
+            .into_iter()
+            .filter(|k| !have.contains(k))
+            .collect();
+        let extra = second::rivals(
+            &target,
+            &rivals[0],
+            &candidates,
+            second::Keep {
+                min_gain: crate::diagnosis::evidence::UNCHANGED,
+                most: 3 - fitted,
+            },
+            say,
+        );
+        warnings.push(format!(
+            "on this unexplained gap {fitted} of the diagnosis's candidates passed its screen; the \
+             plan fitted each other candidate beside the base model (in-sample) and kept {}: {}",
+            extra.len(),
+            if extra.is_empty() {
+                "none lowered the base model's gap".to_string()
+            } else {
+                extra
+                    .iter()
+                    .map(|x| x.name.clone())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            }
+        ));
+        rivals.extend(extra);
+    }
+    if rivals.len() < 2 {
+        return Err(PlanError::Nothing(format!(
+            "the diagnosis ({}) leaves no candidate standing beside the base model, so there \
+             is nothing to tell apart; its detection limits say what the campaign could not \
+             have seen (`limits` in diagnosis.json)",
+            diag["verdict"].as_str().unwrap_or("?")
+        )));
     }
     let r = rivals.len();
     say(&format!(
@@ -1050,5 +1113,76 @@ fn random_plan(
         wall_time: start.elapsed().as_secs_f64(),
         warnings,
         random: true,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A diagnosis JSON: the base calibration and ranking entries `(name, fitted effects, ln
+    /// odds)`, each over the same three recordings.
+    fn diagnosis(
+        verdict: &str,
+        named: &[&str],
+        entries: &[(&str, &[&str], f64)],
+    ) -> serde_json::Value {
+        let base = Model::default();
+        let ranking: Vec<serde_json::Value> = entries
+            .iter()
+            .map(|(name, fitted, ln_odds)| {
+                let mut m = base.clone();
+                for f in *fitted {
+                    m.effects.enable(EffectKind::from_name(f).unwrap());
+                }
+                serde_json::json!({
+                    "name": name, "effect": name, "model": m.to_json(),
+                    "fitted_effects": fitted, "params": {},
+                    "per_recording": [1.0, 1.0, 1.0], "per_recording_n": [10, 10, 10],
+                    "evidence": {"ln_odds": ln_odds, "clear": false},
+                })
+            })
+            .collect();
+        serde_json::json!({
+            "verdict": verdict, "effects": named, "tie": [],
+            "calibration": {"model": base.to_json()}, "ranking": ranking, "second": [],
+        })
+    }
+
+    /// A candidate whose screen fell short reports the base model (`fitted_effects` empty): it
+    /// is not a rival, however its evidence reads; one whose fit holds its effect is.
+    #[test]
+    fn a_fit_without_its_effect_is_not_a_rival() {
+        let d = diagnosis(
+            "unexplained",
+            &[],
+            &[("aging", &[], -1.7), ("viscous", &["viscous"], 3.0)],
+        );
+        let names: Vec<String> = rivals(&d).unwrap().into_iter().map(|r| r.name).collect();
+        assert_eq!(names, ["base", "viscous"]);
+        // None fitted: the base model alone (the plan then fits the best three itself).
+        let d = diagnosis(
+            "unexplained",
+            &[],
+            &[("aging", &[], -1.7), ("viscous", &[], -1.7)],
+        );
+        assert_eq!(rivals(&d).unwrap().len(), 1);
+        // Four fitted, their evidence against each other clear: the best three of the ranking
+        // (the leader among them), the fourth left out.
+        let mut d = diagnosis(
+            "unexplained",
+            &[],
+            &[
+                ("viscous", &["viscous"], 3.0),
+                ("aging", &["aging"], 2.0),
+                ("presliding", &["presliding"], 1.0),
+                ("drive_ripple", &["drive_ripple"], 0.5),
+            ],
+        );
+        for (k, e) in d["ranking"].as_array_mut().unwrap().iter_mut().enumerate() {
+            e["per_recording"] = serde_json::json!(vec![1.0 + k as f64; 3]);
+        }
+        let names: Vec<String> = rivals(&d).unwrap().into_iter().map(|r| r.name).collect();
+        assert_eq!(names, ["base", "viscous", "aging", "presliding"]);
     }
 }

@@ -1,4 +1,4 @@
-//! Second-effect rivals a plan fits itself: where a diagnosis names an effect only in part and
+//! Rivals a plan fits itself. Second effects: where a diagnosis names an effect only in part and
 //! fitted nothing beside it (its fit leaves a fingerprint absent, or ends on a bound, and the
 //! diagnosis then tries no second effect: it would be credited with the first's misfit), the
 //! plan still needs the hypotheses "the named effect and another" to aim at. They are
@@ -6,7 +6,10 @@
 //! (in-sample, from the named fit with the other effect at the best start of the diagnosis's
 //! scan of its parameters), and only those
 //! that lower the named fit's gap by [`MIN_GAIN`] of it on a screen of the recordings it misses
-//! most are kept, the best [`MAX_SECOND`].
+//! most are kept, the best [`MAX_SECOND`]. And an unexplained gap's best three candidates where
+//! the diagnosis's screens fitted fewer (each fell short of the bar a verdict needs): fitted
+//! beside the base model the same way, kept where they lower its gap by
+//! [`crate::diagnosis::evidence::UNCHANGED`] at least.
 
 use super::{Rival, per_recording};
 use crate::diagnosis::evidence::evidence;
@@ -21,11 +24,30 @@ pub const MAX_SECOND: usize = 2;
 /// Recordings of the screen (the diagnosis's).
 pub const SCREEN_RECORDINGS: usize = crate::diagnosis::screen::SCREEN_RECORDINGS;
 
-/// The second-effect rivals beside `named` (module docs), among `candidates`.
+/// Which candidates fitted beside a rival are kept.
+#[derive(Clone, Copy, Debug)]
+pub struct Keep {
+    /// Share of the rival's gap on the screen's recordings a candidate must remove.
+    pub min_gain: f64,
+    /// Candidates kept at most, the lowest gaps first.
+    pub most: usize,
+}
+
+impl Keep {
+    /// Second effects beside a named one: [`MIN_GAIN`], [`MAX_SECOND`].
+    pub const SECOND: Keep = Keep {
+        min_gain: MIN_GAIN,
+        most: MAX_SECOND,
+    };
+}
+
+/// The rivals fitted beside `named` (a named effect, or the base model), among `candidates`,
+/// kept as `keep` says (module docs).
 pub fn rivals(
     target: &Target,
     named: &Rival,
     candidates: &[EffectKind],
+    keep: Keep,
     say: &(dyn Fn(&str) + Sync),
 ) -> Vec<Rival> {
     let z = target.residuals(&target.predict(&named.model));
@@ -51,7 +73,7 @@ pub fn rivals(
         effects: named.effects.clone(),
     };
     let g0 = gap(&sub.residuals(&sub.predict(&named.model)));
-    let bar = (1.0 - MIN_GAIN) * g0;
+    let bar = (1.0 - keep.min_gain) * g0;
     let screen = FitOptions {
         max_iter: crate::diagnosis::screen::SCREEN_ITERATIONS,
         rel_tol: crate::diagnosis::screen::SCREEN_REL_TOL,
@@ -86,7 +108,7 @@ pub fn rivals(
         }
     }
     kept.sort_by(|a, b| a.0.total_cmp(&b.0));
-    kept.truncate(MAX_SECOND);
+    kept.truncate(keep.most);
     let (g_named, n_named) = per_recording(target, &z);
     kept.into_iter()
         .map(|(_, k, effects, model)| {
@@ -99,11 +121,21 @@ pub fn rivals(
             let (g, n) = per_recording(target, &fr.z);
             let extra = fit::effect_params(&[k], &fr.model.effects) as f64;
             let ev = evidence(&g, &n, &g_named, &n_named, extra);
+            let beside_base = named.effects.is_empty();
             Rival {
-                name: format!("{}+{}", named.name, k.name()),
-                role: "a second effect beside the named one, fitted by the plan (in-sample \
-                       evidence: the diagnosis tried none)"
-                    .into(),
+                name: if beside_base {
+                    k.name().to_string()
+                } else {
+                    format!("{}+{}", named.name, k.name())
+                },
+                role: if beside_base {
+                    "one of the best three of an unexplained gap, fitted by the plan (in-sample \
+                     evidence: the diagnosis's screen fell short)"
+                } else {
+                    "a second effect beside the named one, fitted by the plan (in-sample \
+                     evidence: the diagnosis tried none)"
+                }
+                .into(),
                 model: fr.model,
                 effects,
                 ln_odds: named.ln_odds + ev.ln_odds,
