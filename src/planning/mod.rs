@@ -601,7 +601,8 @@ pub fn plan(
     // An unexplained gap's best three candidates, where the diagnosis's screens left fewer
     // fitted: the plan fits the candidates itself (hypotheses to tell apart, not verdicts).
     let fitted = rivals.len() - 1;
-    if diag["verdict"].as_str() == Some("unexplained") && fitted < 3 {
+    // (Recordings drawn at random need no rivals: the baseline costs no fit.)
+    if diag["verdict"].as_str() == Some("unexplained") && fitted < 3 && !opts.random {
         say(&format!(
             "the diagnosis fitted {fitted} candidate{} of the unexplained gap: fitting the others for the best three",
             if fitted == 1 { "" } else { "s" }
@@ -637,7 +638,7 @@ pub fn plan(
         ));
         rivals.extend(extra);
     }
-    if rivals.len() < 2 {
+    if rivals.len() < 2 && !opts.random {
         return Err(PlanError::Nothing(format!(
             "the diagnosis ({}) leaves no candidate standing beside the base model, so there \
              is nothing to tell apart; its detection limits say what the campaign could not \
@@ -671,7 +672,7 @@ pub fn plan(
             }
         }
     }
-    if open.is_empty() {
+    if open.is_empty() && r >= 2 {
         warnings.push(
             "every pair of rivals is closed by the existing evidence: the plan tells all pairs \
              apart instead"
@@ -1093,7 +1094,7 @@ fn random_plan(
             name,
             candidate: x,
             gains: vec![],
-            chosen_for: open[0],
+            chosen_for: open.first().copied().unwrap_or((0, 0)),
             carriers: vec![],
             why: "drawn at random from the design space (the baseline a plan must beat)".into(),
         });

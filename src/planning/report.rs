@@ -92,7 +92,12 @@ pub fn json(c: &Campaign, plan: &Plan, plan_name: &str) -> serde_json::Value {
                 },
                 "duration": p.candidate.duration,
                 "rate": plan.space.rate,
-                "chosen_for": [name(p.chosen_for.0), name(p.chosen_for.1)],
+                // Drawn at random: chosen for no pair.
+                "chosen_for": if plan.random {
+                    serde_json::Value::Null
+                } else {
+                    json!([name(p.chosen_for.0), name(p.chosen_for.1)])
+                },
                 "discrimination": p.gains.iter().map(|g| json!({
                     "pair": [name(g.pair.0), name(g.pair.1)], "nats": num(g.nats),
                 })).collect::<Vec<_>>(),
