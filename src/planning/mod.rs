@@ -183,8 +183,8 @@ fn n_params(e: &serde_json::Value) -> f64 {
 /// leader is not clear (the [`evidence`] of their per-recording held-out gaps); a second
 /// effect tried and not named; for `unexplained`, the three best candidates. At most
 /// [`MAX_RIVALS`], the best supported first. Candidates whose screen stopped short of the
-/// leader, or of the bar (their fit holds no effect: [`holds_effect`]), are not rivals; where
-/// an unexplained gap leaves fewer than three, [`plan`] fits the others itself.
+/// leader, or of the bar (their fit holds no effect, `fitted_effects` empty), are not rivals;
+/// where an unexplained gap leaves fewer than three, [`plan`] fits the others itself.
 pub fn rivals(diag: &serde_json::Value) -> Result<Vec<Rival>, PlanError> {
     let verdict = diag["verdict"].as_str().unwrap_or("");
     let base = Model::from_json(&diag["calibration"]["model"]).map_err(|m| {
