@@ -24,6 +24,10 @@
 //! in all). Every other campaign (friction along the track, load modulation, screw error, two
 //! effects at once, the mimics, ...) is `--ignored` and runs in the whole panels:
 //! `cargo test --release --test rig -- --ignored --nocapture` (docs/campaigns.md).
+//!
+//! `plan_loop_on_panel_campaigns` closes the plan's loop on panel campaigns (`PLAN_CAMPAIGNS`):
+//! a plan of 6 and 6 recordings at random, each made on the stand, the campaign diagnosed again
+//! (docs/planning.md).
 
 use stickslip::campaign::Campaign;
 use stickslip::diagnosis::diagnose::{DiagnoseOptions, Diagnosis, Verdict, diagnose};
