@@ -89,6 +89,11 @@ fn census_of_bad_input() {
     w("sp_neg.toml", "max_duration = -1\n");
     w("sp_spring.toml", "springs = [0]\n");
     w("ptoml/x.toml", "v_d = 1e-3\nk_d = 1e4\n");
+    // A plan's conditions file cut short mid-line.
+    w(
+        "pcut/p1.toml",
+        "v_d = 1e-3\nk_d = 1e4\nf = 0\nu0 = 0\n\n[plan]\nduration = 2.0\nra",
+    );
     // A finished sweep and a run's HDF5 file (not a sweep).
     let ok = run(
         d,
@@ -1013,6 +1018,11 @@ fn census_of_bad_input() {
             s(&["synth", "new", "--conditions", "afile"]),
             2,
             vec!["--conditions", "afile", "is a file"],
+        ),
+        (
+            s(&["synth", "new", "--conditions", "pcut"]),
+            2,
+            vec!["p1.toml:8", "not valid TOML"],
         ),
         (
             s(&["synth", "new", "--conditions", "outdir"]),

@@ -200,13 +200,7 @@ fn row(name: &str, truth: &serde_json::Value, d: &Diagnosis) -> String {
         d.gap_before,
         d.gap_after,
         100.0 * d.reduction,
-        if confident_wrong(d, expect) {
-            "CONFIDENT WRONG"
-        } else if right(d, expect) {
-            "right"
-        } else {
-            "WRONG"
-        },
+        mark(d, expect),
         d.wall_time
     )
 }
@@ -559,6 +553,17 @@ fn rig_in_band_actuator_resonance_is_found_by_its_scan() {
     );
 }
 
+/// Whether a verdict is `right`, `WRONG` or `CONFIDENT WRONG` for the truth `expect`.
+fn mark(d: &Diagnosis, expect: &serde_json::Value) -> &'static str {
+    if confident_wrong(d, expect) {
+        "CONFIDENT WRONG"
+    } else if right(d, expect) {
+        "right"
+    } else {
+        "WRONG"
+    }
+}
+
 /// A verdict in a few words, and whether it is right (`right`, `WRONG`, `CONFIDENT WRONG`).
 fn judged(d: &Diagnosis, expect: &serde_json::Value) -> String {
     let named: Vec<&str> = if d.tie.is_empty() {
@@ -577,13 +582,7 @@ fn judged(d: &Diagnosis, expect: &serde_json::Value) -> String {
         },
         d.gap_before,
         d.gap_after,
-        if confident_wrong(d, expect) {
-            "CONFIDENT WRONG"
-        } else if right(d, expect) {
-            "right"
-        } else {
-            "WRONG"
-        }
+        mark(d, expect)
     )
 }
 

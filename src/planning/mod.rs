@@ -310,6 +310,18 @@ pub fn rivals(diag: &serde_json::Value) -> Result<Vec<Rival>, PlanError> {
     Ok(out)
 }
 
+/// The names of the rivals a plan fitted itself, for its warning (`none` where it kept none).
+fn kept_names(extra: &[Rival], none: &str) -> String {
+    if extra.is_empty() {
+        return none.to_string();
+    }
+    extra
+        .iter()
+        .map(|x| x.name.as_str())
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
 /// Whether a ranking entry's fit holds its effect: one whose screen fell short reports the
 /// model it extends (`fitted_effects` empty), which is the base model, not a rival.
 fn holds_effect(e: &serde_json::Value) -> bool {
@@ -576,15 +588,7 @@ pub fn plan(
                  each candidate beside it (in-sample) and kept {}: {}",
                 rivals[i].name,
                 extra.len(),
-                if extra.is_empty() {
-                    "none lowered its gap enough".to_string()
-                } else {
-                    extra
-                        .iter()
-                        .map(|x| x.name.clone())
-                        .collect::<Vec<_>>()
-                        .join(", ")
-                }
+                kept_names(&extra, "none lowered its gap enough")
             ));
             rivals.extend(extra);
             rivals.truncate(MAX_RIVALS);
@@ -626,15 +630,7 @@ pub fn plan(
             "on this unexplained gap {fitted} of the diagnosis's candidates passed its screen; the \
              plan fitted each other candidate beside the base model (in-sample) and kept {}: {}",
             extra.len(),
-            if extra.is_empty() {
-                "none lowered the base model's gap".to_string()
-            } else {
-                extra
-                    .iter()
-                    .map(|x| x.name.clone())
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            }
+            kept_names(&extra, "none lowered the base model's gap")
         ));
         rivals.extend(extra);
     }
