@@ -383,6 +383,19 @@ pub fn plan(a: &PlanArgs) -> Result<Planned, AppError> {
         .file_name()
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_else(|| "campaign".into());
+    // One plan per folder at a time, from its checks to its last file (`OUT.lock` beside it):
+    // two plans writing one folder would leave one's conditions beside the other's plan.json.
+    if let Some(parent) = out.parent().filter(|p| !p.as_os_str().is_empty()) {
+        std::fs::create_dir_all(parent).map_err(|e| CampaignError::Io {
+            path: parent.display().to_string(),
+            msg: e.to_string(),
+        })?;
+    }
+    let _lock = crate::sweep::lock::acquire(&out).map_err(|msg| CliError::Flag {
+        flag: "out".into(),
+        value: out.display().to_string(),
+        msg,
+    })?;
     // Refuse to write over files a plan did not write.
     if out.is_dir() {
         let mut paths = vec![];

@@ -343,8 +343,9 @@ fn synth_then_diagnose_writes_the_verdict_json_hdf5_and_plots() {
     }
     python("check_diagnosis.py", &[&res.join("diagnosis.h5"), &json]);
 
-    // A plan of three recordings from that diagnosis, inside the campaign's ranges.
-    let plan = dir.path().join("plan");
+    // A plan of three recordings from that diagnosis, inside the campaign's ranges, into a
+    // folder whose name holds a space and a newline (taken as a name, never as words).
+    let plan = dir.path().join("my plan\nnext week");
     let p = plan.to_str().unwrap();
     let j = json.to_str().unwrap();
     let args = |extra: &[&'static str]| {
@@ -412,20 +413,39 @@ fn synth_then_diagnose_writes_the_verdict_json_hdf5_and_plots() {
     assert_eq!(bad.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&bad.stderr).contains("no plan wrote"));
     std::fs::remove_file(plan.join("notes.toml")).unwrap();
+    // One plan per folder at a time: a folder whose lock another process holds is refused,
+    // naming that process, and left as it was.
+    {
+        let held = stickslip::sweep::lock::acquire(&plan).unwrap();
+        let bad = stickslip(&args(&["--random"]));
+        let err = String::from_utf8_lossy(&bad.stderr);
+        assert_eq!(bad.status.code(), Some(2), "{err}");
+        assert!(
+            err.contains("--out") && err.contains(&format!("process {}", std::process::id())),
+            "{err}"
+        );
+        drop(held);
+    }
+    let again: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(plan.join("plan.json")).unwrap()).unwrap();
+    assert_eq!(again, pj);
     // The baseline: three recordings drawn at random from the same space, nothing simulated.
     let rand_dir = dir.path().join("random");
-    let out = stickslip(&[
-        "plan",
-        c,
-        "--diagnosis",
-        j,
-        "--out",
-        rand_dir.to_str().unwrap(),
-        "--recordings",
-        "3",
-        "--random",
-        "--no-plots",
-    ]);
+    let random = |out: &str, n: &str| {
+        stickslip(&[
+            "plan",
+            c,
+            "--diagnosis",
+            j,
+            "--out",
+            out,
+            "--recordings",
+            n,
+            "--random",
+            "--no-plots",
+        ])
+    };
+    let out = random(rand_dir.to_str().unwrap(), "3");
     assert!(
         out.status.success(),
         "{}",
@@ -464,6 +484,24 @@ fn synth_then_diagnose_writes_the_verdict_json_hdf5_and_plots() {
         out.status.success(),
         "{}",
         String::from_utf8_lossy(&out.stderr)
+    );
+    // A new plan into the folder of an earlier one replaces it whole: none of the earlier
+    // conditions is left to be recorded as if planned now.
+    let out = random(p, "2");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let mut left: Vec<String> = std::fs::read_dir(&plan)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    left.sort();
+    assert_eq!(left.len(), 3, "{left:?}");
+    assert!(
+        left[0] == "plan.json" && left[1..].iter().all(|n| n.starts_with("rand")),
+        "{left:?}"
     );
     for r in recs {
         let name = r["name"].as_str().unwrap();

@@ -163,6 +163,7 @@ fn try_candidate(
         fingerprints: vec![],
         rejected: None,
         short_of_leader: None,
+        screened: None,
     };
     // The fresh Jacobian at the optimum (p more evaluations) only for a fit that passes the
     // bar: it gives the uncertainties and the folds' refits, which a candidate ranked with the
@@ -184,6 +185,7 @@ fn try_candidate(
     let Screened {
         passed,
         lowest,
+        lowest_model,
         checks,
     } = screen.screen(
         all,
@@ -196,13 +198,21 @@ fn try_candidate(
     );
     let sub = screen.recordings(all);
     let Some(s) = passed else {
+        // Where its screen got to, for a plan's rivals (Ranked::screened).
+        let screened = lowest_model
+            .filter(|_| lowest.is_finite())
+            .map(|m| (lowest, from_gap, m));
         // A trailing effect's form stopped short of the leader's reach says so.
         return match (reach, lowest) {
             (Some(r), g) if g.is_finite() => Ranked {
                 short_of_leader: Some((g, r * from_gap)),
+                screened,
                 ..as_from()
             },
-            _ => as_from(),
+            _ => Ranked {
+                screened,
+                ..as_from()
+            },
         };
     };
     // Another form that cannot come near the leading candidate is not fitted further: it
@@ -264,6 +274,7 @@ fn try_candidate(
         fingerprints: vec![],
         rejected: None,
         short_of_leader: None,
+        screened: None,
     }
 }
 

@@ -163,6 +163,9 @@ pub fn json(c: &Campaign, d: &Diagnosis) -> serde_json::Value {
             "fingerprints": r.fingerprints,
             "rejected": r.rejected,
             "short_of_leader": short_json(r),
+            "screen": r.screened.as_ref().map(|(g, from, m)| json!({
+                "gap": num(*g), "extended_gap": num(*from), "model": m.to_json(),
+            })),
         })).collect::<Vec<_>>(),
         "where": {
             "summary": w.summary,

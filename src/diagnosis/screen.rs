@@ -70,6 +70,8 @@ pub(crate) struct Screened {
     pub passed: Option<FitResult>,
     /// The lowest gap a screen reached.
     pub lowest: f64,
+    /// The model at that gap (none where no screen ran).
+    pub lowest_model: Option<fit::Model>,
     /// Evaluations of the screens that did not go on, and of the neutral start's check.
     pub checks: usize,
 }
@@ -209,6 +211,7 @@ impl<'a> Screen<'a> {
         };
         let mut passed: Option<FitResult> = None;
         let mut lowest = f64::INFINITY;
+        let mut lowest_model = None;
         for first in firsts {
             // The bar checked first on the extended model's Jacobian columns from its own fit
             // on these recordings and the candidate's differenced: a
@@ -219,7 +222,10 @@ impl<'a> Screen<'a> {
             };
             // The lowest screen that passes goes on (the first of equals); the others'
             // evaluations count with the fit's where its recordings are the fit's.
-            lowest = lowest.min(s.gap);
+            if s.gap < lowest {
+                lowest = s.gap;
+                lowest_model = Some(s.model.clone());
+            }
             let better = s.gap <= bar && passed.as_ref().is_none_or(|p| s.gap < p.gap);
             if better {
                 if let Some(p) = passed.replace(s) {
@@ -232,6 +238,7 @@ impl<'a> Screen<'a> {
         Screened {
             passed,
             lowest,
+            lowest_model,
             checks,
         }
     }

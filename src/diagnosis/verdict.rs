@@ -88,6 +88,11 @@ pub struct Ranked {
     /// screen's gap and the gap it had to reach, on the screen's recordings. Its other
     /// numbers are the model it extends's, as for a candidate whose screen fails.
     pub short_of_leader: Option<(f64, f64)>,
+    /// A candidate whose screen fell short of its bar ([`SCREEN_BAR`](crate::diagnosis::screen::SCREEN_BAR)), ranked as the model it
+    /// extends: the lowest gap its screen reached, that model's gap on the screen's
+    /// recordings, and the screened model there (on a subset, its base parameters are fitted
+    /// to the subset). A plan takes an unexplained gap's best three candidates from these.
+    pub screened: Option<(f64, f64, crate::diagnosis::fit::Model)>,
 }
 
 /// Twenty quiet recordings (held-out gap `quiet`) and four informative ones (`loud`): the
@@ -148,6 +153,7 @@ impl Ranked {
             fingerprints: vec![],
             rejected: None,
             short_of_leader: None,
+            screened: None,
         }
     }
 }

@@ -521,14 +521,67 @@ pub struct Plan {
     pub screened: Vec<(Candidate, f64)>,
     /// The campaign's noise used: force \[N\], displacement \[m\].
     pub noise: (f64, Option<f64>),
-    /// Simulations run, and wall time \[s\].
+    /// Simulations run: every step's ([`Plan::steps`]), the rivals' fits included.
     pub simulations: usize,
     /// Wall time \[s\].
     pub wall_time: f64,
+    /// The plan's steps in the order they ran, each with its wall time and simulations.
+    pub steps: Vec<PlanStep>,
     /// What the reader must know.
     pub warnings: Vec<String>,
     /// Whether the recordings were drawn at random ([`PlanOptions::random`]).
     pub random: bool,
+}
+
+/// One step of a plan and what it cost ([`Plan::steps`]).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct PlanStep {
+    /// The step: `rivals` (the fits a plan makes itself), `linearisation` (each rival's
+    /// Jacobian on the campaign's recordings), `candidates` (every rival simulated on every
+    /// candidate recording), `finalists` (their predictions differenced), `choice` (the
+    /// greedy maximin) and `check` (the planned recordings simulated from each rival, every
+    /// rival refitted).
+    pub step: &'static str,
+    /// Wall time \[s\].
+    pub wall: f64,
+    /// Simulations run (each a recording under a model).
+    pub simulations: usize,
+}
+
+/// The clock of a plan's steps: each [`Steps::end`] records the time and the simulations
+/// since the last.
+struct Steps {
+    clock: std::time::Instant,
+    /// The target's simulation counter at the last step's end.
+    counted: usize,
+    list: Vec<PlanStep>,
+}
+
+impl Steps {
+    fn new(target: &Target) -> Self {
+        Steps {
+            clock: std::time::Instant::now(),
+            counted: target.work().simulations,
+            list: vec![],
+        }
+    }
+
+    /// Ends the step `step`: its wall time, and the simulations the target counted in it plus
+    /// `outside` run past the target's cache.
+    fn end(&mut self, step: &'static str, target: &Target, outside: usize) {
+        let now = target.work().simulations;
+        self.list.push(PlanStep {
+            step,
+            wall: self.clock.elapsed().as_secs_f64(),
+            simulations: now.saturating_sub(self.counted) + outside,
+        });
+        self.counted = now;
+        self.clock = std::time::Instant::now();
+    }
+
+    fn total(&self) -> usize {
+        self.list.iter().map(|s| s.simulations).sum()
+    }
 }
 
 /// `min(D_ab, D_ba)` of each open pair for the planned set `chosen` (finalist indices).
@@ -565,6 +618,7 @@ pub fn plan(
     let mut warnings = vec![];
     let recs: Vec<&Recording> = c.recordings.iter().collect();
     let target = Target::new(recs);
+    let mut work = Steps::new(&target);
     let tried_second = diag["second"].as_array().is_some_and(|a| !a.is_empty());
     let named = rivals.iter().position(|x| x.role == "named");
     if diag["partial"].as_bool() == Some(true)
@@ -608,7 +662,7 @@ pub fn plan(
     // (Recordings drawn at random need no rivals: the baseline costs no fit.)
     if diag["verdict"].as_str() == Some("unexplained") && fitted < 3 && !opts.random {
         say(&format!(
-            "the diagnosis fitted {fitted} candidate{} of the unexplained gap: fitting the others for the best three",
+            "the diagnosis fitted {fitted} candidate{} of the unexplained gap: the best of the others for the best three",
             if fitted == 1 { "" } else { "s" }
         ));
         let have: Vec<EffectKind> = rivals.iter().flat_map(|x| x.effects.clone()).collect();
@@ -616,21 +670,28 @@ pub fn plan(
             .into_iter()
             .filter(|k| !have.contains(k))
             .collect();
-        let extra = second::rivals(
-            &target,
-            &rivals[0],
-            &candidates,
-            second::Keep {
-                min_gain: crate::diagnosis::evidence::UNCHANGED,
-                most: 3 - fitted,
-            },
-            say,
-        );
+        let keep = second::Keep {
+            min_gain: crate::diagnosis::evidence::UNCHANGED,
+            most: 3 - fitted,
+        };
+        // The diagnosis's own screens where it recorded them, else screened here.
+        let (extra, how) = match second::from_screens(&target, &rivals[0], diag, &have, keep, say) {
+            Some(x) => (
+                x,
+                "took the others from the diagnosis's screens, refitted on every recording",
+            ),
+            None => (
+                second::rivals(&target, &rivals[0], &candidates, keep, say),
+                "screened each other candidate beside the base model itself",
+            ),
+        };
         warnings.push(format!(
             "on this unexplained gap {fitted} of the diagnosis's candidates passed its screen; the \
-             plan fitted each other candidate beside the base model (in-sample) and kept {}: {}",
-            extra.len(),
-            kept_names(&extra, "none lowered the base model's gap")
+             plan {how} (in-sample), keeping those that lower the base model's gap by {:.0} % \
+             (at most {}): {}",
+            100.0 * keep.min_gain,
+            keep.most,
+            kept_names(&extra, "none did")
         ));
         rivals.extend(extra);
     }
@@ -642,6 +703,7 @@ pub fn plan(
             diag["verdict"].as_str().unwrap_or("?")
         )));
     }
+    work.end("rivals", &target, 0);
     let r = rivals.len();
     say(&format!(
         "{} rivals: {}",
@@ -689,9 +751,9 @@ pub fn plan(
         )));
     }
     if opts.random {
-        return Ok(random_plan(
-            c, rivals, open, cands, space, opts, noise, start, warnings,
-        ));
+        let mut p = random_plan(c, rivals, open, cands, space, opts, noise, start, warnings);
+        p.steps = work.list;
+        return Ok(p);
     }
     say("linearising each rival on the campaign's recordings");
     let lins: Vec<Linearised> = rivals
@@ -706,6 +768,7 @@ pub fn plan(
             )));
         }
     }
+    work.end("linearisation", &target, 0);
     let row_rec = target.row_recordings();
     let ex: Vec<Existing> = lins
         .iter()
@@ -734,7 +797,6 @@ pub fn plan(
         .flat_map(|b| lins.iter().map(move |l| (l.at(&l.theta), b)))
         .collect();
     let traces = simulate_on(&asks, tol);
-    let mut simulations = asks.len();
     // Per candidate and rival: noiseless features, and the measured ones of a noisy recording.
     let per: Vec<(Vec<FeatureSet>, Vec<FeatureSet>)> = (0..asks.len())
         .into_par_iter()
@@ -803,6 +865,7 @@ pub fn plan(
         ));
     }
     order.sort_by(|&a, &b| screened[b].1.total_cmp(&screened[a].1));
+    work.end("candidates", &target, asks.len());
     // Finalists: the best by the screen, and the best of each frequency and rest so that a
     // recording the refit favours is not lost to one the screen favours.
     let mut fin: Vec<usize> = vec![];
@@ -851,7 +914,6 @@ pub fn plan(
         }
     }
     let fd_traces = simulate_on(&fd_asks, tol);
-    simulations += fd_asks.len();
     let fd_feats: Vec<Vec<FeatureSet>> = fd_asks
         .par_iter()
         .zip(&fd_traces)
@@ -879,6 +941,7 @@ pub fn plan(
                 .collect()
         })
         .collect();
+    work.end("finalists", &target, fd_asks.len());
     say(&format!("choosing {} recordings", opts.recordings));
     let mut chosen: Vec<usize> = vec![];
     let mut before = pair_scores(&open, &rows, &ex, &delta0, &chosen);
@@ -988,6 +1051,7 @@ pub fn plan(
             });
         }
     }
+    work.end("choice", &target, 0);
     let mut plan = Plan {
         rivals,
         open,
@@ -998,15 +1062,22 @@ pub fn plan(
         finalists: fin.len(),
         screened,
         noise,
-        simulations,
+        simulations: 0,
         wall_time: 0.0,
+        steps: vec![],
         warnings,
         random: false,
     };
     if opts.check {
         say("checking the plan: each rival as the truth, every rival refitted");
-        plan.simulations += verify::check(&target, &lins, &mut plan, opts.seed, say);
+        let run = verify::check(&target, &lins, &mut plan, opts.seed, say);
+        // Its count holds its fits' (through the target) and its own simulations of the
+        // planned recordings; only the latter are outside the target's counter.
+        let fits = target.work().simulations.saturating_sub(work.counted);
+        work.end("check", &target, run.saturating_sub(fits));
     }
+    plan.simulations = work.total();
+    plan.steps = work.list;
     plan.wall_time = start.elapsed().as_secs_f64();
     Ok(plan)
 }
@@ -1108,6 +1179,7 @@ fn random_plan(
         noise,
         simulations: 0,
         wall_time: start.elapsed().as_secs_f64(),
+        steps: vec![],
         warnings,
         random: true,
     }

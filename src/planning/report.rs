@@ -127,6 +127,7 @@ pub fn json(c: &Campaign, plan: &Plan, plan_name: &str) -> serde_json::Value {
         "noise": {"force": num(plan.noise.0), "displacement": plan.noise.1.map(num)},
         "simulations": plan.simulations,
         "wall_time": plan.wall_time,
+        "steps": plan.steps,
         "warnings": plan.warnings,
     })
 }
@@ -176,6 +177,14 @@ pub fn summary(plan: &Plan) -> String {
     }
     for w in &plan.warnings {
         s += &format!("warning: {w}\n");
+    }
+    if !plan.steps.is_empty() {
+        let parts: Vec<String> = plan
+            .steps
+            .iter()
+            .map(|st| format!("{} {:.0} s ({})", st.step, st.wall, st.simulations))
+            .collect();
+        s += &format!("time by step (wall, simulations): {}\n", parts.join(", "));
     }
     s += &format!(
         "{} simulations, {:.1} s\n",
@@ -314,6 +323,13 @@ impl Figure for SpaceFigure<'_> {
 
 /// Writes the plan into `out`: one `NAME.toml` per planned recording, `plan.json`,
 /// `plan.png` and `plan.svg` (unless `no_plots`). Returns the files written.
+///
+/// An earlier plan's conditions files in `out` (a TOML with a `[plan]` table) that this plan
+/// does not write again are removed first: left there, they would be recorded as if planned
+/// now, against a `plan.json` that no longer lists them. Each file is written whole beside
+/// its name and then renamed onto it, so an interrupted plan leaves every file either as it
+/// was or as this plan wrote it. The caller has checked that `out` holds nothing a plan did
+/// not write (`stickslip plan` refuses a folder with recordings or a foreign TOML).
 pub fn write(
     out: &Path,
     c: &Campaign,
@@ -327,18 +343,41 @@ pub fn write(
         msg: e.to_string(),
     };
     std::fs::create_dir_all(out).map_err(|e| io(out, &e))?;
+    // Whole, then renamed onto its name (a rename within a folder replaces at once).
+    let put = |path: &Path, text: &str| {
+        let mut tmp = path.as_os_str().to_owned();
+        tmp.push(".part");
+        let tmp = PathBuf::from(tmp);
+        std::fs::write(&tmp, text).map_err(|e| io(&tmp, &e))?;
+        std::fs::rename(&tmp, path).map_err(|e| io(path, &e))
+    };
+    let mine: Vec<PathBuf> = plan
+        .recordings
+        .iter()
+        .map(|p| out.join(format!("{}.toml", p.name)))
+        .collect();
+    for e in std::fs::read_dir(out).map_err(|e| io(out, &e))? {
+        let path = e.map_err(|e| io(out, &e))?.path();
+        let stale = path.extension().is_some_and(|x| x == "toml")
+            && !mine.contains(&path)
+            && std::fs::read_to_string(&path).is_ok_and(|t| t.contains("\n[plan]\n"));
+        if stale {
+            std::fs::remove_file(&path).map_err(|e| io(&path, &e))?;
+        }
+    }
     let mut written = vec![];
-    for (k, p) in plan.recordings.iter().enumerate() {
-        let path = out.join(format!("{}.toml", p.name));
-        std::fs::write(&path, conditions_toml(p, k + 1, plan_name, plan.space.rate))
-            .map_err(|e| io(&path, &e))?;
+    for (k, (p, path)) in plan.recordings.iter().zip(mine).enumerate() {
+        put(
+            &path,
+            &conditions_toml(p, k + 1, plan_name, plan.space.rate),
+        )?;
         written.push(path);
     }
     let text = serde_json::to_string_pretty(&json(c, plan, plan_name)).unwrap_or_default();
     if let Some(d) = json_path.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(d).map_err(|e| io(d, &e))?;
     }
-    std::fs::write(json_path, text).map_err(|e| io(json_path, &e))?;
+    put(json_path, &text)?;
     written.push(json_path.to_path_buf());
     if !no_plots {
         let figs = render(&out.join("plan"), &SpaceFigure { c, plan })

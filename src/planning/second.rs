@@ -7,9 +7,10 @@
 //! scan of its parameters), and only those
 //! that lower the named fit's gap by [`MIN_GAIN`] of it on a screen of the recordings it misses
 //! most are kept, the best [`MAX_SECOND`]. And an unexplained gap's best three candidates where
-//! the diagnosis's screens fitted fewer (each fell short of the bar a verdict needs): fitted
-//! beside the base model the same way, kept where they lower its gap by
-//! [`crate::diagnosis::evidence::UNCHANGED`] at least.
+//! the diagnosis's screens fitted fewer (each fell short of the bar a verdict needs): taken
+//! from the diagnosis's own screens where it recorded them ([`from_screens`]: the screens need
+//! not run twice), else screened beside the base model the same way; kept where they lower its
+//! gap by [`crate::diagnosis::evidence::UNCHANGED`] at least.
 
 use super::{Rival, per_recording};
 use crate::diagnosis::evidence::evidence;
@@ -109,38 +110,192 @@ pub fn rivals(
     }
     kept.sort_by(|a, b| a.0.total_cmp(&b.0));
     kept.truncate(keep.most);
-    let (g_named, n_named) = per_recording(target, &z);
+    let named_gaps = per_recording(target, &z);
     kept.into_iter()
         .map(|(_, k, effects, model)| {
-            let opts = FitOptions {
-                max_iter: 6,
-                final_jacobian: false,
-                ..FitOptions::default()
-            };
-            let fr = fit::fit(target, &model, &effects, opts);
-            let (g, n) = per_recording(target, &fr.z);
-            let extra = fit::effect_params(&[k], &fr.model.effects) as f64;
-            let ev = evidence(&g, &n, &g_named, &n_named, extra);
-            let beside_base = named.effects.is_empty();
-            Rival {
-                name: if beside_base {
-                    k.name().to_string()
-                } else {
-                    format!("{}+{}", named.name, k.name())
-                },
-                role: if beside_base {
-                    "one of the best three of an unexplained gap, fitted by the plan (in-sample \
-                     evidence: the diagnosis's screen fell short)"
-                } else {
-                    "a second effect beside the named one, fitted by the plan (in-sample \
-                     evidence: the diagnosis tried none)"
-                }
-                .into(),
-                model: fr.model,
-                effects,
-                ln_odds: named.ln_odds + ev.ln_odds,
-                clear: false,
-            }
+            fitted(target, named, k, k.name(), effects, &model, &named_gaps)
         })
         .collect()
+}
+
+/// The candidate `k` (named `name`) beside `named` (`effects`: both's), fitted on every
+/// recording of `target` from `model`, as a rival with its in-sample evidence against
+/// `named` (whose per-recording gaps are `named_gaps`).
+fn fitted(
+    target: &Target,
+    named: &Rival,
+    k: EffectKind,
+    name: &str,
+    effects: Vec<EffectKind>,
+    model: &crate::diagnosis::fit::Model,
+    named_gaps: &(Vec<f64>, Vec<usize>),
+) -> Rival {
+    let opts = FitOptions {
+        max_iter: 6,
+        final_jacobian: false,
+        ..FitOptions::default()
+    };
+    let fr = fit::fit(target, model, &effects, opts);
+    let (g, n) = per_recording(target, &fr.z);
+    let extra = fit::effect_params(&[k], &fr.model.effects) as f64;
+    let ev = evidence(&g, &n, &named_gaps.0, &named_gaps.1, extra);
+    let beside_base = named.effects.is_empty();
+    Rival {
+        name: if beside_base {
+            name.to_string()
+        } else {
+            format!("{}+{}", named.name, name)
+        },
+        role: if beside_base {
+            "one of the best three of an unexplained gap, fitted by the plan (in-sample \
+                     evidence: the diagnosis's screen fell short)"
+        } else {
+            "a second effect beside the named one, fitted by the plan (in-sample \
+                     evidence: the diagnosis tried none)"
+        }
+        .into(),
+        model: fr.model,
+        effects,
+        ln_odds: named.ln_odds + ev.ln_odds,
+        clear: false,
+    }
+}
+
+/// An unexplained gap's best candidates as its diagnosis screened them (`screen` of each
+/// ranking entry of `diag`: the lowest gap its screen reached, the base model's gap on the
+/// screen's recordings, and the model there), instead of screening every candidate again:
+/// those not in `have` whose screen lowered the base model's gap by `keep.min_gain`, the
+/// lowest share of it first and one form per effect kind, at most `keep.most`, each fitted on
+/// every recording from its screen's model. `None` where the diagnosis recorded no screen
+/// (one written before screens were recorded): then [`rivals`] screens them itself.
+pub fn from_screens(
+    target: &Target,
+    base: &Rival,
+    diag: &serde_json::Value,
+    have: &[EffectKind],
+    keep: Keep,
+    say: &(dyn Fn(&str) + Sync),
+) -> Option<Vec<Rival>> {
+    let best = screen_choices(diag, have, keep, say)?;
+    let z = target.residuals(&target.predict(&base.model));
+    if z.is_empty() {
+        return Some(vec![]);
+    }
+    let base_gaps = per_recording(target, &z);
+    Some(
+        best.into_iter()
+            .map(|(_, k, name, model)| {
+                let mut effects = base.effects.clone();
+                effects.push(k);
+                fitted(target, base, k, &name, effects, &model, &base_gaps)
+            })
+            .collect(),
+    )
+}
+
+/// A candidate as a screen recorded it: its share of the extended model's gap, its kind, its
+/// name and the screened model.
+type Choice = (f64, EffectKind, String, crate::diagnosis::fit::Model);
+
+/// The choice of [`from_screens`] before any fit: the ranking entries of `diag` with a
+/// `screen`, the rule applied, the lowest share first. `None` where none has a screen.
+fn screen_choices(
+    diag: &serde_json::Value,
+    have: &[EffectKind],
+    keep: Keep,
+    say: &(dyn Fn(&str) + Sync),
+) -> Option<Vec<Choice>> {
+    let ranking = diag["ranking"].as_array()?;
+    let screened: Vec<&serde_json::Value> =
+        ranking.iter().filter(|e| e["screen"].is_object()).collect();
+    if screened.is_empty() {
+        return None;
+    }
+    let mut best: Vec<Choice> = vec![];
+    for e in screened {
+        let (Some(k), Some(g), Some(g0)) = (
+            e["effect"].as_str().and_then(EffectKind::from_name),
+            e["screen"]["gap"].as_f64(),
+            e["screen"]["extended_gap"].as_f64(),
+        ) else {
+            continue;
+        };
+        let Ok(model) = crate::diagnosis::fit::Model::from_json(&e["screen"]["model"]) else {
+            continue;
+        };
+        let name = e["name"].as_str().unwrap_or(k.name()).to_string();
+        let share = g / g0;
+        say(&format!(
+            "  {name}: its screen in the diagnosis reached {g:.2} against the base model's {g0:.2} (to keep: at most {:.2})",
+            (1.0 - keep.min_gain) * g0
+        ));
+        if have.contains(&k) || !share.is_finite() || share > 1.0 - keep.min_gain {
+            continue;
+        }
+        match best.iter_mut().find(|b| b.1 == k) {
+            Some(b) if b.0 <= share => {}
+            Some(b) => *b = (share, k, name, model),
+            None => best.push((share, k, name, model)),
+        }
+    }
+    best.sort_by(|a, b| a.0.total_cmp(&b.0));
+    best.truncate(keep.most);
+    Some(best)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A ranking entry of `name` (effect `k`) whose screen reached `gap` against `extended`.
+    fn entry(k: EffectKind, name: &str, gap: f64, extended: f64) -> serde_json::Value {
+        let mut m = crate::diagnosis::fit::Model::default();
+        m.effects.enable(k);
+        serde_json::json!({
+            "effect": k.name(), "name": name, "fitted_effects": [],
+            "screen": {"gap": gap, "extended_gap": extended, "model": m.to_json()},
+        })
+    }
+
+    #[test]
+    fn an_unexplained_gaps_best_are_its_screens_lowest_one_form_each() {
+        use EffectKind::*;
+        let diag = serde_json::json!({"ranking": [
+            entry(SensorDynamics, "sensor_dynamics", 1.46, 1.51),
+            entry(SensorDynamics, "sensor_dynamics[order4]", 1.39, 1.51),
+            // 1 % below the base model's gap: short of the 2 % asked.
+            entry(NormalCoupling, "normal_coupling", 1.495, 1.51),
+            entry(Viscous, "viscous", 1.45, 1.51),
+            entry(Aging, "aging", 1.40, 1.51),
+            // Worse than the base model.
+            entry(FrictionalLag, "frictional_lag", 2.7, 1.51),
+        ]});
+        let quiet = |_: &str| {};
+        let names = |have: &[EffectKind], most: usize| -> Vec<String> {
+            let keep = Keep {
+                min_gain: 0.02,
+                most,
+            };
+            screen_choices(&diag, have, keep, &quiet)
+                .unwrap()
+                .into_iter()
+                .map(|c| c.2)
+                .collect()
+        };
+        // The sensor's lower form only; then ageing; viscous third.
+        assert_eq!(names(&[], 2), ["sensor_dynamics[order4]", "aging"]);
+        assert_eq!(
+            names(&[], 9),
+            ["sensor_dynamics[order4]", "aging", "viscous"]
+        );
+        // A kind a rival already holds is not taken again.
+        assert_eq!(names(&[SensorDynamics], 2), ["aging", "viscous"]);
+        // A diagnosis without screens recorded: the plan screens the candidates itself.
+        let old = serde_json::json!({"ranking": [{"effect": "viscous", "name": "viscous"}]});
+        let keep = Keep {
+            min_gain: 0.02,
+            most: 3,
+        };
+        assert!(screen_choices(&old, &[], keep, &quiet).is_none());
+    }
 }
