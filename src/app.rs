@@ -429,7 +429,7 @@ pub fn plan(a: &PlanArgs) -> Result<Planned, AppError> {
             let is_toml = path.extension().is_some_and(|x| x == "toml");
             if is_toml {
                 let text = std::fs::read_to_string(&path).unwrap_or_default();
-                if !text.contains("\n[plan]\n") {
+                if !crate::planning::report::written_by_a_plan(&text) {
                     return Err(CliError::Flag {
                         flag: "out".into(),
                         value: out.display().to_string(),

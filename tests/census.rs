@@ -1009,6 +1009,46 @@ fn census_of_bad_input() {
             2,
             vec!["$(touch pwned)", "no such campaign directory"],
         ),
+        // A plan's folder another process is writing (this test holds its lock): refused at
+        // once, naming the holder. Folders whose names would run a command or hold a space and
+        // a newline are names: each plan takes and frees their lock, then stops at the missing
+        // diagnosis, leaving nothing behind.
+        (
+            s(&[
+                "plan",
+                "camp",
+                "--out",
+                "plocked",
+                "--diagnosis",
+                "missing.json",
+            ]),
+            2,
+            vec!["--out", "plocked", "is being written by process"],
+        ),
+        (
+            s(&[
+                "plan",
+                "camp",
+                "--out",
+                "$(touch pwned)",
+                "--diagnosis",
+                "missing.json",
+            ]),
+            2,
+            vec!["--diagnosis", "missing.json", "no such file"],
+        ),
+        (
+            s(&[
+                "plan",
+                "camp",
+                "--out",
+                "my plan\nnext",
+                "--diagnosis",
+                "missing.json",
+            ]),
+            2,
+            vec!["--diagnosis", "missing.json", "no such file"],
+        ),
         (
             s(&["synth", "new", "--conditions", "missing"]),
             2,
@@ -1051,6 +1091,8 @@ fn census_of_bad_input() {
             vec!["repeats", "0"],
         ),
     ];
+    // Held for every case: `plocked`'s plans meet a writer that is still at work.
+    let _held = stickslip::sweep::lock::acquire(&d.join("plocked")).unwrap();
     let mut failures = vec![];
     let mut by_code = std::collections::BTreeMap::<i32, usize>::new();
     for (args, code, needles) in &cases {

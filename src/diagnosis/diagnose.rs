@@ -198,21 +198,14 @@ fn try_candidate(
     );
     let sub = screen.recordings(all);
     let Some(s) = passed else {
-        // Where its screen got to, for a plan's rivals (Ranked::screened).
-        let screened = lowest_model
-            .filter(|_| lowest.is_finite())
-            .map(|m| (lowest, from_gap, m));
-        // A trailing effect's form stopped short of the leader's reach says so.
-        return match (reach, lowest) {
-            (Some(r), g) if g.is_finite() => Ranked {
-                short_of_leader: Some((g, r * from_gap)),
-                screened,
-                ..as_from()
-            },
-            _ => Ranked {
-                screened,
-                ..as_from()
-            },
+        // A trailing effect's form stopped short of the leader's reach says so; and where its
+        // screen got to, for a plan's rivals (Ranked::screened).
+        return Ranked {
+            short_of_leader: reach
+                .filter(|_| lowest.is_finite())
+                .map(|r| (lowest, r * from_gap)),
+            screened: lowest_model.map(|m| (lowest, from_gap, m)),
+            ..as_from()
         };
     };
     // Another form that cannot come near the leading candidate is not fitted further: it

@@ -322,10 +322,15 @@ fn kept_names(extra: &[Rival], none: &str) -> String {
         .join(", ")
 }
 
-/// Whether a ranking entry's fit holds its effect: one whose screen fell short reports the
-/// model it extends (`fitted_effects` empty), which is the base model, not a rival.
+/// Whether a ranking or second-effect entry's fit holds its own effect: one whose screen fell
+/// short reports the model it extends (`fitted_effects` without its `effect`: the base model,
+/// or the named model beside which a second effect was tried), which is no rival of its own.
 fn holds_effect(e: &serde_json::Value) -> bool {
-    e["fitted_effects"].as_array().is_none_or(|a| !a.is_empty())
+    match (e["fitted_effects"].as_array(), e["effect"].as_str()) {
+        (Some(a), Some(k)) => a.iter().any(|x| x.as_str() == Some(k)),
+        (Some(a), None) => !a.is_empty(),
+        (None, _) => true,
+    }
 }
 
 /// Per recording of `target`, the root mean square of the residuals `z` (rows as
@@ -715,10 +720,6 @@ pub fn plan(
             if fitted == 1 { "" } else { "s" }
         ));
         let have: Vec<EffectKind> = rivals.iter().flat_map(|x| x.effects.clone()).collect();
-        let candidates: Vec<EffectKind> = EffectKind::candidates()
-            .into_iter()
-            .filter(|k| !have.contains(k))
-            .collect();
         let keep = second::Keep {
             min_gain: crate::diagnosis::evidence::UNCHANGED,
             most: 3 - fitted,
@@ -730,7 +731,16 @@ pub fn plan(
                 "took the others from the diagnosis's screens, refitted on every recording",
             ),
             None => (
-                second::rivals(&target, &rivals[0], &candidates, keep, say),
+                second::rivals(
+                    &target,
+                    &rivals[0],
+                    &EffectKind::candidates()
+                        .into_iter()
+                        .filter(|k| !have.contains(k))
+                        .collect::<Vec<_>>(),
+                    keep,
+                    say,
+                ),
                 "screened each other candidate beside the base model itself",
             ),
         };
@@ -1099,11 +1109,8 @@ pub fn plan(
     };
     if opts.check {
         say("checking the plan: each rival as the truth, every rival refitted");
-        let run = verify::check(&target, &lins, &mut plan, opts.seed, say);
-        // Its count holds its fits' (through the target) and its own simulations of the
-        // planned recordings; only the latter are outside the target's counter.
-        let fits = target.work().simulations.saturating_sub(work.counted);
-        work.end("check", &target, run.saturating_sub(fits));
+        let outside = verify::check(&target, &lins, &mut plan, opts.seed, say);
+        work.end("check", &target, outside);
     }
     plan.simulations = work.total();
     plan.steps = work.list;
@@ -1245,6 +1252,38 @@ mod tests {
             "verdict": verdict, "effects": named, "tie": [],
             "calibration": {"model": base.to_json()}, "ranking": ranking, "second": [],
         })
+    }
+
+    /// A second effect whose screen fell short beside the named one reports the named model
+    /// (`fitted_effects` without its own effect): no rival; one whose fit holds both is.
+    #[test]
+    fn a_second_effect_without_its_effect_is_not_a_rival() {
+        let mut d = diagnosis(
+            "effect",
+            &["actuator_response"],
+            &[("actuator_response", &["actuator_response"], 40.0)],
+        );
+        let second = |fitted: &[&str]| {
+            let mut m = Model::default();
+            for f in fitted {
+                m.effects.enable(EffectKind::from_name(f).unwrap());
+            }
+            serde_json::json!({
+                "name": "presliding", "effect": "presliding", "model": m.to_json(),
+                "fitted_effects": fitted, "per_recording": [1.0, 1.0, 1.0],
+                "per_recording_n": [10, 10, 10], "evidence": {"ln_odds": 2.0, "clear": false},
+            })
+        };
+        d["second"] = serde_json::json!([second(&["actuator_response"])]);
+        let names: Vec<String> = rivals(&d).unwrap().into_iter().map(|r| r.name).collect();
+        assert_eq!(names, ["base", "actuator_response"]);
+        d["second"] = serde_json::json!([second(&["actuator_response", "presliding"])]);
+        let names: Vec<String> = rivals(&d).unwrap().into_iter().map(|r| r.name).collect();
+        // Best supported first: the pair's evidence adds the named effect's.
+        assert_eq!(
+            names,
+            ["base", "actuator_response+presliding", "actuator_response"]
+        );
     }
 
     /// A candidate whose screen fell short reports the base model (`fitted_effects` empty): it

@@ -321,6 +321,12 @@ impl Figure for SpaceFigure<'_> {
     }
 }
 
+/// Whether the text of a TOML file is a conditions file a plan wrote (it holds a `[plan]`
+/// table): `stickslip plan` replaces only such files in its folder.
+pub fn written_by_a_plan(text: &str) -> bool {
+    text.contains("\n[plan]\n")
+}
+
 /// Writes the plan into `out`: one `NAME.toml` per planned recording, `plan.json`,
 /// `plan.png` and `plan.svg` (unless `no_plots`). Returns the files written.
 ///
@@ -360,7 +366,7 @@ pub fn write(
         let path = e.map_err(|e| io(out, &e))?.path();
         let stale = path.extension().is_some_and(|x| x == "toml")
             && !mine.contains(&path)
-            && std::fs::read_to_string(&path).is_ok_and(|t| t.contains("\n[plan]\n"));
+            && std::fs::read_to_string(&path).is_ok_and(|t| written_by_a_plan(&t));
         if stale {
             std::fs::remove_file(&path).map_err(|e| io(&path, &e))?;
         }

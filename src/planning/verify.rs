@@ -15,7 +15,8 @@ use crate::diagnosis::linearised::Linearised;
 pub const REFIT_ITERATIONS: usize = 4;
 
 /// Checks `plan` by simulation (module docs) and fills each outcome's simulated evidence.
-/// Returns the simulations run.
+/// Returns the simulations of the planned recordings from each truth, which run outside
+/// `target`'s cache (its own counter holds the refits').
 pub fn check(
     target: &Target,
     lins: &[Linearised],
@@ -26,7 +27,6 @@ pub fn check(
     let r = plan.rivals.len();
     let has_x = plan.noise.1.is_some();
     let n_old = target.recs.len();
-    let before = target.work().simulations;
     let mut sims = 0;
     // The existing recordings' per-recording gaps of each rival at its fit.
     let old: Vec<(Vec<f64>, Vec<usize>)> =
@@ -119,5 +119,5 @@ pub fn check(
             o.clear = Some(total >= LN_PRIOR_ODDS && o.now + ev.least_left_out >= LN_PRIOR_ODDS);
         }
     }
-    sims + target.work().simulations - before
+    sims
 }
