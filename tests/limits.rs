@@ -95,7 +95,8 @@ fn ageing_at_twice_its_limit_is_found_and_at_half_is_not() {
 
 /// Injecting effects at twice and half their limits, over new noise draws: the table of the
 /// closing note. `LIMITS_DRAWS` (default 10) draws per level; `LIMITS_EFFECTS` (default
-/// `aging,normal_coupling,viscous,sensor_dynamics`) the effects.
+/// `aging,normal_coupling,viscous,sensor_dynamics`) the effects, each in its default form or
+/// in the form named in brackets (`aging[slip_law]`, `sensor_dynamics[order4]`).
 #[test]
 #[ignore = "about 3 minutes per draw and effect on 2 cores; run with --ignored --nocapture"]
 fn limits_hold_over_noise_draws() {
@@ -109,12 +110,23 @@ fn limits_hold_over_noise_draws() {
     let mut wrong = vec![];
     println!("| effect | limit | found at 2× (named) | found at ½× (named) |");
     println!("|---|---|---|---|");
-    for name in effects.split(',') {
-        let Some(l) = d.limits.effects.iter().find(|e| e.effect == name) else {
+    for spec in effects.split(',') {
+        // `effect` (its default form, the first scanned) or `effect[form]`.
+        let (name, form) = match spec.split_once('[') {
+            Some((n, f)) => (n, Some(f.trim_end_matches(']'))),
+            None => (spec, None),
+        };
+        let Some(l) = d
+            .limits
+            .effects
+            .iter()
+            .find(|e| e.effect == name && form.is_none_or(|f| e.form_name == f))
+        else {
+            println!("| {spec} | not scanned | - | - |");
             continue;
         };
         let Some(limit) = l.limit else {
-            println!("| {name} | none | - | - |");
+            println!("| {spec} | none | - | - |");
             continue;
         };
         let mut counts = [(0, 0); 2];
@@ -130,12 +142,12 @@ fn limits_hold_over_noise_draws() {
             }
         }
         println!(
-            "| {name} ({} {} {}) | {limit:.3e} {} | {}/{draws} ({}) | {}/{draws} ({}) |",
+            "| {spec} ({} {} {}) | {limit:.3e} {} | {}/{draws} ({}) | {}/{draws} ({}) |",
             l.param, l.stronger, l.form, l.unit, counts[0].0, counts[0].1, counts[1].0, counts[1].1
         );
         assert!(
             counts[0].0 as u64 * 10 >= 9 * draws,
-            "{name}: found at twice its limit on {} of {draws}",
+            "{spec}: found at twice its limit on {} of {draws}",
             counts[0].0
         );
     }

@@ -418,15 +418,13 @@ fn make_extra(name: &str, dir: &std::path::Path, seed: u64, effects: &[String]) 
 }
 
 /// The detection limits of the first rig's effect-free small campaign, checked on the rig's own
-/// ageing (the slip law, where the library's is Dieterich's ageing law): injected at twice the
-/// stated `b` over `RIG_LIMIT_DRAWS` noise draws (default 3), the diagnosis sees a gap; at half,
-/// usually not. Prints the campaign's limits and the counts. A known failure at this code: the
-/// limit is stated for the library's form (the ageing law, which heals while stuck), and the
-/// slip law, which does not, stays unseen at twice it (0 of 3 at the last run; the panel's
-/// `aging-slip-law`, ten times it, is found). Limits per form of an effect family are what the
-/// assertion waits for.
+/// ageing (Ruina's slip law): injected at twice the `b` the diagnosis states for the library's
+/// slip-law form over `RIG_LIMIT_DRAWS` noise draws (default 3), the diagnosis sees a gap; at
+/// half, usually not. Prints the campaign's limits and the counts. The ageing law's limit is
+/// another (7.43e-3 against 0.0176 at the last run): a slip-law ageing at twice the ageing
+/// law's limit stayed unseen on 0 of 3 draws, which is why each form states its own.
 #[test]
-#[ignore = "fails at this code: a limit holds for the form it states (docs/campaigns.md); about 2 minutes on 2 cores"]
+#[ignore = "about 6 minutes on 2 cores; left out of .ci/run for its time budget"]
 fn rig_limits_hold_for_its_own_ageing() {
     let draws: u64 = std::env::var("RIG_LIMIT_DRAWS")
         .ok()
@@ -443,7 +441,7 @@ fn rig_limits_hold_for_its_own_ageing() {
         .limits
         .effects
         .iter()
-        .find(|e| e.effect == "aging")
+        .find(|e| e.effect == "aging" && e.form_name == "slip_law")
         .unwrap();
     let b = l
         .limit

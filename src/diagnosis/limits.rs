@@ -35,7 +35,7 @@
 //!
 //! The strength is scanned from the effect's neutral end to the strong end of its plausible
 //! range ([`super::model::Plausible`]) on a log scale (linear for the presliding spread): every
-//! rung of a ladder of [`LADDER`] (none fires: the effect cannot be excluded at any plausible
+//! rung of a ladder of [`LADDER`] (an octave apart for a resonance: [`RESONANCE_STEP`]; none fires: the effect cannot be excluded at any plausible
 //! strength), then [`BISECTIONS`] halvings of the bracket below the first rung that fires. The
 //! power need not grow with the strength: a load cell slower than the forcing shifts the
 //! ripple's phase, which shows; slower still it attenuates the ripple into the noise and shows
@@ -61,6 +61,7 @@ use super::folds::{CrossValidated, concentrated, summarise};
 use super::model::neutral;
 use super::target::{Fidelity, simulate_many};
 use crate::model::EffectKind;
+use crate::model::effects::form_param;
 use rand::{RngExt, SeedableRng, rngs::StdRng};
 use rand_distr::{Distribution, Normal};
 use rayon::prelude::*;
@@ -70,8 +71,16 @@ pub const POWER: f64 = 0.95;
 /// Random-sign draws of the held-out residuals per strength.
 pub const DRAWS: usize = 200;
 /// Rungs of the ladder of strengths, evenly spaced (in the logarithm where the scan is
-/// logarithmic) from the weak end to the strong end.
+/// logarithmic) from the weak end to the strong end; at least, for a resonance, those of
+/// [`RESONANCE_STEP`].
 pub const LADDER: usize = 4;
+/// Largest ratio of two neighbouring rungs of a resonance's ladder (a sensor's or an
+/// actuator's frequency). A resonance shows in a band: above it the phase it shifts is within
+/// the noise, below it the ripple it attenuates is. On a 16-recording effect-free campaign
+/// a fourth-order filter's band (found and named at 1.5 and 2.5 kHz) lay between two rungs of
+/// four over 2e4 to 28 Hz (3.9 kHz and 743 Hz), and the limit read 77 Hz. An octave keeps such
+/// a band on a rung.
+pub const RESONANCE_STEP: f64 = 2.0;
 /// Halvings of the bracket between the last rung that did not fire and the first that did.
 pub const BISECTIONS: usize = 4;
 /// Largest share of rows whose runs may fail at a strength for its power to count: beyond it,
@@ -127,7 +136,7 @@ struct Scan {
     log: bool,
 }
 
-const SCANS: [Scan; 10] = [
+const SCANS: [Scan; 18] = [
     Scan {
         kind: EffectKind::Aging,
         param: "b",
@@ -228,6 +237,90 @@ const SCANS: [Scan; 10] = [
         strong: None,
         log: true,
     },
+    // The other forms of each family with a strength to scan: a limit holds for the form it
+    // states (a slip-law ageing, which does not heal at rest, stays unseen at twice the
+    // ageing law's limit), so each form states its own. The Stribeck curve's rational form
+    // has no neutral strength (at any exponent it is another curve) and is not scanned.
+    Scan {
+        kind: EffectKind::Aging,
+        param: "b",
+        label: "ageing of static friction by the slip law",
+        fixed: &[("theta_0", 0.01), ("d_c", 1e-6), ("form", 1.0)],
+        stronger_below: false,
+        weak: Some(5e-4),
+        strong: None,
+        log: true,
+    },
+    Scan {
+        kind: EffectKind::ActuatorResponse,
+        param: "f_r",
+        label: "a first-order actuator lag",
+        fixed: &[("form", 1.0)],
+        stronger_below: true,
+        weak: None,
+        strong: None,
+        log: true,
+    },
+    Scan {
+        kind: EffectKind::NormalCoupling,
+        param: "k_n",
+        label: "a normal-load modulation with the substrate's velocity",
+        fixed: &[("phase", 90.0), ("delay", 0.0), ("form", 1.0)],
+        stronger_below: false,
+        weak: None,
+        strong: None,
+        log: true,
+    },
+    Scan {
+        kind: EffectKind::NormalCoupling,
+        param: "k_n",
+        label: "a normal-load modulation with the substrate's acceleration",
+        fixed: &[("phase", 90.0), ("delay", 0.0), ("form", 2.0)],
+        stronger_below: false,
+        weak: None,
+        strong: None,
+        log: true,
+    },
+    Scan {
+        kind: EffectKind::NormalCoupling,
+        param: "k_n",
+        label: "a normal-load modulation of fixed swing",
+        fixed: &[("phase", 90.0), ("delay", 0.0), ("form", 3.0)],
+        stronger_below: false,
+        weak: None,
+        strong: None,
+        log: true,
+    },
+    Scan {
+        kind: EffectKind::SensorDynamics,
+        param: "f_n",
+        label: "a fourth-order force filter",
+        fixed: &[("zeta", 0.383), ("form", 1.0)],
+        stronger_below: true,
+        weak: None,
+        strong: None,
+        log: true,
+    },
+    Scan {
+        kind: EffectKind::Viscous,
+        param: "h_v",
+        label: "friction quadratic in the slip velocity",
+        fixed: &[("exponent", 2.0)],
+        stronger_below: false,
+        weak: Some(0.3),
+        strong: None,
+        log: true,
+    },
+    Scan {
+        kind: EffectKind::FrictionalLag,
+        param: "length",
+        label: "a frictional memory over a slip distance",
+        fixed: &[("form", 1.0)],
+        stronger_below: false,
+        weak: None,
+        strong: None,
+        log: true,
+    },
 ];
 
 /// The detection limit of one effect in one form.
@@ -241,8 +334,12 @@ pub struct Limit {
     pub unit: &'static str,
     /// The effect in words, with its form.
     pub label: &'static str,
-    /// Its other parameters, fixed: `name = value`, comma separated (empty where none).
+    /// Its other parameters, fixed: `name = value`, comma separated (empty where none), the
+    /// form parameter among them where the form is not the family's default.
     pub form: String,
+    /// The form of the effect's family scanned (`slip_law`, `order4`, ...; empty for an
+    /// effect of one form).
+    pub form_name: &'static str,
     /// `below` where the effect is stronger at lower values of the parameter (a resonance),
     /// else `above`.
     pub stronger: &'static str,
@@ -545,6 +642,25 @@ impl<'t, 'a> Pipeline<'t, 'a> {
     }
 }
 
+impl Scan {
+    /// The name of the form scanned: the form parameter's value among `fixed`, else the
+    /// family's default form.
+    fn form_name(&self) -> &'static str {
+        let q = form_param(self.kind);
+        let v = self
+            .fixed
+            .iter()
+            .find(|(n, _)| *n == q)
+            .map_or(self.kind.default_form(), |f| f.1);
+        self.kind
+            .info()
+            .forms
+            .iter()
+            .find(|f| f.value == v)
+            .map_or("", |f| f.name)
+    }
+}
+
 /// A scan's value at `u` in [0, 1] from its weak end to its strong end.
 fn value_at(weak: f64, strong: f64, log: bool, u: f64) -> f64 {
     // The ends exactly (a logarithm and back would move them by a rounding).
@@ -693,8 +809,14 @@ pub(crate) fn limits(
             // first rung that fires halved.
             let mut rungs: Vec<(f64, f64)> = vec![];
             let mut reached = 1.0;
-            for k in 1..=LADDER {
-                let u = k as f64 / LADDER as f64;
+            let ladder = if s.stronger_below && s.log && weak > 0.0 && strong > 0.0 {
+                let octaves = (weak / strong).abs().ln() / RESONANCE_STEP.ln();
+                LADDER.max(octaves.ceil() as usize)
+            } else {
+                LADDER
+            };
+            for k in 1..=ladder {
+                let u = k as f64 / ladder as f64;
                 let (pw, failed) = power_at(u);
                 if failed > MAX_FAILED {
                     // Runs fail from here on: the scan ends where they still ran.
@@ -753,10 +875,17 @@ pub(crate) fn limits(
             } else {
                 ("above", "and below")
             };
-            let with = if form.is_empty() {
+            // The form's other parameters in the statement (its name is in the label).
+            let shown: Vec<String> = s
+                .fixed
+                .iter()
+                .filter(|(q, _)| *q != form_param(s.kind))
+                .map(|(q, v)| format!("{q} = {v}"))
+                .collect();
+            let with = if shown.is_empty() {
                 String::new()
             } else {
-                format!(" ({form})")
+                format!(" ({})", shown.join(", "))
             };
             let hidden = || {
                 format!(
@@ -825,6 +954,7 @@ pub(crate) fn limits(
                 unit: p.unit,
                 label: s.label,
                 form,
+                form_name: s.form_name(),
                 stronger,
                 limit,
                 power,
@@ -871,10 +1001,24 @@ mod tests {
             }
             assert!(info.candidate, "{}", s.label);
         }
-        // Every candidate of the library has a scan.
+        // Every candidate of the library has a scan, in every form but the Stribeck curve's
+        // rational one (no neutral strength), each scan's form named.
         for k in EffectKind::candidates() {
             assert!(SCANS.iter().any(|s| s.kind == k), "{k}");
+            for f in k.info().forms {
+                if (k, f.name) == (EffectKind::StribeckShape, "rational") {
+                    continue;
+                }
+                assert!(
+                    SCANS.iter().any(|s| s.kind == k && s.form_name() == f.name),
+                    "{k} {}",
+                    f.name
+                );
+            }
         }
+        let slip = SCANS.iter().find(|s| s.label.contains("slip law")).unwrap();
+        assert_eq!(slip.form_name(), "slip_law");
+        assert_eq!(SCANS[0].form_name(), "ageing_law");
     }
 
     #[test]

@@ -625,18 +625,23 @@ fn limits_table(l: &super::limits::Limits) -> String {
     );
     let _ = writeln!(
         s,
-        "  {:<18} {:<8} {:>12} {:<6}  reading",
-        "effect", "param", "limit", "unit"
+        "  {:<34} {:<8} {:>12} {:<6}  reading",
+        "effect [form]", "param", "limit", "unit"
     );
     for e in &l.effects {
+        let name = if e.form_name.is_empty() {
+            e.effect.to_string()
+        } else {
+            format!("{} [{}]", e.effect, e.form_name)
+        };
         let limit = match e.limit {
             Some(v) => format!("{} {v:.3e}", if e.stronger == "below" { "<" } else { ">" }),
             None => "none".to_string(),
         };
         let _ = writeln!(
             s,
-            "  {:<18} {:<8} {:>12} {:<6}  {}",
-            e.effect, e.param, limit, e.unit, e.statement
+            "  {:<34} {:<8} {:>12} {:<6}  {}",
+            name, e.param, limit, e.unit, e.statement
         );
     }
     s
