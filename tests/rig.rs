@@ -417,19 +417,28 @@ fn make_extra(name: &str, dir: &std::path::Path, seed: u64, effects: &[String]) 
     Campaign::load(&out).unwrap()
 }
 
-/// The detection limits of the first rig's effect-free small campaign, checked on the rig's own
-/// ageing (Ruina's slip law): injected at twice the `b` the diagnosis states for the library's
-/// slip-law form over `RIG_LIMIT_DRAWS` noise draws (default 3), the diagnosis sees a gap; at
-/// half, usually not. Prints the campaign's limits and the counts. The ageing law's limit is
-/// another (7.43e-3 against 0.0176 at the last run): a slip-law ageing at twice the ageing
-/// law's limit stayed unseen on 0 of 3 draws, which is why each form states its own.
-#[test]
-#[ignore = "about 6 minutes on 2 cores; left out of .ci/run for its time budget"]
-fn rig_limits_hold_for_its_own_ageing() {
-    let draws: u64 = std::env::var("RIG_LIMIT_DRAWS")
+/// Noise draws per strength of the rig's limit checks: `RIG_LIMIT_DRAWS`, 3 by default.
+fn limit_draws() -> u64 {
+    std::env::var("RIG_LIMIT_DRAWS")
         .ok()
         .and_then(|v| v.parse().ok())
-        .unwrap_or(3);
+        .unwrap_or(3)
+}
+
+/// The detection limits of the first rig's effect-free small campaign, checked on one of the
+/// rig's own effects: the limit of `effect` in form `form` (`effect` in the library's words),
+/// then, for each `(row, value, asserted)` that `at` makes of it, the rig's effect at that
+/// strength (`inject(value)`, a `--effect` of `rig.py`) over [`limit_draws`] noise draws,
+/// diagnosed without limits. Prints the limits and the counts of gaps seen and of the effect
+/// named; asserts a gap seen on at least 9 in 10 draws where `asserted`, and never a confident
+/// wrong cause.
+fn rig_limit_holds(
+    effect: &str,
+    form: &str,
+    at: impl Fn(&stickslip::diagnosis::limits::Limit) -> Vec<(String, f64, bool)>,
+    inject: impl Fn(f64) -> String,
+) {
+    let draws = limit_draws();
     let dir = tempfile::tempdir().unwrap();
     let (c, _) = make("free-small", dir.path());
     let d = diagnose(&c, &DiagnoseOptions::default()).unwrap();
@@ -441,50 +450,101 @@ fn rig_limits_hold_for_its_own_ageing() {
         .limits
         .effects
         .iter()
-        .find(|e| e.effect == "aging" && e.form_name == "slip_law")
+        .find(|e| e.effect == effect && e.form_name == form)
         .unwrap();
-    let b = l
-        .limit
-        .expect("ageing is detectable in the rig's small campaign");
+    let kind = stickslip::model::EffectKind::from_name(effect).unwrap();
     let opts = DiagnoseOptions {
         limits: false,
         ..DiagnoseOptions::default()
     };
     let mut rows = vec![];
-    let mut found_twice = 0;
-    for factor in [2.0, 0.5] {
+    let mut short = vec![];
+    for (row, value, asserted) in at(l) {
         let (mut found, mut named) = (0, 0);
         for k in 0..draws {
-            let fx = format!("aging:b={},theta_0=0.01,d_c=1e-6", factor * b);
-            let c = make_extra("free-small", dir.path(), 100 + k, &[fx]);
+            let c = make_extra("free-small", dir.path(), 100 + k, &[inject(value)]);
             let r = diagnose(&c, &opts).unwrap();
             found += usize::from(r.verdict != Verdict::NoSignificantGap);
-            named += usize::from(r.best_effect == Some(stickslip::model::EffectKind::Aging));
+            named += usize::from(r.best_effect == Some(kind));
             // Never a confident wrong cause.
             assert!(
-                r.best_effect
-                    .is_none_or(|e| e == stickslip::model::EffectKind::Aging)
-                    || r.partial,
-                "b = {}: named {:?}",
-                factor * b,
+                r.best_effect.is_none_or(|e| e == kind) || r.partial,
+                "{row}: named {:?}",
                 r.effects
             );
         }
-        if factor > 1.0 {
-            found_twice = found;
+        if asserted && (found as u64) * 10 < 9 * draws {
+            short.push(format!("{row}: found on {found} of {draws}"));
         }
         rows.push(format!(
-            "| {factor}× (b = {:.3e}) | {found}/{draws} | {named}/{draws} |",
-            factor * b
+            "| {row} | {value:.3e} | {found}/{draws} | {named}/{draws} |"
         ));
     }
     eprintln!(
-        "ageing limit b = {b:.3e}\n| injected | gap seen | named aging |\n|---|---|---|\n{}",
+        "{effect} [{form}]: {}\n| injected | value | gap seen | named {effect} |\n|---|---|---|---|\n{}",
+        l.statement,
         rows.join("\n")
     );
-    assert!(
-        found_twice as u64 * 10 >= 9 * draws,
-        "found at twice the limit on {found_twice} of {draws}"
+    assert!(short.is_empty(), "{short:?}");
+}
+
+/// The rig's ageing (Ruina's slip law) at twice the `b` the diagnosis states for the library's
+/// slip-law form: a gap seen; at half, usually not. The ageing law's limit is another (7.43e-3
+/// against 0.0176 at the last run): a slip-law ageing at twice the ageing law's limit stayed
+/// unseen on 0 of 3 draws, which is why each form states its own.
+#[test]
+#[ignore = "about 6 minutes on 2 cores; left out of .ci/run for its time budget"]
+fn rig_limits_hold_for_its_own_ageing() {
+    rig_limit_holds(
+        "aging",
+        "slip_law",
+        |l| {
+            let b = l
+                .limit
+                .expect("ageing is detectable in the rig's small campaign");
+            vec![
+                (format!("2x (b = {:.3e})", 2.0 * b), 2.0 * b, true),
+                (format!("0.5x (b = {:.3e})", 0.5 * b), 0.5 * b, false),
+            ]
+        },
+        |b| format!("aging:b={b},theta_0=0.01,d_c=1e-6"),
+    );
+}
+
+/// The rig's force sensor (a fourth-order Butterworth low-pass, the library's fourth-order form
+/// at its damping 0.383) inside the band of frequencies the diagnosis states it would have
+/// seen (the geometric middle of the limit and the band's end): a gap seen; an octave above the
+/// limit (weaker), usually not. A resonance shows in a band, so "twice as strong" can land
+/// where it hides its own trace: the band is what the statement asserts. A known failure at
+/// this code (docs/campaigns.md): the stated band is 2554 to 2890 Hz, and the rig's sensor at
+/// 2717 Hz is seen on 0 of 3 draws; its gap concentrates in one recording's phase at the
+/// forcing frequency (2.5 kHz, 66 % of the gap), and a gap in one recording does not fire the
+/// test.
+#[test]
+#[ignore = "fails at this code (a known miss: a limit's narrow band not seen, docs/campaigns.md); about 3 minutes on 2 cores"]
+fn rig_limits_hold_for_its_own_sensor() {
+    rig_limit_holds(
+        "sensor_dynamics",
+        "order4",
+        |l| {
+            let top = l.limit.expect("a fourth-order sensor is detectable there");
+            let inside = l
+                .band_end
+                .map_or(top / 2.0_f64.sqrt(), |e| (top * e).sqrt());
+            vec![
+                (
+                    format!("inside the band (f_n = {inside:.0} Hz)"),
+                    inside,
+                    true,
+                ),
+                (
+                    format!("an octave above it (f_n = {:.0} Hz)", 2.0 * top),
+                    2.0 * top,
+                    false,
+                ),
+            ]
+        },
+        |f_n| format!("sensor:f_n={f_n}"),
     );
 }
 
