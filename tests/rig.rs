@@ -519,7 +519,8 @@ fn rig_limits_hold_for_its_own_ageing() {
 /// this code (docs/campaigns.md): the stated band is 2554 to 2890 Hz, and the rig's sensor at
 /// 2717 Hz is seen on 0 of 3 draws; its gap concentrates in one recording's phase at the
 /// forcing frequency (2.5 kHz, 66 % of the gap), and a gap in one recording does not fire the
-/// test.
+/// test. The library's own fourth-order sensor in the same conditions is not found either: the
+/// limit's power overstates what the campaign sees.
 #[test]
 #[ignore = "fails at this code (a known miss: a limit's narrow band not seen, docs/campaigns.md); about 3 minutes on 2 cores"]
 fn rig_limits_hold_for_its_own_sensor() {
