@@ -136,47 +136,84 @@ struct Scan {
     log: bool,
 }
 
+/// Ageing, by the ageing law (the family's default form; [`Scan::in_form`] for the others).
+const AGING: Scan = Scan {
+    kind: EffectKind::Aging,
+    param: "b",
+    label: "ageing of static friction",
+    fixed: &[("theta_0", 0.01), ("d_c", 1e-6)],
+    stronger_below: false,
+    weak: Some(5e-4),
+    strong: None,
+    log: true,
+};
+
+/// The actuator, as a resonance (its default form).
+const ACTUATOR: Scan = Scan {
+    kind: EffectKind::ActuatorResponse,
+    param: "f_r",
+    label: "an actuator resonance",
+    fixed: &[("zeta", 0.2)],
+    stronger_below: true,
+    weak: None,
+    strong: None,
+    log: true,
+};
+
+/// The load swing, with the substrate's displacement (its default form).
+const NORMAL: Scan = Scan {
+    kind: EffectKind::NormalCoupling,
+    param: "k_n",
+    label: "a normal-load modulation",
+    fixed: &[("phase", 90.0), ("delay", 0.0)],
+    stronger_below: false,
+    weak: None,
+    strong: None,
+    log: true,
+};
+
+/// The force sensor, of second order (its default form).
+const SENSOR: Scan = Scan {
+    kind: EffectKind::SensorDynamics,
+    param: "f_n",
+    label: "a load cell",
+    fixed: &[("zeta", 0.35)],
+    stronger_below: true,
+    weak: None,
+    strong: None,
+    log: true,
+};
+
+/// Viscous friction, linear in the slip velocity (its default form).
+const VISCOUS: Scan = Scan {
+    kind: EffectKind::Viscous,
+    param: "h_v",
+    label: "viscous friction",
+    fixed: &[("exponent", 1.0)],
+    stronger_below: false,
+    weak: Some(0.3),
+    strong: None,
+    log: true,
+};
+
+/// The frictional lag, over a time (its default form).
+const LAG: Scan = Scan {
+    kind: EffectKind::FrictionalLag,
+    param: "tau",
+    label: "a frictional lag",
+    fixed: &[],
+    stronger_below: false,
+    weak: None,
+    strong: None,
+    log: true,
+};
+
+/// Every scan of [`limits`]: each effect in its default form, then the other forms.
 const SCANS: [Scan; 18] = [
-    Scan {
-        kind: EffectKind::Aging,
-        param: "b",
-        label: "ageing of static friction",
-        fixed: &[("theta_0", 0.01), ("d_c", 1e-6)],
-        stronger_below: false,
-        weak: Some(5e-4),
-        strong: None,
-        log: true,
-    },
-    Scan {
-        kind: EffectKind::ActuatorResponse,
-        param: "f_r",
-        label: "an actuator resonance",
-        fixed: &[("zeta", 0.2)],
-        stronger_below: true,
-        weak: None,
-        strong: None,
-        log: true,
-    },
-    Scan {
-        kind: EffectKind::NormalCoupling,
-        param: "k_n",
-        label: "a normal-load modulation",
-        fixed: &[("phase", 90.0), ("delay", 0.0)],
-        stronger_below: false,
-        weak: None,
-        strong: None,
-        log: true,
-    },
-    Scan {
-        kind: EffectKind::SensorDynamics,
-        param: "f_n",
-        label: "a load cell",
-        fixed: &[("zeta", 0.35)],
-        stronger_below: true,
-        weak: None,
-        strong: None,
-        log: true,
-    },
+    AGING,
+    ACTUATOR,
+    NORMAL,
+    SENSOR,
     Scan {
         kind: EffectKind::DriveRipple,
         param: "a",
@@ -187,16 +224,7 @@ const SCANS: [Scan; 18] = [
         strong: None,
         log: true,
     },
-    Scan {
-        kind: EffectKind::Viscous,
-        param: "h_v",
-        label: "viscous friction",
-        fixed: &[("exponent", 1.0)],
-        stronger_below: false,
-        weak: Some(0.3),
-        strong: None,
-        log: true,
-    },
+    VISCOUS,
     Scan {
         kind: EffectKind::StribeckShape,
         param: "delta",
@@ -227,100 +255,47 @@ const SCANS: [Scan; 18] = [
         strong: None,
         log: false,
     },
-    Scan {
-        kind: EffectKind::FrictionalLag,
-        param: "tau",
-        label: "a frictional lag",
-        fixed: &[],
-        stronger_below: false,
-        weak: None,
-        strong: None,
-        log: true,
-    },
+    LAG,
     // The other forms of each family with a strength to scan: a limit holds for the form it
     // states (a slip-law ageing, which does not heal at rest, stays unseen at twice the
     // ageing law's limit), so each form states its own. The Stribeck curve's rational form
     // has no neutral strength (at any exponent it is another curve) and is not scanned.
-    Scan {
-        kind: EffectKind::Aging,
-        param: "b",
-        label: "ageing of static friction by the slip law",
-        fixed: &[("theta_0", 0.01), ("d_c", 1e-6), ("form", 1.0)],
-        stronger_below: false,
-        weak: Some(5e-4),
-        strong: None,
-        log: true,
-    },
-    Scan {
-        kind: EffectKind::ActuatorResponse,
-        param: "f_r",
-        label: "a first-order actuator lag",
-        fixed: &[("form", 1.0)],
-        stronger_below: true,
-        weak: None,
-        strong: None,
-        log: true,
-    },
-    Scan {
-        kind: EffectKind::NormalCoupling,
-        param: "k_n",
-        label: "a normal-load modulation with the substrate's velocity",
-        fixed: &[("phase", 90.0), ("delay", 0.0), ("form", 1.0)],
-        stronger_below: false,
-        weak: None,
-        strong: None,
-        log: true,
-    },
-    Scan {
-        kind: EffectKind::NormalCoupling,
-        param: "k_n",
-        label: "a normal-load modulation with the substrate's acceleration",
-        fixed: &[("phase", 90.0), ("delay", 0.0), ("form", 2.0)],
-        stronger_below: false,
-        weak: None,
-        strong: None,
-        log: true,
-    },
-    Scan {
-        kind: EffectKind::NormalCoupling,
-        param: "k_n",
-        label: "a normal-load modulation of fixed swing",
-        fixed: &[("phase", 90.0), ("delay", 0.0), ("form", 3.0)],
-        stronger_below: false,
-        weak: None,
-        strong: None,
-        log: true,
-    },
-    Scan {
-        kind: EffectKind::SensorDynamics,
-        param: "f_n",
-        label: "a fourth-order force filter",
-        fixed: &[("zeta", 0.383), ("form", 1.0)],
-        stronger_below: true,
-        weak: None,
-        strong: None,
-        log: true,
-    },
-    Scan {
-        kind: EffectKind::Viscous,
-        param: "h_v",
-        label: "friction quadratic in the slip velocity",
-        fixed: &[("exponent", 2.0)],
-        stronger_below: false,
-        weak: Some(0.3),
-        strong: None,
-        log: true,
-    },
-    Scan {
-        kind: EffectKind::FrictionalLag,
-        param: "length",
-        label: "a frictional memory over a slip distance",
-        fixed: &[("form", 1.0)],
-        stronger_below: false,
-        weak: None,
-        strong: None,
-        log: true,
-    },
+    AGING.in_form(
+        "ageing of static friction by the slip law",
+        "b",
+        &[("theta_0", 0.01), ("d_c", 1e-6), ("form", 1.0)],
+    ),
+    ACTUATOR.in_form("a first-order actuator lag", "f_r", &[("form", 1.0)]),
+    NORMAL.in_form(
+        "a normal-load modulation with the substrate's velocity",
+        "k_n",
+        &[("phase", 90.0), ("delay", 0.0), ("form", 1.0)],
+    ),
+    NORMAL.in_form(
+        "a normal-load modulation with the substrate's acceleration",
+        "k_n",
+        &[("phase", 90.0), ("delay", 0.0), ("form", 2.0)],
+    ),
+    NORMAL.in_form(
+        "a normal-load modulation of fixed swing",
+        "k_n",
+        &[("phase", 90.0), ("delay", 0.0), ("form", 3.0)],
+    ),
+    SENSOR.in_form(
+        "a fourth-order force filter",
+        "f_n",
+        &[("zeta", 0.383), ("form", 1.0)],
+    ),
+    VISCOUS.in_form(
+        "friction quadratic in the slip velocity",
+        "h_v",
+        &[("exponent", 2.0)],
+    ),
+    LAG.in_form(
+        "a frictional memory over a slip distance",
+        "length",
+        &[("form", 1.0)],
+    ),
 ];
 
 /// The detection limit of one effect in one form.
@@ -643,6 +618,23 @@ impl<'t, 'a> Pipeline<'t, 'a> {
 }
 
 impl Scan {
+    /// This scan in another form of the effect's family: its label, the parameter that sets
+    /// its strength there and its other parameters (the form parameter among them); the scale
+    /// and the ends as this one's.
+    const fn in_form(
+        self,
+        label: &'static str,
+        param: &'static str,
+        fixed: &'static [(&'static str, f64)],
+    ) -> Scan {
+        Scan {
+            label,
+            param,
+            fixed,
+            ..self
+        }
+    }
+
     /// The name of the form scanned: the form parameter's value among `fixed`, else the
     /// family's default form.
     fn form_name(&self) -> &'static str {
@@ -810,7 +802,7 @@ pub(crate) fn limits(
             let mut rungs: Vec<(f64, f64)> = vec![];
             let mut reached = 1.0;
             let ladder = if s.stronger_below && s.log && weak > 0.0 && strong > 0.0 {
-                let octaves = (weak / strong).abs().ln() / RESONANCE_STEP.ln();
+                let octaves = (weak / strong).ln() / RESONANCE_STEP.ln();
                 LADDER.max(octaves.ceil() as usize)
             } else {
                 LADDER
