@@ -150,6 +150,16 @@ impl Feature {
         self.phase() == 5
     }
 
+    /// The amplitude of the harmonic whose phase this feature is (None: not a phase).
+    pub fn amplitude_of(self) -> Option<Feature> {
+        match self {
+            Feature::ForcePhase1 => Some(Feature::ForceAmp1),
+            Feature::ForcePhase2 => Some(Feature::ForceAmp2),
+            Feature::BodyPhase1 => Some(Feature::BodyAmp1),
+            _ => None,
+        }
+    }
+
     /// Unit.
     pub fn unit(self) -> &'static str {
         match self {

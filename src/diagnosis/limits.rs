@@ -19,7 +19,13 @@
 //!    own pipeline with the same noise (each channel's noise estimated from the recording): a
 //!    harmonic the effect attenuates below three of its errors has no measured phase under it
 //!    (the row drops out), and its errors scale as that record's do. Rows of failed runs
-//!    count 0;
+//!    count 0. A harmonic's phase is the exception: its error is the noise over the amplitude
+//!    *measured*, and the campaign's own amplitude is one draw of that (on the first rig's
+//!    effect-free campaign a high one, 1.6 against the 1.0 mN predicted, made a fourth-order
+//!    sensor's phase shift look twice as sharp as the injected campaign then measured it). So
+//!    a phase's error under the effect is the campaign's quadrature noise over the amplitude
+//!    the effect predicts, and each draw of step 3 draws the amplitude measured too
+//!    (`PhaseRow`): its signature scales with it, and below three errors the phase drops out;
 //! 2. each fold's recalibration of `M` to data carrying the effect is the fold's own refit step
 //!    ([`fit::refit_delta`], the one-step damped Gauss–Newton refit the cross-validation makes,
 //!    on `M`'s Jacobian): it is linear in the residuals, so the held-out residuals under the
@@ -350,6 +356,23 @@ impl Limit {
         })
     }
 
+    /// A value at which the limit asserts detection, to check it by: the effect twice as
+    /// strong as at its limit ([`Limit::scaled`]), or, where the detected band ends before
+    /// that (`band_end`), the band's geometric middle. None without a limit.
+    pub fn asserted(&self) -> Option<f64> {
+        let twice = self.scaled(2.0)?;
+        let Some(end) = self.band_end else {
+            return Some(twice);
+        };
+        let l = self.limit?;
+        let beyond = if self.stronger == "below" {
+            twice < end
+        } else {
+            twice > end
+        };
+        Some(if beyond { (l * end).sqrt() } else { twice })
+    }
+
     /// The effect's other parameters of the form scanned, as `(name, value)`.
     pub fn form_values(&self) -> Vec<(String, f64)> {
         self.form
@@ -534,11 +557,12 @@ impl<'t, 'a> Pipeline<'t, 'a> {
     /// per row (NaN: the effect makes the row unmeasured, as a phase whose amplitude it
     /// drowns) and the share of rows whose runs failed (their `d` is 0, `k` 1). None where the
     /// rows do not match.
-    fn signature(&self, model: &Model) -> Option<(Vec<f64>, Vec<f64>, f64)> {
+    fn signature(&self, model: &Model) -> Option<Signature> {
         let (fs, clean) = self.record(model);
         let all = self.all;
         let mut d = vec![];
         let mut k = vec![];
+        let mut phases = vec![];
         let mut failed = 0usize;
         for (u, m) in all.measured.iter().enumerate() {
             // The measurement shifted by the effect, feature by feature.
@@ -567,7 +591,18 @@ impl<'t, 'a> Pipeline<'t, 'a> {
                 }
                 shifted.value[i] = m.value[i] + difference(f, ps, p0);
                 let (e0, es) = (a.stderr[i], b.stderr[i]);
-                if f.is_harmonic()
+                if let Some(amp) = f.amplitude_of() {
+                    // A phase's error is the quadrature noise over the amplitude *measured*:
+                    // the campaign's own amplitude is one draw of it (a high one makes every
+                    // shift look sharp), so the error under the effect is that noise over the
+                    // amplitude the effect predicts, and the draws vary that amplitude.
+                    let j = amp as usize;
+                    let quad = m.stderr[i] * m.value[j];
+                    let a_s = clean[u].value[j];
+                    if quad.is_finite() && quad > 0.0 && a_s.is_finite() && a_s > 0.0 {
+                        shifted.stderr[i] = (quad / a_s).min(std::f64::consts::PI);
+                    }
+                } else if f.is_harmonic()
                     && e0.is_finite()
                     && es.is_finite()
                     && e0 > 0.0
@@ -587,6 +622,21 @@ impl<'t, 'a> Pipeline<'t, 'a> {
                         let (s0, s1) = (sigma(m, &self.p0[u], f), sigma(&shifted, &self.p0[u], f));
                         let ratio = if s0 > 0.0 && s1 > 0.0 { s0 / s1 } else { 1.0 };
                         let ok = z.abs() < 1e3 && z1.abs() < 1e3 && z1.is_finite();
+                        if let (true, Some(amp)) = (ok, f.amplitude_of()) {
+                            let (j, fl) = (amp as usize, f.floor(shifted.value[i]));
+                            let (a_s, a_se) = (clean[u].value[j], m.stderr[j]);
+                            if a_s > 0.0 && a_se > 0.0 && a_se.is_finite() {
+                                let pe = self.p0[u].stderr[i];
+                                let pe = if pe.is_finite() { pe } else { 0.0 };
+                                phases.push(PhaseRow {
+                                    row: d.len(),
+                                    d: z1 - ratio * z,
+                                    error: shifted.stderr[i],
+                                    rest: fl.hypot(pe),
+                                    snr: a_s / a_se,
+                                });
+                            }
+                        }
                         d.push(if ok { z1 - ratio * z } else { 0.0 });
                         k.push(if ok { ratio } else { 1.0 });
                     }
@@ -611,9 +661,57 @@ impl<'t, 'a> Pipeline<'t, 'a> {
             }
         }
         (d.len() == all.row_recordings().len()).then(|| {
-            let share = failed as f64 / d.len().max(1) as f64;
-            (d, k, share)
+            let failed = failed as f64 / d.len().max(1) as f64;
+            Signature {
+                d,
+                scale: k,
+                phases,
+                failed,
+            }
         })
+    }
+}
+
+/// An effect's signature on every row of the campaign (`Pipeline::signature`).
+struct Signature {
+    /// The change of each row's residual, in its standard errors under the effect (NaN: the
+    /// row is not measured under it).
+    d: Vec<f64>,
+    /// The ratio of each row's scale without and with the effect (NaN where not measured).
+    scale: Vec<f64>,
+    /// The rows that are a harmonic's phase, whose error depends on the amplitude measured.
+    phases: Vec<PhaseRow>,
+    /// The share of rows whose runs failed.
+    failed: f64,
+}
+
+/// A harmonic's phase row of a [`Signature`]. The phase's shift is measured against a scale
+/// `√(error² + rest²)` whose `error` is the quadrature noise over the amplitude measured, so
+/// on a draw whose amplitude is `ρ` times the one the effect predicts (`ρ = |1 + (n₁ + i n₂) /
+/// snr|`, `n` standard normal: the noise in the two quadratures) the row's signature is
+/// `d √(error² + rest²) / √((error / ρ)² + rest²)`; below three of its errors the amplitude
+/// leaves the phase unmeasured, as the campaign's pipeline does.
+#[derive(Clone, Copy, Debug)]
+struct PhaseRow {
+    /// Row index.
+    row: usize,
+    /// The signature at the amplitude the effect predicts.
+    d: f64,
+    /// The phase's standard error at that amplitude \[rad\].
+    error: f64,
+    /// The prediction's error and the feature's floor in quadrature \[rad\].
+    rest: f64,
+    /// The amplitude the effect predicts over the measured amplitude's standard error.
+    snr: f64,
+}
+
+impl PhaseRow {
+    /// The row's signature at amplitude ratio `rho` (NaN where the phase is not measured).
+    fn at(&self, rho: f64) -> f64 {
+        if rho * self.snr < 3.0 {
+            return f64::NAN;
+        }
+        self.d * self.error.hypot(self.rest) / (self.error / rho).hypot(self.rest)
     }
 }
 
@@ -739,15 +837,43 @@ pub(crate) fn limits(
             })
             .collect()
     };
-    // The power of a signature `sig` (held-out rows, after the fold refits), the campaign's
-    // own held-out residuals rescaled by `scale` (the alternative's noise against the
-    // campaign's, row by row; NaN: the row is not measured under the alternative).
-    let power_of = |sig: &[f64], scale: &[f64]| -> f64 {
+    // The noise of each row's harmonic in its two quadratures, per draw, the same at every
+    // strength (used on the rows that are a phase: `PhaseRow`).
+    let quadratures: Vec<Vec<(f64, f64)>> = {
+        let mut rng = StdRng::seed_from_u64(SEED ^ 0x9ad);
+        let g = Normal::new(0.0, 1.0).expect("unit normal");
+        (0..DRAWS)
+            .map(|_| {
+                (0..rows.len())
+                    .map(|_| (g.sample(&mut rng), g.sample(&mut rng)))
+                    .collect()
+            })
+            .collect()
+    };
+    // The power of a signature (held-out rows, after the fold refits), the campaign's own
+    // held-out residuals rescaled by its `scale` (the alternative's noise against the
+    // campaign's, row by row; NaN: the row is not measured under the alternative). On each
+    // draw a phase row's signature is the one at that draw's measured amplitude, refitted.
+    let power_of = |sig: &Signature| -> f64 {
+        let fixed = unabsorbed(&sig.d);
         let fired = signs
             .par_iter()
-            .filter(|s| {
+            .zip(&quadratures)
+            .filter(|(s, q)| {
+                let drawn;
+                let d = if sig.phases.is_empty() {
+                    &fixed
+                } else {
+                    let mut d = sig.d.clone();
+                    for p in &sig.phases {
+                        let (n1, n2) = q[p.row];
+                        d[p.row] = p.at((1.0 + n1 / p.snr).hypot(n2 / p.snr));
+                    }
+                    drawn = unabsorbed(&d);
+                    &drawn
+                };
                 let r: Vec<f64> = (0..rows.len())
-                    .map(|i| scale[i] * s[rows[i]] * cv.held[i] + sig[i])
+                    .map(|i| sig.scale[i] * s[rows[i]] * cv.held[i] + d[i])
                     .collect();
                 test.fires(&summarise(&rows, &feats, n, r, fold, k_folds))
             })
@@ -784,11 +910,10 @@ pub(crate) fn limits(
                 if m.effects.set(s.kind, s.param, v).is_err() {
                     return (0.0, 1.0);
                 }
-                let Some((d, scale, failed)) = pipe.signature(&m) else {
+                let Some(sig) = pipe.signature(&m) else {
                     return (0.0, 1.0);
                 };
-                let pw = power_of(&unabsorbed(&d), &scale);
-                (pw, failed)
+                (power_of(&sig), sig.failed)
             };
             let form = s
                 .fixed
@@ -1022,5 +1147,82 @@ mod tests {
         assert_eq!(fmt(612.345), "612");
         assert_eq!(fmt(0.0312), "0.0312");
         assert_eq!(fmt(3.2e-6), "3.20e-6");
+    }
+
+    /// A phase's signature scales with the amplitude drawn, as its error falls with it: at the
+    /// predicted amplitude it is `d`; at half, with the floor small, about half; twice as large
+    /// at most as the floor allows; below three errors of the amplitude, not measured.
+    #[test]
+    fn a_phase_signature_follows_the_amplitude_measured() {
+        let p = PhaseRow {
+            row: 0,
+            d: 10.0,
+            error: 0.24,
+            rest: 0.05,
+            snr: 10.0,
+        };
+        assert!((p.at(1.0) - 10.0).abs() < 1e-12);
+        // Closed form: 10 √(0.24² + 0.05²) / √(0.48² + 0.05²).
+        let half = 10.0 * 0.24f64.hypot(0.05) / 0.48f64.hypot(0.05);
+        assert!((p.at(0.5) - half).abs() < 1e-12 && half < 5.2 && half > 5.0);
+        assert!(p.at(1e6) <= 10.0 * 0.24f64.hypot(0.05) / 0.05 + 1e-9);
+        assert!(
+            p.at(0.29).is_nan(),
+            "2.9 amplitude errors: the phase is not measured"
+        );
+        assert!(p.at(0.31).is_finite());
+    }
+
+    fn limit(
+        limit: f64,
+        band_end: Option<f64>,
+        effect: &'static str,
+        stronger: &'static str,
+    ) -> Limit {
+        Limit {
+            effect,
+            param: "",
+            unit: "",
+            label: "",
+            form: String::new(),
+            form_name: "",
+            stronger,
+            limit: Some(limit),
+            holes: vec![],
+            band_end,
+            power: 1.0,
+            weak_end: 0.0,
+            strong_end: 0.0,
+            statement: String::new(),
+        }
+    }
+
+    /// Where a limit asserts detection: twice as strong, unless the band ends first.
+    #[test]
+    fn a_limit_is_checked_inside_what_it_asserts() {
+        // A resonance (stronger below): twice as strong is half the frequency.
+        assert_eq!(
+            limit(1000.0, None, "sensor_dynamics", "below").asserted(),
+            Some(500.0)
+        );
+        assert_eq!(
+            limit(1000.0, Some(400.0), "sensor_dynamics", "below").asserted(),
+            Some(500.0)
+        );
+        let mid = limit(1121.0, Some(743.0), "sensor_dynamics", "below")
+            .asserted()
+            .unwrap();
+        assert!((mid - (1121.0f64 * 743.0).sqrt()).abs() < 1e-9);
+        // A strength (stronger above).
+        assert_eq!(limit(0.01, None, "aging", "above").asserted(), Some(0.02));
+        let mid = limit(0.01, Some(0.015), "aging", "above")
+            .asserted()
+            .unwrap();
+        assert!((mid - 0.015f64.sqrt() * 0.1).abs() < 1e-12);
+        // The Stribeck exponent's departure from 2, in its logarithm.
+        let s = limit(1.5, None, "stribeck_shape", "below")
+            .asserted()
+            .unwrap();
+        assert!((s - 2.0 * 0.75f64.powi(2)).abs() < 1e-12);
     }
 }
