@@ -393,3 +393,66 @@ fn grids_in_lanes_are_the_grids_alone() {
         }
     }
 }
+
+/// An effect that acts only through the vibration (`EffectKind::vibration_only`: the
+/// actuator and the load swing, in every form, at strengths off their defaults) leaves a run
+/// without vibration bit for bit as the base model has it; the detection limits rely on it to
+/// skip those recordings. The other candidates do change such a run.
+#[test]
+fn vibration_only_effects_leave_a_run_without_vibration_alone() {
+    use stickslip::averaged::store::TableStore;
+    use stickslip::model::effects::{EFFECTS, form_param};
+    use stickslip::sim::{RunOptions, Tier, simulate_in};
+    let p = Params {
+        u0: 0.0,
+        ..Params::default()
+    };
+    // The explicit method: the stiff one's Jacobian takes another path with effects on (its
+    // LU factorisations differ, the trace by rounding).
+    let opts = RunOptions {
+        method: Method::Dopri5,
+        tier: Tier::Full,
+        t_end: Some(0.05),
+        trace: true,
+        ..RunOptions::default()
+    };
+    let run = |fx: &Effects| {
+        let mut s = Solver::new(opts.method);
+        shown(&simulate_in(&p, fx, &opts, &mut s, &TableStore::new()).unwrap())
+    };
+    let base = run(&Effects::none());
+    for info in EFFECTS.iter().filter(|i| i.candidate) {
+        let forms: Vec<Option<f64>> = if info.forms.is_empty() {
+            vec![None]
+        } else {
+            info.forms.iter().map(|f| Some(f.value)).collect()
+        };
+        for form in forms {
+            let mut fx = Effects::none();
+            fx.enable(info.kind);
+            if let Some(v) = form {
+                fx.set(info.kind, form_param(info.kind), v).unwrap();
+            }
+            // Each parameter moved off its default, within its bounds (not the form's).
+            for q in info
+                .params
+                .iter()
+                .filter(|q| q.name != form_param(info.kind))
+            {
+                if q.name == "elements" {
+                    continue;
+                }
+                let v = (q.default * 1.5 + 0.1 * (q.max - q.min).min(1.0)).clamp(q.min, q.max);
+                fx.set(info.kind, q.name, v).unwrap();
+            }
+            let same = run(&fx) == base;
+            assert_eq!(
+                same,
+                info.kind.vibration_only(),
+                "{} {form:?}: the run without vibration is {}",
+                info.kind,
+                if same { "unchanged" } else { "changed" }
+            );
+        }
+    }
+}

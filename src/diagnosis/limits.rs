@@ -447,6 +447,9 @@ struct Pipeline<'t, 'a> {
     f0: Vec<Option<FeatureSet>>,
     /// Per unit: the model in hand's predictions, as the diagnosis makes them.
     p0: Vec<FeatureSet>,
+    /// Per recording, per unit of it: the model in hand's noisy and noise-free records, for
+    /// the recordings an effect leaves alone (`record`'s `alone`).
+    per0: Vec<Vec<(Option<FeatureSet>, FeatureSet)>>,
 }
 
 impl<'t, 'a> Pipeline<'t, 'a> {
@@ -465,32 +468,52 @@ impl<'t, 'a> Pipeline<'t, 'a> {
             noise,
             f0: vec![],
             p0: all.predict(model),
+            per0: vec![],
         };
-        p.f0 = p.record(model).0;
+        p.per0 = p.record_each(model, &vec![false; all.recs.len()]);
+        p.f0 = p.finish(p.per0.clone()).0;
         p
     }
 
     /// The noisy recordings of `model` through the pipeline, per unit (None where a run
-    /// failed), with the noise-free features beside them.
-    fn record(&self, model: &Model) -> (Vec<Option<FeatureSet>>, Vec<FeatureSet>) {
+    /// failed), with the noise-free features beside them. Recordings marked `alone` are
+    /// those the model's added effect cannot change (an unvibrated one, for an effect that
+    /// acts through the vibration): the model in hand's records stand for them, unsimulated.
+    fn record(&self, model: &Model, alone: &[bool]) -> (Vec<Option<FeatureSet>>, Vec<FeatureSet>) {
+        self.finish(self.record_each(model, alone))
+    }
+
+    /// [`Pipeline::record`] per recording, before the units are joined.
+    fn record_each(
+        &self,
+        model: &Model,
+        alone: &[bool],
+    ) -> Vec<Vec<(Option<FeatureSet>, FeatureSet)>> {
         let recs = &self.all.recs;
+        let run: Vec<usize> = (0..recs.len()).filter(|&i| !alone[i]).collect();
         let asks: Vec<(&Model, &crate::campaign::Recording)> =
-            recs.iter().map(|r| (model, *r)).collect();
+            run.iter().map(|&i| (model, recs[i])).collect();
         // Counted and timed in the target's work, as a run through its cache is.
         let sims = simulate_many(&asks, Fidelity::Full);
         for (_, ns) in &sims {
             self.all.count_run(*ns);
         }
-        let per: Vec<Vec<(Option<FeatureSet>, FeatureSet)>> = recs
-            .par_iter()
-            .zip(sims)
+        let mut traces: Vec<Option<Option<crate::campaign::SimTrace>>> =
+            (0..recs.len()).map(|_| None).collect();
+        for (&i, (tr, _)) in run.iter().zip(sims) {
+            traces[i] = Some(tr);
+        }
+        recs.par_iter()
+            .zip(traces)
             .enumerate()
-            .map(|(i, (rec, (tr, _)))| {
-                let stages = self.all.units.iter().filter(|u| u.0 == i).count();
-                self.record_one(tr, i, rec, stages)
+            .map(|(i, (rec, tr))| match tr {
+                Some(tr) => {
+                    let stages = self.all.units.iter().filter(|u| u.0 == i).count();
+                    self.record_one(tr, i, rec, stages)
+                }
+                None => self.per0[i].clone(),
             })
-            .collect();
-        self.finish(per)
+            .collect()
     }
 
     /// One recording's noisy and noise-free features from its simulation `tr` (per unit).
@@ -557,8 +580,8 @@ impl<'t, 'a> Pipeline<'t, 'a> {
     /// per row (NaN: the effect makes the row unmeasured, as a phase whose amplitude it
     /// drowns) and the share of rows whose runs failed (their `d` is 0, `k` 1). None where the
     /// rows do not match.
-    fn signature(&self, model: &Model) -> Option<Signature> {
-        let (fs, clean) = self.record(model);
+    fn signature(&self, model: &Model, alone: &[bool]) -> Option<Signature> {
+        let (fs, clean) = self.record(model, alone);
         let all = self.all;
         let mut d = vec![];
         let mut k = vec![];
@@ -903,6 +926,13 @@ pub(crate) fn limits(
                 let _ = model.effects.set(s.kind, q, v);
             }
             let (vmin, vmax) = (lo.min(hi), lo.max(hi));
+            // An effect that acts through the vibration leaves a recording without any (its
+            // amplitude 0) as the model in hand has it: not simulated again.
+            let alone: Vec<bool> = all
+                .recs
+                .iter()
+                .map(|r| s.kind.vibration_only() && r.params.u0 == 0.0)
+                .collect();
             // The power at `u` of the scan, and the share of rows whose runs failed there.
             let power_at = |u: f64| -> (f64, f64) {
                 let mut m = model.clone();
@@ -910,7 +940,7 @@ pub(crate) fn limits(
                 if m.effects.set(s.kind, s.param, v).is_err() {
                     return (0.0, 1.0);
                 }
-                let Some(sig) = pipe.signature(&m) else {
+                let Some(sig) = pipe.signature(&m, &alone) else {
                     return (0.0, 1.0);
                 };
                 (power_of(&sig), sig.failed)

@@ -677,6 +677,16 @@ impl EffectKind {
         self.info().forms.iter().find(|f| f.name == name)
     }
 
+    /// Whether the effect acts only through the substrate's vibration: with a vibration
+    /// amplitude `u0` of 0 the model with it is the model without it, term for term (the
+    /// actuator scales `u0`; the load swing is switched on with the vibration).
+    pub fn vibration_only(self) -> bool {
+        matches!(
+            self,
+            EffectKind::ActuatorResponse | EffectKind::NormalCoupling
+        )
+    }
+
     /// The value of its form parameter in its default form (0 where it has no forms).
     pub fn default_form(self) -> f64 {
         let name = form_param(self);
