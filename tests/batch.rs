@@ -259,14 +259,10 @@ fn batch_against_alone(asks: &[stickslip::sim::batch::Ask], fx: &Effects) {
     }
 }
 
-/// Every effect of the library in each of its forms (and a few together), on points that differ
-/// in their drive, vibration and effect parameters, integrated in lanes beside each other: each
-/// bit for bit its integration alone, and served by the lanes.
-#[test]
-fn effects_in_lanes_are_the_effects_alone_bit_for_bit() {
+/// Every effect of the library in each of its forms, switched on at its defaults.
+fn each_form() -> Vec<(&'static stickslip::model::effects::EffectInfo, Effects)> {
     use stickslip::model::effects::{EFFECTS, form_param};
-    use stickslip::ode::batch::MAX_LANE_DIM;
-    let mut sets: Vec<Effects> = Vec::new();
+    let mut sets = Vec::new();
     for info in &EFFECTS {
         let forms: Vec<Option<f64>> = if info.forms.is_empty() {
             vec![None]
@@ -279,9 +275,20 @@ fn effects_in_lanes_are_the_effects_alone_bit_for_bit() {
             if let Some(v) = form {
                 fx.set(info.kind, form_param(info.kind), v).unwrap();
             }
-            sets.push(fx);
+            sets.push((info, fx));
         }
     }
+    sets
+}
+
+/// Every effect of the library in each of its forms (and a few together), on points that differ
+/// in their drive, vibration and effect parameters, integrated in lanes beside each other: each
+/// bit for bit its integration alone, and served by the lanes.
+#[test]
+fn effects_in_lanes_are_the_effects_alone_bit_for_bit() {
+    use stickslip::model::effects::form_param;
+    use stickslip::ode::batch::MAX_LANE_DIM;
+    let mut sets: Vec<Effects> = each_form().into_iter().map(|(_, fx)| fx).collect();
     let mut both = Effects::none();
     both.enable(EffectKind::Aging);
     both.enable(EffectKind::SensorDynamics);
@@ -401,7 +408,7 @@ fn grids_in_lanes_are_the_grids_alone() {
 #[test]
 fn vibration_only_effects_leave_a_run_without_vibration_alone() {
     use stickslip::averaged::store::TableStore;
-    use stickslip::model::effects::{EFFECTS, form_param};
+    use stickslip::model::effects::form_param;
     use stickslip::sim::{RunOptions, Tier, simulate_in};
     let p = Params {
         u0: 0.0,
@@ -421,38 +428,22 @@ fn vibration_only_effects_leave_a_run_without_vibration_alone() {
         shown(&simulate_in(&p, fx, &opts, &mut s, &TableStore::new()).unwrap())
     };
     let base = run(&Effects::none());
-    for info in EFFECTS.iter().filter(|i| i.candidate) {
-        let forms: Vec<Option<f64>> = if info.forms.is_empty() {
-            vec![None]
-        } else {
-            info.forms.iter().map(|f| Some(f.value)).collect()
-        };
-        for form in forms {
-            let mut fx = Effects::none();
-            fx.enable(info.kind);
-            if let Some(v) = form {
-                fx.set(info.kind, form_param(info.kind), v).unwrap();
+    for (info, mut fx) in each_form().into_iter().filter(|(i, _)| i.candidate) {
+        // Each parameter moved off its default, within its bounds (not the form's).
+        for q in info.params {
+            if q.name == "elements" || q.name == form_param(info.kind) {
+                continue;
             }
-            // Each parameter moved off its default, within its bounds (not the form's).
-            for q in info
-                .params
-                .iter()
-                .filter(|q| q.name != form_param(info.kind))
-            {
-                if q.name == "elements" {
-                    continue;
-                }
-                let v = (q.default * 1.5 + 0.1 * (q.max - q.min).min(1.0)).clamp(q.min, q.max);
-                fx.set(info.kind, q.name, v).unwrap();
-            }
-            let same = run(&fx) == base;
-            assert_eq!(
-                same,
-                info.kind.vibration_only(),
-                "{} {form:?}: the run without vibration is {}",
-                info.kind,
-                if same { "unchanged" } else { "changed" }
-            );
+            let v = (q.default * 1.5 + 0.1 * (q.max - q.min).min(1.0)).clamp(q.min, q.max);
+            fx.set(info.kind, q.name, v).unwrap();
         }
+        let same = run(&fx) == base;
+        assert_eq!(
+            same,
+            info.kind.vibration_only(),
+            "{:?}: the run without vibration is {}",
+            fx.list,
+            if same { "unchanged" } else { "changed" }
+        );
     }
 }
