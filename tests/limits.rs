@@ -95,9 +95,10 @@ fn ageing_at_twice_its_limit_is_found_and_at_half_is_not() {
 
 /// Injecting effects where their limits assert detection (twice as strong as at the limit, or
 /// inside a narrower band: [`Limit::asserted`]) and at half the limit's strength, over new
-/// noise draws: the table of the closing note. `LIMITS_DRAWS` (default 10) draws per level; `LIMITS_EFFECTS` (default
-/// `aging,normal_coupling,viscous,sensor_dynamics`) the effects, each in its default form or
-/// in the form named in brackets (`aging[slip_law]`, `sensor_dynamics[order4]`).
+/// noise draws: the table of the closing note. `LIMITS_DRAWS` (default 10) draws per level;
+/// `LIMITS_EFFECTS` (default `aging,normal_coupling,viscous,sensor_dynamics`) the effects,
+/// each in its default form or in the form named in brackets (`aging[slip_law]`,
+/// `sensor_dynamics[order4]`).
 #[test]
 #[ignore = "about 3 minutes per draw and effect on 2 cores; run with --ignored --nocapture"]
 fn limits_hold_over_noise_draws() {

@@ -645,6 +645,7 @@ impl<'t, 'a> Pipeline<'t, 'a> {
                         let (s0, s1) = (sigma(m, &self.p0[u], f), sigma(&shifted, &self.p0[u], f));
                         let ratio = if s0 > 0.0 && s1 > 0.0 { s0 / s1 } else { 1.0 };
                         let ok = z.abs() < 1e3 && z1.abs() < 1e3 && z1.is_finite();
+                        let di = if ok { z1 - ratio * z } else { 0.0 };
                         if let (true, Some(amp)) = (ok, f.amplitude_of()) {
                             let (j, fl) = (amp as usize, f.floor(shifted.value[i]));
                             let (a_s, a_se) = (clean[u].value[j], m.stderr[j]);
@@ -653,14 +654,14 @@ impl<'t, 'a> Pipeline<'t, 'a> {
                                 let pe = if pe.is_finite() { pe } else { 0.0 };
                                 phases.push(PhaseRow {
                                     row: d.len(),
-                                    d: z1 - ratio * z,
+                                    d: di,
                                     error: shifted.stderr[i],
                                     rest: fl.hypot(pe),
                                     snr: a_s / a_se,
                                 });
                             }
                         }
-                        d.push(if ok { z1 - ratio * z } else { 0.0 });
+                        d.push(di);
                         k.push(if ok { ratio } else { 1.0 });
                     }
                     Row::Unmeasured => {
@@ -878,14 +879,15 @@ pub(crate) fn limits(
     // campaign's, row by row; NaN: the row is not measured under the alternative). On each
     // draw a phase row's signature is the one at that draw's measured amplitude, refitted.
     let power_of = |sig: &Signature| -> f64 {
-        let fixed = unabsorbed(&sig.d);
+        // Without phase rows the signature is the same on every draw: refitted once.
+        let fixed = sig.phases.is_empty().then(|| unabsorbed(&sig.d));
         let fired = signs
             .par_iter()
             .zip(&quadratures)
             .filter(|(s, q)| {
                 let drawn;
-                let d = if sig.phases.is_empty() {
-                    &fixed
+                let d = if let Some(fixed) = &fixed {
+                    fixed
                 } else {
                     let mut d = sig.d.clone();
                     for p in &sig.phases {
