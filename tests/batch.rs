@@ -362,6 +362,14 @@ fn grids_in_lanes_are_the_grids_alone() {
     sensor
         .set_form(EffectKind::SensorDynamics, "order4")
         .unwrap();
+    sets.push(sensor.clone());
+    // Its output recorded late: sampled from a grid started before the recording's.
+    sensor
+        .set_form(EffectKind::SensorDynamics, "order4_delay")
+        .unwrap();
+    sensor
+        .set(EffectKind::SensorDynamics, "delay", 2.7e-4)
+        .unwrap();
     sets.push(sensor);
     let mut normal = Effects::none();
     normal.enable(EffectKind::NormalCoupling);

@@ -690,3 +690,72 @@ fn forms_are_set_by_name_and_checked() {
     let e = fx("frictional_lag:form=distance,length=1e-6");
     assert!(!e.describe().contains("tau"), "{}", e.describe());
 }
+
+/// `sensor_dynamics` in its `order4_delay` form records the fourth-order sensor's output a
+/// time `delay` late. Against the same run sampled by dense output at the shifted times (the
+/// integrator's own interpolant, not the delay's): a delay of whole samples gives the earlier
+/// samples themselves, a fractional one the samples of a grid started that much earlier, and
+/// before `t = 0` the sensor at rest. The other channels are not delayed.
+#[test]
+fn a_delayed_sensor_records_the_fourth_order_output_late() {
+    use stickslip::campaign::{Solvers, simulate_grid};
+    let p = Params {
+        f: 800.0,
+        u0: 2e-7,
+        ..Params::default()
+    };
+    let mut order4 = fx("sensor_dynamics:f_n=400,zeta=0.5");
+    order4
+        .set_form(EffectKind::SensorDynamics, "order4")
+        .unwrap();
+    let delayed = |tau: f64| {
+        let mut e = order4.clone();
+        e.set_form(EffectKind::SensorDynamics, "order4_delay")
+            .unwrap();
+        e.set(EffectKind::SensorDynamics, "delay", tau).unwrap();
+        e
+    };
+    let (t0, dt, n, tol) = (0.01, 1e-4, 600, 1e-9);
+    let mut s = Solvers::default();
+    let mut sim = |fx: &Effects, t0: f64| simulate_grid(&p, fx, t0, dt, n, tol, &mut s).unwrap();
+    let plain = sim(&order4, t0);
+    let range = plain.f_d.iter().fold(0.0_f64, |m, f| m.max(f.abs()));
+    assert!(range > 0.1, "the force swings: {range}");
+    let x_range = plain.x_s.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
+    // Three whole samples.
+    let whole = sim(&delayed(3.0 * dt), t0);
+    for i in 3..n {
+        assert!(
+            (whole.f_d[i] - plain.f_d[i - 3]).abs() < 1e-9 * range,
+            "sample {i}: {} against {}",
+            whole.f_d[i],
+            plain.f_d[i - 3]
+        );
+        assert!(
+            (whole.x_s[i] - plain.x_s[i]).abs() <= 1e-9 * x_range,
+            "sample {i}: x_s {} against {}",
+            whole.x_s[i],
+            plain.x_s[i]
+        );
+        // The same times, up to the rounding of a grid started earlier.
+        assert!((whole.x_d[i] - plain.x_d[i]).abs() <= 1e-12 * plain.x_d[i].abs());
+    }
+    // A fraction of a sample, and more than one.
+    for tau in [0.37 * dt, 2.61 * dt] {
+        let late = sim(&delayed(tau), t0);
+        let early = sim(&order4, t0 - tau);
+        let worst = (0..n).fold(0.0_f64, |m, i| m.max((late.f_d[i] - early.f_d[i]).abs()));
+        assert!(worst < 1e-6 * range, "delay {tau}: off by {worst}");
+        // The delay moves the record by far more than the agreement above.
+        let moved = (0..n).fold(0.0_f64, |m, i| m.max((late.f_d[i] - plain.f_d[i]).abs()));
+        assert!(
+            moved > 100.0 * worst.max(1e-9 * range),
+            "delay {tau}: moved by {moved}, off by {worst}"
+        );
+    }
+    // From t = 0: the first samples read the sensor at rest.
+    let from0 = sim(&delayed(2.5 * dt), 0.0);
+    let rest = Rig::with_effects(p, &order4).unwrap();
+    let at_rest = rest.measured_force(0.0, &rest.initial_state());
+    assert_eq!(&from0.f_d[..3], &[at_rest; 3]);
+}

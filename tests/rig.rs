@@ -288,11 +288,11 @@ fn rig_load_swing_with_the_acceleration_names_its_form() {
 }
 
 /// An acquisition's fourth-order Bessel anti-alias filter with a delay on the force channel:
-/// `sensor_dynamics`, in its fourth-order form. A known miss at this code: `unexplained` (the
-/// fourth-order sensor cuts the held-out gap by a third at most, not enough to be named). The
-/// assertion is the verdict wanted.
+/// `sensor_dynamics`, in its fourth-order form with a delay (`order4_delay`). Without the
+/// delay the fourth-order sensor cut the held-out gap by a third at most, and the verdict was
+/// `unexplained`.
 #[test]
-#[ignore = "fails at this code (a known miss: unexplained); part of the second rig's whole panel"]
+#[ignore = "about 4 minutes on 2 cores; in the second rig's whole panel"]
 fn rig2_antialias_filter_with_delay_names_a_fourth_order_sensor() {
     right_in_form(RIG2, "daq-bessel-delay");
 }

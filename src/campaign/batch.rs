@@ -4,10 +4,11 @@
 //! [`simulate_grid`]'s of the same ask (tests/batch.rs, `grids_in_lanes_are_the_grids_alone`),
 //! whatever the asks beside it or the thread that ran it.
 
+use super::delay::Sampler;
 use super::{SimTrace, Solvers, method_for, simulate_grid};
 use crate::model::{Effects, Params, Rig, RigError};
 use crate::ode::batch::{Job, MAX_LANE_DIM, Observe, WIDTH, solve_batch_dim};
-use crate::ode::{Method, OdeSystem, Options, OutputGrid, Status};
+use crate::ode::{Method, OdeSystem, Options};
 use rayon::prelude::*;
 use std::collections::VecDeque;
 use std::sync::Mutex;
@@ -37,44 +38,16 @@ impl GridAsk {
 /// batch's time while it ran over [`WIDTH`]).
 pub type GridResult = (Result<SimTrace, RigError>, u64);
 
-/// Takes one sample of `rig`'s state into `out`: the recorded force, the body's and the drive's
-/// displacement.
-#[inline]
-pub(super) fn sample(rig: &Rig, out: &mut SimTrace, t: f64, y: &[f64]) {
-    out.f_d.push(rig.measured_force(t, y));
-    out.x_s.push(y[crate::model::X]);
-    out.x_d.push(rig.drive_displacement(t));
-}
-
-/// An empty trace for `n` samples.
-pub(super) fn trace(n: usize) -> SimTrace {
-    SimTrace {
-        f_d: Vec::with_capacity(n),
-        x_s: Vec::with_capacity(n),
-        x_d: Vec::with_capacity(n),
-        status: Status::Success,
-    }
-}
-
-/// Ends a trace: its status, and NaN for the samples a failed run left (so features say so).
-pub(super) fn finish(out: &mut SimTrace, status: Status, n: usize) {
-    out.status = status;
-    for v in [&mut out.f_d, &mut out.x_s, &mut out.x_d] {
-        v.resize(n, f64::NAN);
-    }
-}
-
 /// The sampling of one ask in a lane, and when it entered its lane.
 struct GridRecorder {
-    rig: Rig,
-    out: SimTrace,
+    sampler: Sampler,
     start: Instant,
 }
 
 impl Observe for GridRecorder {
     #[inline]
     fn observe(&mut self, t: f64, y: &[f64]) -> bool {
-        sample(&self.rig, &mut self.out, t, y);
+        self.sampler.take(t, y);
         true
     }
 }
@@ -140,6 +113,7 @@ fn in_lanes(asks: &[GridAsk], lanes: Vec<(usize, Rig)>, done: &Mutex<Vec<(usize,
             let jobs = std::iter::from_fn(|| {
                 let (i, rig) = lock(&queue).pop_front()?;
                 let a = &asks[i];
+                let (sampler, grid) = Sampler::new(rig.clone(), a.t0, a.dt, a.n);
                 Some(Job {
                     id: i,
                     sys: rig.clone(),
@@ -151,28 +125,25 @@ fn in_lanes(asks: &[GridAsk], lanes: Vec<(usize, Rig)>, done: &Mutex<Vec<(usize,
                         atol: a.tol,
                         ..Options::default()
                     },
-                    grid: OutputGrid {
-                        start: a.t0,
-                        step: a.dt,
-                        count: a.n as u64,
-                    },
+                    grid,
                     envelope: None,
                     observe: GridRecorder {
-                        rig,
-                        out: trace(a.n),
+                        sampler,
                         start: Instant::now(),
                     },
                 })
             });
             let mut got = Vec::new();
             solve_batch_dim(dim, jobs, |job, rep, _| {
-                let mut rec = job.observe;
-                finish(&mut rec.out, rep.status, asks[job.id].n);
+                let rec = job.observe;
                 // Its share of the batch it ran in.
                 let share = rec.start.elapsed().as_nanos() / WIDTH as u128;
                 got.push((
                     job.id,
-                    (Ok(rec.out), u64::try_from(share).unwrap_or(u64::MAX)),
+                    (
+                        Ok(rec.sampler.finish(rep.status)),
+                        u64::try_from(share).unwrap_or(u64::MAX),
+                    ),
                 ));
             });
             lock(done).extend(got);

@@ -24,12 +24,13 @@
 
 pub mod batch;
 pub mod check;
+pub mod delay;
 pub mod synth;
 pub use batch::{GridAsk, GridResult, simulate_grids};
 
 use crate::config::{self, ConfigError, Doc};
 use crate::model::{Effects, Params, Rig, RigError};
-use crate::ode::{Method, Options, OutputGrid, Solver, Status};
+use crate::ode::{Method, Options, Solver, Status};
 use std::collections::BTreeMap;
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -479,12 +480,7 @@ pub fn simulate_grid(
 ) -> Result<SimTrace, RigError> {
     let rig = Rig::with_effects(*p, fx)?;
     let mut y = rig.initial_state();
-    let mut out = batch::trace(n);
-    let grid = OutputGrid {
-        start: t0,
-        step: dt,
-        count: n as u64,
-    };
+    let (mut sampler, grid) = delay::Sampler::new(rig.clone(), t0, dt, n);
     let t1 = t0 + dt * (n - 1) as f64;
     let solver = solvers.get(method_for(p));
     let opts = Options {
@@ -492,7 +488,7 @@ pub fn simulate_grid(
         atol: tol,
         ..Options::default()
     };
-    let mut observe = |t: f64, y: &[f64]| batch::sample(&rig, &mut out, t, y);
+    let mut observe = |t: f64, y: &[f64]| sampler.take(t, y);
     let rep = if p.two_stage() && p.t_on < t1 {
         // The substrate velocity jumps at t_on: two integrations, the grid shared by index.
         let observe = |t: f64, y: &[f64]| {
@@ -503,8 +499,7 @@ pub fn simulate_grid(
     } else {
         solver.solve(&rig, 0.0, t1, &mut y, &opts, grid, &mut observe)
     };
-    batch::finish(&mut out, rep.status, n);
-    Ok(out)
+    Ok(sampler.finish(rep.status))
 }
 
 /// One solver per method, kept across runs by a worker.

@@ -237,7 +237,8 @@ mod tests {
 
     /// Two forms of one effect are one explanation: where the data cannot tell them apart the
     /// effect is named, its form with the other not excluded; where one form is clearly more
-    /// likely, the form is settled. Each form is charged `ln 2` nats for the choice.
+    /// likely, the form is settled. Each form is charged `ln m` nats for the choice, `m` the forms of
+    /// its family.
     #[test]
     fn forms_of_one_effect_name_the_effect_and_say_whether_the_form_is_settled() {
         let base = gaps(1.0, 6.0);
@@ -281,7 +282,8 @@ mod tests {
         ];
         let before = alike[0].evidence.ln_odds;
         charge_forms(&mut alike);
-        assert!((before - alike[0].evidence.ln_odds - 2f64.ln()).abs() < 1e-12);
+        // The sensor's family has three forms: each is charged ln 3.
+        assert!((before - alike[0].evidence.ln_odds - 3f64.ln()).abs() < 1e-12);
         let (t, _) = run(&mut alike, &base);
         assert_eq!(t.as_ref().map(Vec::len), Some(2), "{t:?}");
         let idx: Vec<usize> = vec![0, 1];

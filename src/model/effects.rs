@@ -32,7 +32,8 @@
 //! normal_coupling    swing k_n A u0 × 1 | f/f_ref | (f/f_ref)²  (displacement, velocity,
 //!                    acceleration; f_ref = 1 kHz) | fixed: k_n × 1 µm while vibrating
 //! sensor_dynamics    order2 (above) | order4: a second section at ω_n, damping (1 + √2) ζ,
-//!                    filters the first's output (Butterworth at ζ = 0.383)
+//!                    filters the first's output (Butterworth at ζ = 0.383) | order4_delay:
+//!                    order4's output recorded `delay` late, F_rec(t) = F_m(t − delay)
 //! viscous            linear (n = 1) | quadratic (n = 2)
 //! stribeck_shape     exponential (above) | rational: 1/(1 + |v_r/v_s|^δ)
 //! frictional_lag     time (above) | distance: L w' = |v_r| (v_r − w)  (τ unused, L = `length`)
@@ -399,25 +400,42 @@ pub static EFFECTS: [EffectInfo; 10] = [
             ep(
                 "form",
                 "-",
-                "order of the sensor's filter: 0 order2, 1 order4",
+                "order of the sensor's filter: 0 order2, 1 order4, 2 order4_delay",
                 0.0,
-                1.0,
+                2.0,
                 0.0,
                 false,
+                false,
+            ),
+            ep(
+                "delay",
+                "s",
+                "delay of the recorded force behind the filter's output (order4_delay)",
+                0.0,
+                5e-3,
+                1e-4,
+                true,
                 false,
             ),
         ],
         candidate: true,
         forms: &[
+            Form {
+                name: "order2",
+                doc: "one second-order section (a load cell's resonance)",
+                value: 0.0,
+                unused: &["delay"],
+            },
+            Form {
+                name: "order4",
+                doc: "two second-order sections at f_n, of damping ζ and (1 + √2) ζ (a sharp anti-alias filter: Butterworth at ζ = 0.383)",
+                value: 1.0,
+                unused: &["delay"],
+            },
             form(
-                "order2",
-                "one second-order section (a load cell's resonance)",
-                0.0,
-            ),
-            form(
-                "order4",
-                "two second-order sections at f_n, of damping ζ and (1 + √2) ζ (a sharp anti-alias filter: Butterworth at ζ = 0.383)",
-                1.0,
+                "order4_delay",
+                "order4, its output recorded a time `delay` late (an acquisition channel: anti-alias filter, then the converter's delay)",
+                2.0,
             ),
         ],
     },
@@ -1024,6 +1042,10 @@ pub(crate) struct Resolved {
     pub sensor: Option<(f64, f64, usize)>,
     /// The sensor's second section's damping, where it is of fourth order.
     pub sensor4: Option<f64>,
+    /// The delay of the recorded force behind the sensor's output \[s\] (`order4_delay`; 0
+    /// otherwise). It acts where recordings are sampled ([`crate::campaign`]), not in the
+    /// right-hand side.
+    pub sensor_delay: f64,
     /// Drive ripple: `(a, 2π/λ)`.
     pub ripple: Option<(f64, f64)>,
     /// Extra viscous coefficient at `V_1` [N s/m].
@@ -1114,6 +1136,7 @@ impl Resolved {
             normal: None,
             sensor: None,
             sensor4: None,
+            sensor_delay: 0.0,
             ripple: None,
             h_v: 0.0,
             visc_n: 1.0,
@@ -1150,9 +1173,12 @@ impl Resolved {
                 EffectKind::SensorDynamics => {
                     r.sensor = Some((tau * v[0], v[1], r.dim));
                     r.dim += 2;
-                    if v[2] == 1.0 {
+                    if v[2] >= 1.0 {
                         r.sensor4 = Some((v[1] * (1.0 + std::f64::consts::SQRT_2)).min(2.0));
                         r.dim += 2;
+                    }
+                    if v[2] == 2.0 {
+                        r.sensor_delay = v[3];
                     }
                 }
                 EffectKind::DriveRipple => r.ripple = Some((v[0], tau / v[1])),

@@ -260,6 +260,26 @@ impl Rig {
         }
     }
 
+    /// How late the force is recorded behind the sensor's output \[s\]: `delay` of
+    /// `sensor_dynamics` in its `order4_delay` form, 0 otherwise. The state cannot hold a
+    /// delay; recordings apply it where they are sampled ([`crate::campaign::delay`]).
+    pub fn sensor_delay(&self) -> f64 {
+        self.fx.sensor_delay
+    }
+
+    /// The fourth-order sensor's output `F_m` and its first three time derivatives, from the
+    /// state alone (its second section `F_m'' = ω_n² (F_1 − F_m) − 2 ζ_2 ω_n F_m'` and the
+    /// first's output `F_1`, `F_1'`); zeros without a fourth-order sensor.
+    pub fn sensor_output_derivatives(&self, y: &[f64]) -> [f64; 4] {
+        let (Some((wn, _, i)), Some(z2)) = (self.fx.sensor, self.fx.sensor4) else {
+            return [0.0; 4];
+        };
+        let (f1, d1, f, d) = (y[i], y[i + 1], y[i + 2], y[i + 3]);
+        let d2 = wn * wn * (f1 - f) - 2.0 * z2 * wn * d;
+        let d3 = wn * wn * (d1 - d) - 2.0 * z2 * wn * d2;
+        [f, d, d2, d3]
+    }
+
     /// The mean contact deformation over the presliding elements \[m\] (`s` of the base model).
     pub fn deformation(&self, y: &[f64]) -> f64 {
         let n = self.fx.elements;

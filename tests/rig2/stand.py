@@ -322,7 +322,7 @@ PANEL = {
     "daq-bessel-delay": dict(drives=4, per_drive=[3, 3, 2, 3], f=(500.0, 2500.0),
                              ratio=(0.3, 1.6), rate=10000.0, noise=0.02, quantum=1e-7,
                              effects={"daq": dict(f_aa=300.0, delay=0.3e-3)},
-                             expect=["sensor_dynamics"], form="order4"),
+                             expect=["sensor_dynamics"], form="order4_delay"),
     "sensor+viscous": dict(drives=3, per_drive=[4, 2, 3], f=(500.0, 2000.0),
                            ratio=(0.5, 2.5), rate=10000.0, noise=0.05, quantum=None,
                            effects={"sensor": dict(f_n=120.0, zeta=0.2, f_lp=500.0),
