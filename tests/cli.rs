@@ -317,11 +317,11 @@ fn synth_then_diagnose_writes_the_verdict_json_hdf5_and_plots() {
     }
     let rank = v["ranking"].as_array().unwrap();
     // The three candidates, and the other forms of the two whose default form passed its
-    // screen (viscous quadratic, the fourth-order sensor).
+    // screen (viscous quadratic, the fourth-order sensor with and without its delay).
     let effects: std::collections::BTreeSet<&str> =
         rank.iter().filter_map(|r| r["effect"].as_str()).collect();
     assert_eq!(effects.len(), 3, "{effects:?}");
-    assert_eq!(rank.len(), 5);
+    assert_eq!(rank.len(), 6);
     assert_eq!(rank[0]["effect"], "viscous");
     let h_v = rank[0]["params"]["viscous.h_v"]["value"].as_f64().unwrap();
     let se = rank[0]["params"]["viscous.h_v"]["stderr"].as_f64().unwrap();
