@@ -22,8 +22,9 @@ every effect in a form that is neither the library's (`src/model/effects.rs`) no
 
 - ``daq``: the data acquisition's anti-alias filter, a fourth-order *Bessel* low-pass at ``f_aa``
   [Hz] (two sections: 1.4192 and 1.5912 ``f_aa``, damping 0.958 and 0.621), and a pure delay
-  ``delay`` [s] on the force channel; the library's fourth-order sensor is two sections at one
-  frequency and has no delay.
+  ``delay`` [s] on the force channel, applied here to the filter's output on the fixed step; the
+  library's closest form (``order4_delay``) is two sections at one frequency, their dampings
+  tied, and a delay.
 
 and three *mimics*, effects outside the library that resemble one inside it (the right verdict
 is `unexplained`, a tie, or the analogue named as partial; never the analogue alone):
