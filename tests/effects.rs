@@ -631,6 +631,68 @@ fn effect_forms_follow_their_equations() {
     assert_eq!(dy[3], 0.0);
 }
 
+/// The lag's `level` form: the Stribeck level `φ` (its state is `ψ = 1 − φ`) relaxes over slip
+/// distance, `L ψ' = |v_r| ((1 − e(v_r)) − ψ)`, and the curve is `F_c + (F_s − F_c) φ`. A fresh
+/// contact (ψ = 0) slides at the static level; a level at its steady value is the base model;
+/// at rest the memory is frozen; with a vanishing memory distance a whole run is the base
+/// model's, and with a long one it is not.
+#[test]
+fn a_stribeck_level_with_memory_relaxes_over_slip_distance() {
+    let p = Params::default();
+    let l = 2e-6;
+    let rig = Rig::with_effects(p, &fx(&format!("frictional_lag:length={l},form=level"))).unwrap();
+    let base = Rig::new(p).unwrap();
+    let mut dy = vec![0.0; rig.dim()];
+    let e = |v: f64| (-(v / p.v_s) * (v / p.v_s)).exp();
+    for v in [-1e-3, 2e-4, 2e-3] {
+        let mut y = state(&rig, 0.0, v, 1e-7);
+        y[3] = 0.1;
+        rig.rhs(0.0, &y, &mut dy);
+        let want = v.abs() * ((1.0 - e(v)) - 0.1) / l;
+        assert!(
+            (dy[3] - want).abs() < 1e-12 * want.abs().max(1.0),
+            "v = {v}"
+        );
+        // The level at its steady value: the base model's friction to rounding.
+        y[3] = 1.0 - e(v);
+        let yb = state(&base, 0.0, v, 1e-7);
+        assert!((friction(&rig, 0.0, &y) - friction(&base, 0.0, &yb)).abs() < 1e-9);
+    }
+    // A fresh contact slides at the static level: the base model with the widest v_s, whose
+    // curve at 2 mm/s is F_s to 4e-8 of the Stribeck drop (see the time lag's test above).
+    let v = 2e-3;
+    let wide = Rig::new(Params { v_s: 10.0, ..p }).unwrap();
+    let y = state(&rig, 0.0, v, 1e-7);
+    let yb = state(&wide, 0.0, v, 1e-7);
+    assert!((friction(&rig, 0.0, &y) - friction(&wide, 0.0, &yb)).abs() < 1e-6);
+    // Frozen while the contact rests.
+    let mut y = state(&rig, 0.0, 0.0, 1e-7);
+    y[3] = 0.4;
+    rig.rhs(0.0, &y, &mut dy);
+    assert_eq!(dy[3], 0.0);
+
+    // Whole runs with vibration: a memory of 1 nm (the slips travel micrometres) leaves r and
+    // the mean force as the base model has them (docs/model.md's convergence rule: r within
+    // 0.005, the mean force within 0.5 %); 20 µm changes r.
+    let q = Params {
+        k_d: 10_000.0,
+        v_d: 1e-3,
+        f: 1500.0,
+        u0: 0.4e-3 / (std::f64::consts::TAU * 1500.0),
+        ..p
+    };
+    let mut s = Solver::new(Method::Dopri5);
+    let b = run_case_with(&q, &Effects::none(), &dopri(None), &mut s).unwrap();
+    let short = fx("frictional_lag:length=1e-9,form=level");
+    let a = run_case_with(&q, &short, &dopri(None), &mut s).unwrap();
+    assert!((a.r - b.r).abs() < 0.005, "r {} vs {}", a.r, b.r);
+    let (ma, mb) = (a.run.measures.mean_force, b.run.measures.mean_force);
+    assert!((ma - mb).abs() < 5e-3 * mb, "mean force {ma} vs {mb}");
+    let long = fx("frictional_lag:length=2e-5,form=level");
+    let c = run_case_with(&q, &long, &dopri(None), &mut s).unwrap();
+    assert!((c.r - b.r).abs() > 0.05, "r {} vs {}", c.r, b.r);
+}
+
 /// Two second-order sections in cascade lag a ramp by the sum of their lags, `2 ζ/ω_n` and
 /// `2 (1 + √2) ζ/ω_n`, once the transient has died.
 #[test]

@@ -215,7 +215,7 @@ const LAG: Scan = Scan {
 };
 
 /// Every scan of [`limits`]: each effect in its default form, then the other forms.
-const SCANS: [Scan; 18] = [
+const SCANS: [Scan; 19] = [
     AGING,
     ACTUATOR,
     NORMAL,
@@ -303,6 +303,11 @@ const SCANS: [Scan; 18] = [
         "a frictional memory over a slip distance",
         "length",
         &[("form", 1.0)],
+    ),
+    LAG.in_form(
+        "a Stribeck level with a memory over a slip distance",
+        "length",
+        &[("form", 2.0)],
     ),
 ];
 

@@ -36,14 +36,16 @@
 //!                    order4's output recorded `delay` late, F_rec(t) = F_m(t − delay)
 //! viscous            linear (n = 1) | quadratic (n = 2)
 //! stribeck_shape     exponential (above) | rational: 1/(1 + |v_r/v_s|^δ)
-//! frictional_lag     time (above) | distance: L w' = |v_r| (v_r − w)  (τ unused, L = `length`)
+//! frictional_lag     time (above) | distance: L w' = |v_r| (v_r − w)  (τ unused, L = `length`) |
+//!                    level: the Stribeck level φ lags over slip distance instead of the
+//!                    velocity, L φ' = |v_r| (e(v_r) − φ), g = F_c + (F_s − F_c) φ
 //! ```
 //!
 //! Bounds are physical: a resonance between 100 Hz and 100 kHz, a Stribeck exponent from 0.2 to
 //! 10, a presliding spread below 0.95 (no element may break away at zero force), and so on; see
 //! [`EFFECTS`].
 
-use super::extended::{FxCoeffs, Shape, Stribeck};
+use super::extended::{FxCoeffs, Lag, Shape, Stribeck};
 use std::fmt;
 
 /// One switchable effect.
@@ -591,7 +593,7 @@ pub static EFFECTS: [EffectInfo; 10] = [
             ep(
                 "length",
                 "m",
-                "memory slip distance of the lag (form distance)",
+                "memory slip distance of the lag (forms distance and level)",
                 1e-9,
                 1e-3,
                 1e-6,
@@ -601,9 +603,9 @@ pub static EFFECTS: [EffectInfo; 10] = [
             ep(
                 "form",
                 "-",
-                "what the lag runs over: 0 time, 1 distance (slip)",
+                "what the lag runs over: 0 time, 1 distance (slip), 2 level (the Stribeck level over slip)",
                 0.0,
-                1.0,
+                2.0,
                 0.0,
                 false,
                 false,
@@ -621,6 +623,13 @@ pub static EFFECTS: [EffectInfo; 10] = [
                 name: "distance",
                 doc: "the memory fades over slip distance: L w' = |v_r| (v_r − w)",
                 value: 1.0,
+                unused: &["tau"],
+            },
+            Form {
+                name: "level",
+                doc: "the Stribeck level lags over slip distance: L φ' = |v_r| (e(v_r) − φ), \
+                      g = F_c + (F_s − F_c) φ",
+                value: 2.0,
                 unused: &["tau"],
             },
         ],
@@ -1062,8 +1071,8 @@ pub(crate) struct Resolved {
     pub first_extra: usize,
     /// Frictional lag: `(τ [s] or L [m], index of w)`.
     pub lag: Option<(f64, usize)>,
-    /// The lag runs over slip distance `L` (else over time `τ`).
-    pub lag_distance: bool,
+    /// The lag's form.
+    pub lag_form: Lag,
     /// Track: `(a, 2π/λ, x_0)`.
     pub track: Option<(f64, f64, f64)>,
 }
@@ -1092,7 +1101,7 @@ impl Resolved {
             elements: self.elements,
             first_extra: self.first_extra,
             lag: self.lag.map(|l| l.1),
-            lag_distance: self.lag_distance,
+            lag_form: self.lag_form,
             track: self.track.is_some(),
         }
     }
@@ -1146,7 +1155,7 @@ impl Resolved {
             spread: 0.0,
             first_extra: crate::model::state::BASE_DIM,
             lag: None,
-            lag_distance: false,
+            lag_form: Lag::Time,
             track: None,
         };
         let tau = std::f64::consts::TAU;
@@ -1192,8 +1201,13 @@ impl Resolved {
                 }
                 EffectKind::Presliding => {}
                 EffectKind::FrictionalLag => {
-                    r.lag_distance = v[2] == 1.0;
-                    r.lag = Some((if r.lag_distance { v[1] } else { v[0] }, r.dim));
+                    r.lag_form = match v[2] {
+                        1.0 => Lag::Distance,
+                        2.0 => Lag::Level,
+                        _ => Lag::Time,
+                    };
+                    let l = if r.lag_form == Lag::Time { v[0] } else { v[1] };
+                    r.lag = Some((l, r.dim));
                     r.dim += 1;
                 }
                 EffectKind::Track => r.track = Some((v[0], tau / v[1], v[2])),

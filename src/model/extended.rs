@@ -27,6 +27,19 @@ pub enum Stribeck {
     Rational,
 }
 
+/// What a frictional lag runs over, and what it delays.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Lag {
+    /// The velocity the Stribeck curve is evaluated at lags by a time `τ`.
+    #[default]
+    Time,
+    /// That velocity's memory fades over a slip distance `L`.
+    Distance,
+    /// The Stribeck level itself lags over a slip distance `L` (its state is the level's
+    /// fall from the static one, `ψ = 1 − φ`, zero on a fresh contact).
+    Level,
+}
+
 /// The terms of an extended rig's right-hand side and the indices of their states: what every
 /// lane of a batch must share.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -53,10 +66,9 @@ pub struct Shape {
     /// Presliding elements and the index of the second.
     pub elements: usize,
     pub first_extra: usize,
-    /// Frictional lag: the index of the lagged velocity, and whether it fades over slip
-    /// distance (else over time).
+    /// Frictional lag: the index of its state, and its form.
     pub lag: Option<usize>,
-    pub lag_distance: bool,
+    pub lag_form: Lag,
     /// Friction varying along the track.
     pub track: bool,
 }
@@ -153,10 +165,10 @@ pub fn extended_rhs<T: Real>(
             one - a * y[i] / x.dc
         };
     }
-    // Stribeck curve (4.7), evaluated at the lagged velocity with frictional lag.
+    // Stribeck curve (4.7), evaluated at the lagged velocity with a lag of the velocity.
     let w = match sh.lag {
-        Some(i) => {
-            dy[i] = if sh.lag_distance {
+        Some(i) if sh.lag_form != Lag::Level => {
+            dy[i] = if sh.lag_form == Lag::Distance {
                 // A memory distance L (in `tau`'s place): it fades only as the contact slips.
                 a * (v_r - y[i]) / x.tau
             } else {
@@ -164,14 +176,20 @@ pub fn extended_rhs<T: Real>(
             };
             y[i]
         }
-        None => v_r,
+        _ => v_r,
     };
     let q = (w * c.inv_v_s).abs();
-    let e_s = match sh.stribeck {
+    let mut e_s = match sh.stribeck {
         Stribeck::Rational => one / (one + pow(q, x.delta)),
         Stribeck::Gauss => gauss(q * q),
         Stribeck::Power => exp(-pow(q, x.delta)),
     };
+    if let Some(i) = sh.lag.filter(|_| sh.lag_form == Lag::Level) {
+        // The level φ = 1 − ψ relaxes over slip distance L towards the curve's value at the
+        // slip velocity: L φ' = |v_r| (e_s − φ). The state is ψ so a fresh contact starts at 0.
+        dy[i] = a * ((one - e_s) - y[i]) / x.tau;
+        e_s = one - y[i];
+    }
     let g = nu * (c.f_c + (f_s - c.f_c) * e_s) * c.inv_k_t;
     // Contact damping (4.9).
     let qd = v_r * c.inv_v_d;

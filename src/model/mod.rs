@@ -424,7 +424,11 @@ impl OdeSystem for Rig {
             _ if fx.sensor.is_some_and(|s| s.2 + 1 == i || s.2 + 3 == i) => {
                 p.f_s * fx.sensor.unwrap().0
             }
-            _ if fx.lag.is_some_and(|l| l.1 == i) => p.v_d + self.u0 * self.omega,
+            // The lagged velocity, or the Stribeck level's fall (a fraction).
+            _ if fx.lag.is_some_and(|l| l.1 == i) => match fx.lag_form {
+                extended::Lag::Level => 1.0,
+                _ => p.v_d + self.u0 * self.omega,
+            },
             _ => p.f_s / p.k_t,
         }
     }
