@@ -43,6 +43,18 @@ fn dopri(t_end: Option<f64>) -> RunOptions {
     }
 }
 
+/// The lag tests' vibrated case: a drive at 1 mm/s through 10 000 N/m, vibrated at 1500 Hz with
+/// velocity amplitude `v_a` [m/s].
+fn vibrated(v_a: f64) -> Params {
+    Params {
+        k_d: 10_000.0,
+        v_d: 1e-3,
+        f: 1500.0,
+        u0: v_a / (std::f64::consts::TAU * 1500.0),
+        ..Params::default()
+    }
+}
+
 /// Effects at their neutral values follow exactly the base model's arithmetic.
 #[test]
 fn neutral_effects_reproduce_the_base_model() {
@@ -436,13 +448,7 @@ fn frictional_lag_delays_the_stribeck_curve() {
 
     // With vibration the lag filters the oscillating slip velocity out of the Stribeck curve
     // and changes how much the vibration reduces stick-slip.
-    let q = Params {
-        k_d: 10_000.0,
-        v_d: 1e-3,
-        f: 1500.0,
-        u0: 0.8e-3 / (std::f64::consts::TAU * 1500.0),
-        ..p
-    };
+    let q = vibrated(0.8e-3);
     let mut s = Solver::new(Method::Dopri5);
     let a = run_case_with(&q, &fx("frictional_lag:tau=2e-3"), &dopri(None), &mut s).unwrap();
     let b = run_case_with(&q, &Effects::none(), &dopri(None), &mut s).unwrap();
@@ -674,13 +680,7 @@ fn a_stribeck_level_with_memory_relaxes_over_slip_distance() {
     // Whole runs with vibration: a memory of 1 nm (the slips travel micrometres) leaves r and
     // the mean force as the base model has them (docs/model.md's convergence rule: r within
     // 0.005, the mean force within 0.5 %); 20 µm changes r.
-    let q = Params {
-        k_d: 10_000.0,
-        v_d: 1e-3,
-        f: 1500.0,
-        u0: 0.4e-3 / (std::f64::consts::TAU * 1500.0),
-        ..p
-    };
+    let q = vibrated(0.4e-3);
     let mut s = Solver::new(Method::Dopri5);
     let b = run_case_with(&q, &Effects::none(), &dopri(None), &mut s).unwrap();
     let short = fx("frictional_lag:length=1e-9,form=level");

@@ -517,9 +517,9 @@ fn rig_limits_hold_for_its_own_ageing() {
 /// ([`Limit::asserted`](stickslip::diagnosis::limits::Limit::asserted): twice as strong, or the
 /// middle of a narrower band): a gap seen; an octave above the limit (weaker), usually not. At
 /// the last run the limit read "below 103 Hz"; the rig's sensor at 52 Hz was seen and named
-/// on 10 of 10 draws, at 206 Hz on 0 of 10 (`RIG_LIMIT_DRAWS=10`). (When a phase's error was scaled from the campaign's
-/// own, high, amplitude, the limit claimed a band of 2554 to 2890 Hz that neither the rig's
-/// sensor nor the library's showed.)
+/// on 10 of 10 draws, at 206 Hz on 0 of 10 (`RIG_LIMIT_DRAWS=10`). (When a phase's error was
+/// scaled from the campaign's own, high, amplitude, the limit claimed a band of 2554 to 2890 Hz
+/// that neither the rig's sensor nor the library's showed.)
 #[test]
 #[ignore = "about 6 minutes on 2 cores; left out of .ci/run for its time budget"]
 fn rig_limits_hold_for_its_own_sensor() {

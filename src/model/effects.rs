@@ -1069,7 +1069,8 @@ pub(crate) struct Resolved {
     pub elements: usize,
     pub spread: f64,
     pub first_extra: usize,
-    /// Frictional lag: `(τ [s] or L [m], index of w)`.
+    /// Frictional lag: `(τ [s] or L [m], index of its state)` (the lagged velocity `w`, or
+    /// the level's fall `ψ` in the `level` form).
     pub lag: Option<(f64, usize)>,
     /// The lag's form.
     pub lag_form: Lag,

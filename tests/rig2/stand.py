@@ -17,8 +17,9 @@ every effect in a form that is neither the library's (`src/model/effects.rs`) no
 - ``stribeck``: a Lorentzian Stribeck curve ``F_c + (F_s - F_c) / (1 + (v_r/v_s)^2)``; the
   library's is a stretched exponential.
 - ``memory``: the Stribeck level follows the slip over a memory *distance* ``D`` [m],
-  ``phi' = |v_r|/D (exp(-(v_r/v_s)^2) - phi)``; the library's lag is a time, its ageing a
-  contact age.
+  ``phi' = |v_r|/D (exp(-(v_r/v_s)^2) - phi)``; the library's first two lag forms delay the
+  velocity, not the level, and its ageing is a contact age (its third lag form, ``level``, is
+  this memory).
 
 - ``daq``: the data acquisition's anti-alias filter, a fourth-order *Bessel* low-pass at ``f_aa``
   [Hz] (two sections: 1.4192 and 1.5912 ``f_aa``, damping 0.958 and 0.621), and a pure delay
