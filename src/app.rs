@@ -179,9 +179,9 @@ pub fn calibrate(a: &CalibrateArgs) -> Result<Calibrated, AppError> {
         None => base,
         Some(k) => {
             // Fitted from each of the scan's starts; the lowest gap is kept (the first of equals).
-            diagnosis::fit::starts(&target, &base, k, k.default_form())
+            diagnosis::scan::starts(&target, &base, k, k.default_form())
                 .iter()
-                .map(|start| diagnosis::fit::fit(&target, start, &[k], opts))
+                .map(|start| diagnosis::fit::fit(&target, &start.model, &[k], opts))
                 .reduce(|a, b| if b.gap < a.gap { b } else { a })
                 .expect("a start")
         }

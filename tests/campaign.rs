@@ -207,7 +207,7 @@ mod forms {
 
 /// Dwell-time ageing in the full design (30 recordings, more than the screen's 16): the base
 /// fit takes the aged `F_s` at the campaign's typical contact age, so ageing added on top of
-/// it overshoots and only a start with `F_s` lowered to keep that level finds it (fit::starts),
+/// it overshoots and only a start with `F_s` lowered to keep that level finds it (scan::starts),
 /// carried over to the screen's refit on its subset. The campaign is `stickslip synth DIR
 /// --draw aging --seed 1` (b = 0.046); before the lowered start its verdict was `unexplained`
 /// with ageing at 0 %.
@@ -374,12 +374,13 @@ fn work_counts_each_simulation_once() {
 #[test]
 fn screens_stop_out_of_reach_and_difference_only_the_added_columns() {
     use stickslip::diagnosis::fit::{self, FitOptions, Model, Target};
+    use stickslip::diagnosis::scan;
     let (_dir, c) = campaign(Effects::none(), 5);
     let all = Target::new(c.recordings.iter().collect());
     let base = fit::fit(&all, &Model::default(), &[], FitOptions::default());
     assert!(base.jacobian_fresh && base.gap < 2.0, "{}", base.gap);
     let k = EffectKind::Viscous;
-    let start = fit::neutral_start(&base.model, k, k.default_form());
+    let start = scan::neutral_start(&base.model, k, k.default_form());
     let p = 4 + fit::effect_params(&[k], &start.effects);
     assert_eq!(p, 5);
     let start_gap = fit::prepare(&all, &start, &[k]).gap();

@@ -583,6 +583,7 @@ fn rig2_constant_actuator_gain_is_no_slow_sensor() {
 #[test]
 fn rig_in_band_actuator_resonance_is_found_by_its_scan() {
     use stickslip::diagnosis::fit::{self, FitOptions, Model, Target};
+    use stickslip::diagnosis::scan;
     use stickslip::model::EffectKind;
     let dir = tempfile::tempdir().unwrap();
     let (c, _) = make("actuator-inband", dir.path());
@@ -593,7 +594,9 @@ fn rig_in_band_actuator_resonance_is_found_by_its_scan() {
     };
     let base = fit::fit(&all, &Model::default(), &[], opts);
     let k = EffectKind::ActuatorResponse;
-    let start = fit::starts(&all, &base, k, k.default_form()).swap_remove(0);
+    let start = scan::starts(&all, &base, k, k.default_form())
+        .swap_remove(0)
+        .model;
     let f_r = start.effects.get(k, "f_r").unwrap();
     let zeta = start.effects.get(k, "zeta").unwrap();
     let gap = fit::evaluate(&all, &start);

@@ -15,9 +15,9 @@
 //!
 //! **Fits shared across folds.** Each model (the base, every candidate) is fitted once on all
 //! recordings, a candidate only after a screening fit (on [`SCREEN_RECORDINGS`] of them in a
-//! larger campaign, else on all) from the global scan of its starts ([`fit::starts`]; a
+//! larger campaign, else on all) from the global scan of its starts ([`scan::starts`]; a
 //! sensor's resonance is scanned again densely about the screen's optimum,
-//! [`fit::line_search`]), with a fresh finite-difference Jacobian at its optimum; each fold's
+//! [`scan::line_search`]), with a fresh finite-difference Jacobian at its optimum; each fold's
 //! model is that fit refitted to the fold's calibration residuals by one damped Gauss–Newton
 //! step on the same Jacobian's rows ([`fit::refit_rows`]; halved where it raises the fold's
 //! calibration cost), and simulated once. A held-out gap is `√(mean z²)` over every held-out
@@ -82,6 +82,7 @@ use super::fit::{self, FitOptions, FitResult, Model, StepLog, Target};
 use super::folds::*;
 use super::forms::{Try, charge_forms, form_choice, form_reach, forms_of_one, other_forms};
 use super::limits::{self, Limits};
+use super::scan;
 use super::screen::{Screen, Screened};
 use crate::campaign::{Campaign, CampaignError};
 use crate::model::EffectKind;
@@ -120,14 +121,14 @@ fn try_candidate(
     opts: FitOptions,
 ) -> Ranked {
     let clock = std::time::Instant::now();
-    let mut start = fit::starts(all, from, k, form);
+    let mut start = scan::starts(all, from, k, form);
     // Another form of an effect also starts from the default form's optimum, its form changed:
     // a family's parameters mean the same in each form, and a coarse scan can miss a narrow
     // valley the default form's fit has found.
-    start.extend(warm.cloned());
+    start.extend(warm.cloned().map(scan::ScanStart::stopped));
     let mut effects = with.to_vec();
     effects.push(k);
-    let extra = fit::effect_params(&effects, &start[0].effects) - from.effect_params;
+    let extra = fit::effect_params(&effects, &start[0].model.effects) - from.effect_params;
     let form = k.form_of(form);
     let name = match form {
         Some(f) if f.value != k.default_form() => format!("{k}[{}]", f.name),
@@ -175,7 +176,7 @@ fn try_candidate(
     // Screened first against the extended model (refitted to the subset where the subset is
     // not every recording); only a candidate that removes SCREEN_BAR of that gap is fitted
     // further, on every recording, from the screen's optimum. From each of the scan's starts
-    // (fit::starts), and from the neutral start where the scanned one misses
+    // (scan::starts), and from the neutral start where the scanned one misses
     // (Screen::starts). Another form of an effect whose default form passed its screen is
     // screened in full (no stop where its linearised residuals miss the bar at the start): the
     // family is known to reach, and a form's scan start can lie far from its valley (a
@@ -218,8 +219,8 @@ fn try_candidate(
             ..as_from()
         };
     }
-    // A resonance's narrow valley next to the screen's optimum (fit::line_search).
-    let (line, n) = fit::line_search(sub, &s, k);
+    // A resonance's narrow valley next to the screen's optimum (scan::line_search).
+    let (line, n) = scan::line_search(sub, &s, k);
     let rank_opts = FitOptions {
         rel_tol: opts.rel_tol.max(RANK_REL_TOL),
         ..opts
@@ -240,7 +241,7 @@ fn try_candidate(
         return as_from();
     }
     let f = fit::with_fresh_jacobian(all, f);
-    let cv = cross_validate(all, &f, &start[0], fold, k_folds, checked);
+    let cv = cross_validate(all, &f, &start[0].model, fold, k_folds, checked);
     Ranked {
         effect: k,
         form,

@@ -22,6 +22,7 @@ pub mod limits;
 pub mod linearised;
 pub mod model;
 pub mod report;
+pub mod scan;
 pub mod screen;
 pub mod target;
 pub mod verdict;

@@ -8,13 +8,14 @@
 //! 230 s, 4087 → 5497 simulations). Its starts' scans, which only compare points, search.
 
 use super::fit::{self, FitOptions, FitResult, Model, Target};
+use super::scan;
 use crate::model::EffectKind;
 use crate::model::effects::form_param;
 use faer::Mat;
 
 /// Most recordings a candidate is first fitted on. Each candidate is screened, by a fit of at
 /// most [`SCREEN_ITERATIONS`] iterations, on every recording of a campaign of this many or
-/// fewer, else on this many ([`fit::subset`]: half where the model it extends misses most, the
+/// fewer, else on this many ([`scan::subset`]: half where the model it extends misses most, the
 /// rest evenly by name), and fitted further on every recording, from the screen's optimum,
 /// only where it lowers the screen's gap by [`SCREEN_BAR`] or more below that of the model it
 /// extends (on a subset, that model refitted to it: else the candidate would be credited with
@@ -87,7 +88,7 @@ impl<'a> Screen<'a> {
                 jacobian: fresh(from),
             };
         }
-        let sub = fit::subset(all, &from.z, SCREEN_RECORDINGS);
+        let sub = scan::subset(all, &from.z, SCREEN_RECORDINGS);
         let opts = FitOptions {
             final_jacobian: true,
             ..opts
@@ -106,7 +107,7 @@ impl<'a> Screen<'a> {
     /// where that misses them by more than the extended model does (the scan scores half as
     /// many recordings, on the model fitted to all, and holds the extended model's parameters
     /// where the candidate would move them), `k` at its neutral values there
-    /// ([`fit::neutral_start`]) besides: a screen is run from each, and the lowest that passes
+    /// ([`scan::neutral_start`]) besides: a screen is run from each, and the lowest that passes
     /// its bar goes on. Why both: an effect the extended model's parameters have
     /// compensated (a friction growing with the slip velocity, absorbed by a lower `F_s`)
     /// misses at its scanned values until those parameters move back, which the screen's
@@ -128,7 +129,7 @@ impl<'a> Screen<'a> {
                     *m.effects.enable(k) = v.clone();
                 }
                 // Where the scan moved the base parameters with the candidate (the ones the
-                // extended model has absorbed it into: fit::starts), the refit's move the same
+                // extended model has absorbed it into: scan::starts), the refit's move the same
                 // way, by the same factor (by the same amount for h_d, which may be 0).
                 let scale = |refit: f64, scanned: f64, from: f64| {
                     if scanned == from || from == 0.0 {
@@ -161,7 +162,7 @@ impl<'a> Screen<'a> {
                 .effects
                 .get(k, form_param(k))
                 .unwrap_or(k.default_form());
-            let neutral = fit::prepare(sub, &fit::neutral_start(base, k, form), effects);
+            let neutral = fit::prepare(sub, &scan::neutral_start(base, k, form), effects);
             (vec![first, neutral], 1)
         }
     }
@@ -183,7 +184,7 @@ impl<'a> Screen<'a> {
         &self,
         all: &Target,
         from: &Model,
-        scanned: &[Model],
+        scanned: &[scan::ScanStart],
         effects: &[EffectKind],
         reach: Option<f64>,
         full_reach: bool,
@@ -193,8 +194,8 @@ impl<'a> Screen<'a> {
         let mut firsts = vec![];
         let mut checks = 0;
         for m in scanned {
-            let (f, n) = self.starts(all, from, m, effects);
-            firsts.extend(f);
+            let (f, n) = self.starts(all, from, &m.model, effects);
+            firsts.extend(f.into_iter().map(|f| (f, m.in_full)));
             checks += n;
         }
         let bar = (1.0 - SCREEN_BAR) * self.gap;
@@ -212,7 +213,12 @@ impl<'a> Screen<'a> {
         let mut passed: Option<FitResult> = None;
         let mut lowest = f64::INFINITY;
         let mut lowest_model = None;
-        for first in firsts {
+        for (first, in_full) in firsts {
+            // A start beyond a jump of the cost is screened in full (scan::ScanStart).
+            let opts = FitOptions {
+                reach: if in_full { f64::INFINITY } else { opts.reach },
+                ..opts
+            };
             // The bar checked first on the extended model's Jacobian columns from its own fit
             // on these recordings and the candidate's differenced: a
             // candidate out of reach costs those.

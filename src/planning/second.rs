@@ -15,6 +15,7 @@
 use super::{Rival, per_recording};
 use crate::diagnosis::evidence::evidence;
 use crate::diagnosis::fit::{self, FitOptions, FitResult, Target, gap};
+use crate::diagnosis::scan;
 use crate::model::EffectKind;
 
 /// Share of the named fit's gap on the screen's recordings a second effect must remove to be
@@ -55,7 +56,7 @@ pub fn rivals(
     if z.is_empty() {
         return vec![];
     }
-    let sub = fit::subset(target, &z, SCREEN_RECORDINGS);
+    let sub = scan::subset(target, &z, SCREEN_RECORDINGS);
     // The named fit as the scans take it: its model and its residuals on every recording.
     let from = FitResult {
         model: named.model.clone(),
@@ -91,9 +92,19 @@ pub fn rivals(
         // The diagnosis's scan of the candidate's parameters beside the named fit chooses the
         // screen's starts (its best, and a per-frequency scan's runner-up); the lowest screen
         // goes on.
-        let fr = fit::starts(target, &from, k, k.default_form())
+        let fr = scan::starts(target, &from, k, k.default_form())
             .iter()
-            .map(|start| fit::fit(&sub, start, &effects, screen))
+            .map(|start| {
+                let screen = FitOptions {
+                    reach: if start.in_full {
+                        f64::INFINITY
+                    } else {
+                        screen.reach
+                    },
+                    ..screen
+                };
+                fit::fit(&sub, &start.model, &effects, screen)
+            })
             .min_by(|a, b| a.gap.total_cmp(&b.gap))
             .expect("a scan gives a start");
         say(&format!(
