@@ -4,7 +4,7 @@
 //! about a screen's optimum, and the subsets of recordings the scans and screens are scored on.
 
 use super::features::Feature;
-use super::fit::{FitResult, Model, Target, cost_of, evaluate};
+use super::fit::{FitOptions, FitResult, Model, Target, cost_of, evaluate};
 use super::model::neutral;
 use super::target::Fidelity;
 use crate::campaign::Recording;
@@ -219,6 +219,21 @@ impl ScanStart {
             model,
             in_full: false,
         }
+    }
+
+    /// The screen's options from this start: `opts`, its reach lifted where the start is
+    /// screened in full ([`ScanStart::in_full`]).
+    pub fn screen_options(&self, opts: FitOptions) -> FitOptions {
+        screen_options(self.in_full, opts)
+    }
+}
+
+/// A screen's options `opts` for a start screened in full (`in_full`: no reach, the bar
+/// checked at the end only) or not (`opts` unchanged).
+pub fn screen_options(in_full: bool, opts: FitOptions) -> FitOptions {
+    FitOptions {
+        reach: if in_full { f64::INFINITY } else { opts.reach },
+        ..opts
     }
 }
 

@@ -215,10 +215,7 @@ impl<'a> Screen<'a> {
         let mut lowest_model = None;
         for (first, in_full) in firsts {
             // A start beyond a jump of the cost is screened in full (scan::ScanStart).
-            let opts = FitOptions {
-                reach: if in_full { f64::INFINITY } else { opts.reach },
-                ..opts
-            };
+            let opts = scan::screen_options(in_full, opts);
             // The bar checked first on the extended model's Jacobian columns from its own fit
             // on these recordings and the candidate's differenced: a
             // candidate out of reach costs those.

@@ -94,17 +94,7 @@ pub fn rivals(
         // goes on.
         let fr = scan::starts(target, &from, k, k.default_form())
             .iter()
-            .map(|start| {
-                let screen = FitOptions {
-                    reach: if start.in_full {
-                        f64::INFINITY
-                    } else {
-                        screen.reach
-                    },
-                    ..screen
-                };
-                fit::fit(&sub, &start.model, &effects, screen)
-            })
+            .map(|start| fit::fit(&sub, &start.model, &effects, start.screen_options(screen)))
             .min_by(|a, b| a.gap.total_cmp(&b.gap))
             .expect("a scan gives a start");
         say(&format!(
