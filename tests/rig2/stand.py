@@ -39,7 +39,8 @@ is `unexplained`, a tie, or the analogue named as partial; never the analogue al
 
 Designs are random and unbalanced, some campaigns record the force only, some sample below twice
 the forcing frequency, and the displacement channels are quantized like a real encoder. Run
-``python3 tests/rig2/stand.py DIR --campaign NAME`` to write one, ``--list`` for the panel; the
+``python3 tests/rig2/stand.py DIR --campaign NAME`` to write one (``--effect NAME:k=v,...`` adds one
+of the stand's effects to it), ``--list`` for the panel; the
 truth goes to ``DIR/../NAME.truth.json``, outside the campaign.
 """
 
@@ -333,6 +334,50 @@ PANEL = {
 }
 
 
+# The parameters of each of the stand's effects (as in ``PANEL``), and the library effect a right
+# diagnosis names for it: what ``--effect`` may add to a campaign.
+EFFECT_KEYS = {"sensor": ("f_n", "zeta", "f_lp"), "actuator": ("f_c",), "normal": ("k", "delay"),
+               "viscous": ("c2",), "stribeck": (), "memory": ("D",), "daq": ("f_aa", "delay")}
+LIBRARY = {"sensor": ["sensor_dynamics"], "actuator": ["actuator_response"],
+           "normal": ["normal_coupling"], "viscous": ["viscous"], "stribeck": ["stribeck_shape"],
+           "memory": ["frictional_lag", "aging"], "daq": ["sensor_dynamics"]}
+
+
+def with_extra(spec, extra):
+    """The campaign `spec` with the effects `extra` ({name: {key: value}}) added; the verdict it
+    then expects: the library effects that stand for them."""
+    spec = dict(spec)
+    if extra:
+        spec["effects"] = {**spec["effects"], **extra}
+        expect = [] if spec["expect"] is None else list(spec["expect"])
+        for k in extra:
+            expect += [e for e in LIBRARY[k] if e not in expect]
+        spec["expect"] = expect
+    return spec
+
+
+def parse_effect(text):
+    """``NAME:k=v,...`` as (name, {k: v}), or a ValueError saying what is wrong."""
+    name, _, kv = text.partition(":")
+    if name not in EFFECT_KEYS:
+        raise ValueError(f"unknown effect {name!r}; allowed: {', '.join(sorted(EFFECT_KEYS))}")
+    vals = {}
+    for item in filter(None, kv.split(",")):
+        k, _, v = item.partition("=")
+        k = k.strip()
+        if k not in EFFECT_KEYS[name]:
+            raise ValueError(f"{name} has no parameter {k!r}; it takes "
+                             f"{', '.join(EFFECT_KEYS[name]) or 'none'}")
+        try:
+            vals[k] = float(v)
+        except ValueError:
+            raise ValueError(f"{k} = {v!r} is not a number") from None
+    missing = [k for k in EFFECT_KEYS[name] if k not in vals]
+    if missing:
+        raise ValueError(f"{name} needs {', '.join(missing)}")
+    return name, vals
+
+
 def record(out, stem, i, cond, n, rate, per_sample, spec, rng):
     """One recording of `n` samples at `rate` under the conditions `cond`, with the campaign
     `spec`'s effects, noise and encoder: STEM.csv and STEM.toml in `out`."""
@@ -377,7 +422,7 @@ def record(out, stem, i, cond, n, rate, per_sample, spec, rng):
             fh.write("f = 0.0\nu0 = 0.0\n")
 
 
-def record_plan(out, name, plan_dir, seed):
+def record_plan(out, name, plan_dir, seed, extra=None):
     """The recordings a plan proposes (`stickslip plan`: every TOML with a [plan] table in
     `plan_dir`), made on this stand with the campaign `name`'s effects, noise and encoder, each
     for the plan's duration at the stand's nearest rate; each STEM.toml is the plan's own, so
@@ -385,7 +430,7 @@ def record_plan(out, name, plan_dir, seed):
     import shutil
     import tomllib
 
-    spec = PANEL[name]
+    spec = with_extra(PANEL[name], extra)
     os.makedirs(out, exist_ok=True)
     rng = np.random.default_rng(seed + 7919)
     files = sorted(f for f in os.listdir(plan_dir) if f.endswith(".toml"))
@@ -409,12 +454,17 @@ def record_plan(out, name, plan_dir, seed):
         sys.exit(f"{plan_dir}: no planned conditions (NAME.toml with a [plan] table)")
 
 
-def write_campaign(out, name, seed, cycles=2):
-    spec = PANEL[name]
+def write_campaign(out, name, seed, cycles=2, extra=None, noise_seed=None):
+    """Campaign `name` (with the effects `extra` added) in `out`: its design drawn with `seed`,
+    its noise too, or with `noise_seed` where one is given (the same design, another draw of
+    the noise)."""
+    spec = with_extra(PANEL[name], extra)
     os.makedirs(out, exist_ok=True)
     rng = np.random.default_rng(seed)
     conds = random_design(rng, spec["drives"], spec["per_drive"], spec["f"], spec["ratio"],
                           spec.get("two_stage", False))
+    if noise_seed is not None:
+        rng = np.random.default_rng(noise_seed)
     rate = spec["rate"]
     per_sample = max(1, round(1.0 / (rate * STEP)))
     # The recorder's clock: samples every per_sample steps (the rate is rounded to it).
@@ -424,7 +474,7 @@ def write_campaign(out, name, seed, cycles=2):
         record(out, f"run_{i + 1:02d}", i, cond, n, rate, per_sample, spec, rng)
     truth = dict(name=name, effects=spec["effects"], expect=spec["expect"], form=spec.get("form"),
                  rate=rate,
-                 noise=spec["noise"], quantum=spec["quantum"], seed=seed,
+                 noise=spec["noise"], quantum=spec["quantum"], seed=seed, noise_seed=noise_seed,
                  recordings=len(conds))
     with open(os.path.join(os.path.dirname(os.path.abspath(out)), name + ".truth.json"),
               "w") as fh:
@@ -436,7 +486,13 @@ def main():
     ap.add_argument("dir", nargs="?")
     ap.add_argument("--campaign", choices=sorted(PANEL))
     ap.add_argument("--seed", type=int, default=3)
+    ap.add_argument("--noise-seed", type=int, default=None,
+                    help="draw the noise with this seed, the design still with --seed")
     ap.add_argument("--list", action="store_true")
+    ap.add_argument("--effect", action="append", default=[], metavar="NAME:k=v,...",
+                    help="add an effect in this stand's own form to the campaign (repeatable; "
+                         "every parameter given), e.g. sensor:f_n=300,zeta=0.15,f_lp=2000; the "
+                         "truth then expects it")
     ap.add_argument("--conditions", metavar="PLANDIR",
                     help="record the conditions a plan proposes (stickslip plan's folder)")
     a = ap.parse_args()
@@ -446,10 +502,17 @@ def main():
         return
     if not a.dir or not a.campaign:
         ap.error("give DIR and --campaign (or --list)")
+    extra = {}
+    for text in a.effect:
+        try:
+            name, vals = parse_effect(text)
+        except ValueError as e:
+            ap.error(f"--effect {text}: {e}")
+        extra[name] = vals
     if a.conditions:
-        record_plan(a.dir, a.campaign, a.conditions, a.seed)
+        record_plan(a.dir, a.campaign, a.conditions, a.seed, extra=extra)
     else:
-        write_campaign(a.dir, a.campaign, a.seed)
+        write_campaign(a.dir, a.campaign, a.seed, extra=extra, noise_seed=a.noise_seed)
 
 
 if __name__ == "__main__":
