@@ -440,7 +440,7 @@ fn limit_draws() -> u64 {
 }
 
 /// Which candidates the diagnoses of a limit check fit.
-#[derive(Clone, Copy, PartialEq)]
+#[derive(Clone, Copy)]
 enum Judged {
     /// Every candidate of the library: the whole diagnosis, and never a confident wrong cause.
     All,

@@ -345,9 +345,12 @@ LIBRARY = {"sensor": ["sensor_dynamics"], "actuator": ["actuator_response"],
 
 def with_extra(spec, extra):
     """The campaign `spec` with the effects `extra` ({name: {key: value}}) added; the verdict it
-    then expects: the library effects that stand for them."""
+    then expects: the library effects that stand for them. A mimic campaign takes none (its
+    verdict rule is its own: ValueError)."""
     spec = dict(spec)
     if extra:
+        if isinstance(spec["expect"], dict):
+            raise ValueError("a mimic campaign takes no added effect (its verdict rule is its own)")
         spec["effects"] = {**spec["effects"], **extra}
         expect = [] if spec["expect"] is None else list(spec["expect"])
         for k in extra:
@@ -509,6 +512,10 @@ def main():
         except ValueError as e:
             ap.error(f"--effect {text}: {e}")
         extra[name] = vals
+    try:
+        with_extra(PANEL[a.campaign], extra)
+    except ValueError as e:
+        ap.error(f"--effect on {a.campaign}: {e}")
     if a.conditions:
         record_plan(a.dir, a.campaign, a.conditions, a.seed, extra=extra)
     else:
