@@ -30,7 +30,11 @@
 //!    ([`fit::refit_delta`], the one-step damped Gauss–Newton refit the cross-validation makes,
 //!    on `M`'s Jacobian): it is linear in the residuals, so the held-out residuals under the
 //!    effect are `r = e − L δ_s`, with `L δ_s` the part of the signature the refit cannot absorb
-//!    and `e` the held-out residuals without the effect;
+//!    and `e` the held-out residuals without the effect. As the cross-validation's refit
+//!    ([`fit::refit_rows`]), the step stops at the plausible range of each parameter: on the
+//!    first rig's factorial campaign a fourth-order sensor's phase shift was otherwise absorbed
+//!    by a damping `h_d` driven below 0, and its limit read at half the frequency a whole
+//!    diagnosis detected;
 //! 3. `e` is the campaign's own held-out residual vector of each recording with its sign drawn
 //!    at random ([`DRAWS`] draws, a fixed seed, the same draws at every strength): each
 //!    recording keeps its own noise, floors and misfit, feature by feature, and only its
@@ -64,7 +68,7 @@ use super::fit::{
     self, FitResult, Model, Target, difference, fill_r, sigma, trace_features, zscore,
 };
 use super::folds::{CrossValidated, concentrated, summarise};
-use super::model::neutral;
+use super::model::{coords, neutral};
 use super::target::{Fidelity, simulate_many};
 use crate::model::EffectKind;
 use crate::model::effects::form_param;
@@ -834,6 +838,8 @@ pub(crate) fn limits(
         .filter(|&k| (0..rows.len()).any(|r| fold[rows[r]] == k && !cv.held[r].is_nan()))
         .map(|k| (k, rows.iter().map(|&r| fold[r] != k).collect()))
         .collect();
+    // The fitted coordinates' bounds, in the order of the Jacobian's columns.
+    let cs = coords(&all.bounds, &against.effects, &against.model.effects);
     let unabsorbed = |d: &[f64]| -> Vec<f64> {
         let mut out = vec![f64::NAN; d.len()];
         // Rows the effect leaves unmeasured take no part in the refit, and stay unmeasured.
@@ -843,9 +849,15 @@ pub(crate) fn limits(
             .collect();
         for (k, keep) in &keeps {
             let keep: Vec<bool> = keep.iter().zip(d).map(|(k, v)| *k && !v.is_nan()).collect();
-            let Some(step) = fit::refit_delta(&against.jacobian, &solve, &keep, 0) else {
+            let Some(mut step) = fit::refit_delta(&against.jacobian, &solve, &keep, 0) else {
                 continue;
             };
+            // The fold's refit keeps each parameter inside its plausible range
+            // (`fit::refit_rows`), and so does its image here: a signature the base parameters
+            // could only absorb by leaving their range (a damping below 0) stays unabsorbed.
+            for ((d, c), t) in step.iter_mut().zip(&cs).zip(&against.theta) {
+                *d = (t + *d).clamp(c.lo, c.hi) - t;
+            }
             for r in 0..d.len() {
                 if fold[rows[r]] == *k && !cv.held[r].is_nan() {
                     let j: f64 = (0..step.len())
