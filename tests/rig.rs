@@ -716,9 +716,9 @@ fn rig2_sensor_limit_holds(campaign: &str, judged: Judged) {
 }
 
 /// The second rig's effect-free random design (forcing 500 to 3000 Hz, sampled at 6 kHz): its
-/// second-order sensor limit. At the last run the limit read "below 1428 Hz"; the stand's
-/// load cell at 714 Hz was seen and named on 10 of 10 draws, at 2857 Hz on 0 of 10
-/// (`RIG_LIMIT_DRAWS=10`, 62 minutes on 2 cores beside other checks).
+/// second-order sensor limit. At the last run the limit read "below 1488 Hz"; the stand's
+/// load cell at 744 Hz was seen and named on 10 of 10 draws, at 2977 Hz on 0 of 10
+/// (`RIG_LIMIT_DRAWS=10`, 39 minutes on 2 cores, mostly beside another check).
 #[test]
 #[ignore = "about 30 minutes on 2 cores with RIG_LIMIT_DRAWS=10; left out of .ci/run"]
 fn rig2_sensor_limit_holds_on_the_random_design() {
