@@ -615,8 +615,9 @@ pub fn refit_rows(
 
 /// The step of [`refit_rows`] for residuals `z` and their Jacobian `jac` (one row per residual):
 /// `[J_k; √λ D] δ = [−z_k; 0]` on the rows `keep` marks, the columns before `first_free` held
-/// (`None` where the shapes do not match or no row is kept). Linear in `z`: the held-out
-/// residuals of a fold refit to first order are `z + J δ(z)`, which the detection limits
+/// (`None` where the shapes do not match or no row is kept), not yet kept inside the bounds
+/// ([`refit_rows`] and the detection limits clamp it). Linear in `z`: the held-out residuals
+/// of a fold refit to first order are `z + J δ(z)`, which the detection limits
 /// ([`super::limits`]) use on an effect's signature.
 pub fn refit_delta(
     jac: &Mat<f64>,
