@@ -595,28 +595,41 @@ pub fn refit_rows(
     for &k in &fr.effects {
         model.effects.enable(k);
     }
-    let mut theta = fr.theta.clone();
     let delta = (fr.jacobian.ncols() == p)
         .then(|| refit_delta(&fr.jacobian, &fr.z, keep, first_free))
         .flatten();
-    if let Some(delta) = delta {
-        for j in 0..p {
-            let d = delta[j];
-            if d.is_finite() {
-                theta[j] = (theta[j] + step * d).clamp(cs[j].lo, cs[j].hi);
-            }
-        }
-    }
+    let theta = match delta {
+        Some(delta) => step_within(&cs, &fr.theta, &delta, step),
+        None => fr.theta.clone(),
+    };
     for (c, &t) in cs.iter().zip(&theta) {
         c.set(&mut model, t);
     }
     model
 }
 
+/// The coordinates `theta` moved by `step` times `delta`, each kept inside its plausible range
+/// (`cs`, in the same order); a non-finite entry of `delta` leaves its coordinate where it is.
+/// The one bound of a fold's refit ([`refit_rows`]) and of its image in the detection limits
+/// ([`super::limits`]).
+pub(crate) fn step_within(cs: &[Coord], theta: &[f64], delta: &[f64], step: f64) -> Vec<f64> {
+    cs.iter()
+        .zip(theta)
+        .zip(delta)
+        .map(|((c, &t), &d)| {
+            if d.is_finite() {
+                (t + step * d).clamp(c.lo, c.hi)
+            } else {
+                t
+            }
+        })
+        .collect()
+}
+
 /// The step of [`refit_rows`] for residuals `z` and their Jacobian `jac` (one row per residual):
 /// `[J_k; √λ D] δ = [−z_k; 0]` on the rows `keep` marks, the columns before `first_free` held
-/// (`None` where the shapes do not match or no row is kept), not yet kept inside the bounds
-/// ([`refit_rows`] and the detection limits clamp it). Linear in `z`: the held-out residuals
+/// (`None` where the shapes do not match or no row is kept), before `step_within` keeps it
+/// inside the bounds. Linear in `z`: the held-out residuals
 /// of a fold refit to first order are `z + J δ(z)`, which the detection limits
 /// ([`super::limits`]) use on an effect's signature.
 pub fn refit_delta(

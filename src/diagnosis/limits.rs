@@ -849,15 +849,13 @@ pub(crate) fn limits(
             .collect();
         for (k, keep) in &keeps {
             let keep: Vec<bool> = keep.iter().zip(d).map(|(k, v)| *k && !v.is_nan()).collect();
-            let Some(mut step) = fit::refit_delta(&against.jacobian, &solve, &keep, 0) else {
+            let Some(delta) = fit::refit_delta(&against.jacobian, &solve, &keep, 0) else {
                 continue;
             };
-            // The fold's refit keeps each parameter inside its plausible range
-            // (`fit::refit_rows`), and so does its image here: a signature the base parameters
+            // Inside the plausible ranges, as the fold's refit: a signature the base parameters
             // could only absorb by leaving their range (a damping below 0) stays unabsorbed.
-            for ((d, c), t) in step.iter_mut().zip(&cs).zip(&against.theta) {
-                *d = (t + *d).clamp(c.lo, c.hi) - t;
-            }
+            let to = fit::step_within(&cs, &against.theta, &delta, 1.0);
+            let step: Vec<f64> = to.iter().zip(&against.theta).map(|(a, b)| a - b).collect();
             for r in 0..d.len() {
                 if fold[rows[r]] == *k && !cv.held[r].is_nan() {
                     let j: f64 = (0..step.len())
