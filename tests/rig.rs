@@ -687,11 +687,11 @@ fn rig_sensor_limit_holds_on_the_paper_design() {
 }
 
 /// The first rig's effect-free factorial campaign (sampled at 20 kHz). At the last run its
-/// fourth-order limit read "from 3855 to 1436 Hz"; at 1928 Hz a gap was seen on 10 of 10
-/// draws, and an octave weaker, at 7710 Hz, on 7 of 10: the limit holds but is not sharp
-/// there, because the base model already misses the force's phase at 1500 Hz the way a slow
-/// sensor shifts it (docs/campaigns.md). `RIG_LIMIT_DRAWS=10`, 9 minutes on 2 cores beside
-/// another check.
+/// fourth-order limit read "from 4362 to 1436 Hz"; at 2181 Hz a gap was seen on 10 of 10
+/// draws, and an octave weaker, at 8723 Hz, on 1 of 10 (`RIG_LIMIT_DRAWS=10`, 6 minutes on 2
+/// cores). Before the limits kept the misfit shared by the recordings at one frequency
+/// (the base model misses the force's phase at 1500 Hz the way a slow sensor shifts it:
+/// docs/campaigns.md) it read "from 3855 to 1436 Hz", and 7710 Hz was seen on 7 of 10.
 #[test]
 #[ignore = "about 6 minutes on 2 cores with RIG_LIMIT_DRAWS=10; left out of .ci/run"]
 fn rig_sensor_limit_holds_on_the_factorial_design() {
