@@ -46,7 +46,8 @@
 //!    shifts it the other way cancels it. (On the first rig's factorial campaign the base
 //!    model misses the force's phase at 1500 Hz by +0.89 standard errors on average, over 20
 //!    recordings of five noise draws; drawing that sign at random left a fourth-order sensor
-//!    an octave weaker than the limit seen on 7 of 10 injected campaigns.) The draws at
+//!    an octave weaker than the limit seen on 7 of 10 injected campaigns; with it kept, on 1
+//!    of 10.) The draws at
 //!    `s = 0` reproduce the campaign's own gap on average, a little less where a group's mean
 //!    is shrunk;
 //! 4. on each draw the verdict's test is run on `r` ([`Test`]), and the power at `s` is the
