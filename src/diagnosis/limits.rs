@@ -879,23 +879,7 @@ pub(crate) fn limits(
     };
     // The part of each held-out residual the campaign's conditions share (step 3), kept with
     // its sign on every draw.
-    let freq: Vec<f64> = all
-        .measured
-        .iter()
-        .zip(&all.units)
-        .flat_map(|(m, u)| {
-            let k = FEATURES
-                .iter()
-                .filter(|f| m.value[**f as usize].is_finite())
-                .count();
-            std::iter::repeat_n(u.1.freq, k)
-        })
-        .collect();
-    let shared = if freq.len() == rows.len() {
-        shared_misfit(&feats, &freq, &cv.held)
-    } else {
-        vec![0.0; rows.len()]
-    };
+    let shared = shared_misfit(&feats, &all.row_frequencies(), &cv.held);
     // The random signs, one per recording per draw, the same at every strength.
     let signs: Vec<Vec<f64>> = {
         let mut rng = StdRng::seed_from_u64(SEED);

@@ -566,18 +566,28 @@ impl<'a> Target<'a> {
         need
     }
 
-    /// The recording each row of [`Target::residuals`] belongs to: one row per feature the
-    /// measurement of each unit defines, unit by unit.
-    pub fn row_recordings(&self) -> Vec<usize> {
+    /// One value per row of [`Target::residuals`], `of(u)` for unit `u`: one row per feature
+    /// the measurement of each unit defines, unit by unit.
+    fn per_row<T: Copy>(&self, of: impl Fn(usize) -> T) -> Vec<T> {
         let mut rows = vec![];
         for (u, m) in self.measured.iter().enumerate() {
             let n = FEATURES
                 .iter()
                 .filter(|f| m.value[**f as usize].is_finite())
                 .count();
-            rows.extend(std::iter::repeat_n(self.units[u].0, n));
+            rows.extend(std::iter::repeat_n(of(u), n));
         }
         rows
+    }
+
+    /// The recording each row of [`Target::residuals`] belongs to.
+    pub fn row_recordings(&self) -> Vec<usize> {
+        self.per_row(|u| self.units[u].0)
+    }
+
+    /// The vibration frequency of each row's stage of [`Target::residuals`] \[Hz\] (0 at rest).
+    pub fn row_frequencies(&self) -> Vec<f64> {
+        self.per_row(|u| self.units[u].1.freq)
     }
 
     /// The feature of each row of [`Target::residuals`] (rows as [`Target::row_recordings`]).
