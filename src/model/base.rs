@@ -84,8 +84,17 @@ pub fn substrate_velocity<T: Real>(c: &BaseCoeffs<T>, t: T) -> T {
 /// ```
 #[inline(always)]
 pub fn base_rhs<T: Real>(c: &BaseCoeffs<T>, t: T, y: &[T], dy: &mut [T]) {
+    base_rhs_forced(c, t, substrate_velocity(c, t), y, dy);
+}
+
+/// [`base_rhs`] given the substrate velocity `u_dot` = [`substrate_velocity`]`(c, t)`: the
+/// part of the right-hand side that depends on time alone, which the batch integrator
+/// computes for all stages of an attempt before the first (the same numbers, out of the
+/// stages' chain of dependencies).
+#[inline(always)]
+pub fn base_rhs_forced<T: Real>(c: &BaseCoeffs<T>, t: T, u_dot: T, y: &[T], dy: &mut [T]) {
     let (x, v, s) = (y[X], y[V], y[S]);
-    let v_r = v - substrate_velocity(c, t);
+    let v_r = v - u_dot;
     let q = v_r * c.inv_v_s;
     let g = (c.f_c + (c.f_s - c.f_c) * gauss(q * q)) * c.inv_k_t;
     let s_dot = v_r - v_r.abs() * s / g;

@@ -11,7 +11,7 @@
 //! model's right-hand side inlined into the integrator's attempts, the extended one called.
 
 use super::VISCOUS_REFERENCE;
-use super::base::{BaseCoeffs, base_rhs, gauss, substrate_velocity};
+use super::base::{BaseCoeffs, base_rhs_forced, gauss, substrate_velocity};
 use super::state::{BASE_DIM, S, V, X};
 use crate::ode::lanes::{Lanes, Real, cos, exp, ln, ln_1p, pow, sin};
 
@@ -127,18 +127,21 @@ impl<const W: usize> FxCoeffs<Lanes<W>> {
 }
 
 /// The right-hand side of a rig with effects, `dy = f(t, y)` ([`super::effects`] gives each
-/// term; with no term on it equals [`super::base::base_rhs`] up to rounding).
+/// term; with no term on it equals [`super::base::base_rhs`] up to rounding), given the
+/// substrate velocity `u_dot` = [`substrate_velocity`]`(c, t)` (see
+/// [`super::base::base_rhs_forced`]).
 #[inline(always)]
 pub fn extended_rhs<T: Real>(
     sh: &Shape,
     c: &BaseCoeffs<T>,
     x: &FxCoeffs<T>,
     t: T,
+    u_dot: T,
     y: &[T],
     dy: &mut [T],
 ) {
     let (zero, one) = (T::splat(0.0), T::splat(1.0));
-    let v_r = y[V] - substrate_velocity(c, t);
+    let v_r = y[V] - u_dot;
     let a = v_r.abs();
     // Load factor: normal coupling and friction along the track scale F_c and F_s.
     let mut nu = one;
@@ -263,9 +266,15 @@ impl crate::ode::batch::Lanewise for super::Rig {
     }
 
     #[inline(always)]
+    fn forcing_lanes<const W: usize>(pack: &Self::Pack<W>, t: Lanes<W>) -> Lanes<W> {
+        substrate_velocity(&pack.base, t)
+    }
+
+    #[inline(always)]
     fn rhs_lanes<const W: usize>(
         pack: &Self::Pack<W>,
         t: Lanes<W>,
+        u_dot: Lanes<W>,
         y: &[Lanes<W>],
         dy: &mut [Lanes<W>],
     ) {
@@ -273,9 +282,9 @@ impl crate::ode::batch::Lanewise for super::Rig {
         // (a constant once inlined into an attempt of a given dimension) drops the base
         // model's inlined code from those attempts.
         if y.len() == BASE_DIM && !pack.shape.any {
-            base_rhs(&pack.base, t, y, dy);
+            base_rhs_forced(&pack.base, t, u_dot, y, dy);
         } else {
-            extended_lanes(pack, t, y, dy);
+            extended_lanes(pack, t, u_dot, y, dy);
         }
     }
 }
@@ -288,12 +297,14 @@ impl crate::ode::batch::Lanewise for super::Rig {
 fn extended_lanes<const W: usize>(
     pack: &RigPack<W>,
     t: Lanes<W>,
+    u_dot: Lanes<W>,
     y: &[Lanes<W>],
     dy: &mut [Lanes<W>],
 ) {
     struct Rhs<'a, const W: usize> {
         pack: &'a RigPack<W>,
         t: Lanes<W>,
+        u_dot: Lanes<W>,
         y: &'a [Lanes<W>],
         dy: &'a mut [Lanes<W>],
     }
@@ -302,8 +313,16 @@ fn extended_lanes<const W: usize>(
         #[inline(always)]
         fn with_simd<Sd: pulp::Simd>(self, _simd: Sd) {
             let p = self.pack;
-            extended_rhs(&p.shape, &p.base, &p.fx, self.t, self.y, self.dy);
+            extended_rhs(
+                &p.shape, &p.base, &p.fx, self.t, self.u_dot, self.y, self.dy,
+            );
         }
     }
-    pulp::Arch::new().dispatch(Rhs { pack, t, y, dy });
+    pulp::Arch::new().dispatch(Rhs {
+        pack,
+        t,
+        u_dot,
+        y,
+        dy,
+    });
 }

@@ -324,7 +324,9 @@ impl Rig {
 
     /// The right-hand side with the effects (see [`effects`] for the equations).
     fn rhs_effects(&self, t: f64, y: &[f64], dy: &mut [f64]) {
-        extended::extended_rhs(&self.shape, &self.base_coeffs(), &self.fxc, t, y, dy);
+        let c = self.base_coeffs();
+        let u_dot = base::substrate_velocity(&c, t);
+        extended::extended_rhs(&self.shape, &c, &self.fxc, t, u_dot, y, dy);
     }
 
     /// Relative velocity `v_r = v − u'(t)` [m/s] (4.7).

@@ -36,13 +36,18 @@ impl<S: Lanewise> Lanewise for &S {
         (**self).pack(pack, lane);
     }
     #[inline(always)]
+    fn forcing_lanes<const W: usize>(pack: &Self::Pack<W>, t: Lanes<W>) -> Lanes<W> {
+        S::forcing_lanes(pack, t)
+    }
+    #[inline(always)]
     fn rhs_lanes<const W: usize>(
         pack: &Self::Pack<W>,
         t: Lanes<W>,
+        forcing: Lanes<W>,
         y: &[Lanes<W>],
         dy: &mut [Lanes<W>],
     ) {
-        S::rhs_lanes(pack, t, y, dy);
+        S::rhs_lanes(pack, t, forcing, y, dy);
     }
 }
 
@@ -58,11 +63,17 @@ pub trait Lanewise: OdeSystem {
     fn shape(&self) -> Self::Shape;
     /// Puts this system's coefficients in lane `lane` of `pack`.
     fn pack<const W: usize>(&self, pack: &mut Self::Pack<W>, lane: usize);
-    /// The right-hand sides of the `W` systems of `pack`, each at its own time: the same
-    /// operations, lane by lane, as [`OdeSystem::rhs`] of each.
+    /// The part of the right-hand sides of the `W` systems of `pack` that depends on time
+    /// alone, each at its own time (the rig's substrate velocity): computed for all stages of
+    /// an attempt before the first.
+    fn forcing_lanes<const W: usize>(pack: &Self::Pack<W>, t: Lanes<W>) -> Lanes<W>;
+    /// The right-hand sides of the `W` systems of `pack`, each at its own time, given
+    /// [`Lanewise::forcing_lanes`] there: the same operations, lane by lane, as
+    /// [`OdeSystem::rhs`] of each.
     fn rhs_lanes<const W: usize>(
         pack: &Self::Pack<W>,
         t: Lanes<W>,
+        forcing: Lanes<W>,
         y: &[Lanes<W>],
         dy: &mut [Lanes<W>],
     );
@@ -424,9 +435,14 @@ impl<const W: usize, const N: usize> Batch<W, N> {
 struct InLanes<'a, S: Lanewise, const W: usize>(&'a S::Pack<W>);
 
 impl<S: Lanewise, const W: usize> Eval<Lanes<W>> for InLanes<'_, S, W> {
+    type Forcing = Lanes<W>;
     #[inline(always)]
-    fn eval(&self, t: Lanes<W>, y: &[Lanes<W>], dy: &mut [Lanes<W>]) {
-        S::rhs_lanes(self.0, t, y, dy);
+    fn forcing(&self, t: Lanes<W>) -> Lanes<W> {
+        S::forcing_lanes(self.0, t)
+    }
+    #[inline(always)]
+    fn eval(&self, t: Lanes<W>, forcing: Lanes<W>, y: &[Lanes<W>], dy: &mut [Lanes<W>]) {
+        S::rhs_lanes(self.0, t, forcing, y, dy);
     }
 }
 

@@ -131,16 +131,27 @@ impl<T: Real> Powers<T> {
 /// A right-hand side as [`Stages::step`] calls it: one system's, or one per lane. A trait
 /// rather than a closure, so that the call is inlined into the code compiled for the vector
 /// instruction set.
+///
+/// `forcing` is the part of the right-hand side that depends on time alone (the rig's
+/// substrate velocity); [`Stages::step`] computes it for every stage time before the first
+/// stage, so that it runs beside the stages' chain of dependencies instead of inside it, and
+/// once for the two stages at `t + h`. `eval` then gives the same numbers as a right-hand side
+/// that computes it itself.
 pub(crate) trait Eval<T> {
-    fn eval(&self, t: T, y: &[T], dy: &mut [T]);
+    type Forcing: Copy;
+    fn forcing(&self, t: T) -> Self::Forcing;
+    fn eval(&self, t: T, forcing: Self::Forcing, y: &[T], dy: &mut [T]);
 }
 
-/// One system's right-hand side.
+/// One system's right-hand side (no forcing computed apart: [`OdeSystem::rhs`] whole).
 pub(crate) struct One<'a, S>(pub &'a S);
 
 impl<S: OdeSystem> Eval<f64> for One<'_, S> {
+    type Forcing = ();
     #[inline(always)]
-    fn eval(&self, t: f64, y: &[f64], dy: &mut [f64]) {
+    fn forcing(&self, _t: f64) {}
+    #[inline(always)]
+    fn eval(&self, t: f64, _forcing: (), y: &[f64], dy: &mut [f64]) {
         self.0.rhs(t, y, dy);
     }
 }
@@ -178,23 +189,37 @@ impl<T: Real> Stages<'_, T> {
         } = self;
         let n = y.len();
         let c = T::splat;
+        let (t2, t3, t4, t5, t6) = (
+            t + c(C2) * h,
+            t + c(C3) * h,
+            t + c(C4) * h,
+            t + c(C5) * h,
+            t + h,
+        );
+        let (f2, f3, f4, f5, f6) = (
+            rhs.forcing(t2),
+            rhs.forcing(t3),
+            rhs.forcing(t4),
+            rhs.forcing(t5),
+            rhs.forcing(t6),
+        );
         for i in 0..n {
             ytmp[i] = y[i] + h * c(A21) * k1[i];
         }
-        rhs.eval(t + c(C2) * h, ytmp, k2);
+        rhs.eval(t2, f2, ytmp, k2);
         for i in 0..n {
             ytmp[i] = y[i] + h * (c(A31) * k1[i] + c(A32) * k2[i]);
         }
-        rhs.eval(t + c(C3) * h, ytmp, k3);
+        rhs.eval(t3, f3, ytmp, k3);
         for i in 0..n {
             ytmp[i] = y[i] + h * (c(A41) * k1[i] + c(A42) * k2[i] + c(A43) * k3[i]);
         }
-        rhs.eval(t + c(C4) * h, ytmp, k4);
+        rhs.eval(t4, f4, ytmp, k4);
         for i in 0..n {
             ytmp[i] =
                 y[i] + h * (c(A51) * k1[i] + c(A52) * k2[i] + c(A53) * k3[i] + c(A54) * k4[i]);
         }
-        rhs.eval(t + c(C5) * h, ytmp, k5);
+        rhs.eval(t5, f5, ytmp, k5);
         for i in 0..n {
             ytmp[i] = y[i]
                 + h * (c(A61) * k1[i]
@@ -203,7 +228,7 @@ impl<T: Real> Stages<'_, T> {
                     + c(A64) * k4[i]
                     + c(A65) * k5[i]);
         }
-        rhs.eval(t + h, ytmp, k6);
+        rhs.eval(t6, f6, ytmp, k6);
         for i in 0..n {
             ynew[i] = y[i]
                 + h * (c(A71) * k1[i]
@@ -212,7 +237,8 @@ impl<T: Real> Stages<'_, T> {
                     + c(A75) * k5[i]
                     + c(A76) * k6[i]);
         }
-        rhs.eval(t + h, ynew, k7);
+        // The seventh stage is at `t + h` too (`c7 = c6 = 1`).
+        rhs.eval(t6, f6, ynew, k7);
         // Local error estimate, reusing k2 as scratch.
         for i in 0..n {
             k2[i] = h
