@@ -1263,6 +1263,12 @@ pub fn case_summary(c: &CaseResult, o: &RunOptions) -> String {
             s,
             "r         undefined: the run without vibration has no stick-slip cycle either (nothing to reduce)"
         );
+    } else if c.r_stderr.is_nan() {
+        let _ = writeln!(
+            s,
+            "r         {:.4}, standard error unknown: a window with a single stick-slip cycle (dF with / without vibration, Eq. 5.1)",
+            c.r
+        );
     } else {
         let _ = writeln!(
             s,
@@ -1279,6 +1285,12 @@ pub fn case_summary(c: &CaseResult, o: &RunOptions) -> String {
             } else {
                 "the body slides"
             }
+        );
+    } else if m.cycles == 1 && m.d_f_stderr.is_nan() {
+        let _ = writeln!(
+            s,
+            "dF        {:.4} N over 1 cycle (standard error unknown: a spread needs two)",
+            m.d_f
         );
     } else {
         let _ = writeln!(

@@ -30,7 +30,10 @@ pub struct Measures {
     /// Stick-slip amplitude dF \[N\].
     #[serde(rename = "dF")]
     pub d_f: f64,
-    /// Standard error of dF over the cycles \[N\] (0 when no cycle remains).
+    /// Standard error of dF over the cycles \[N\]: 0 when no cycle remains (dF is then the
+    /// window's max − min, not a mean) and for one cycle of a run without vibration (its cycles
+    /// repeat); NaN, unknown, for one cycle of a run with vibration
+    /// ([`Measures::varying_cycles`]).
     #[serde(rename = "dF_stderr")]
     pub d_f_stderr: f64,
     /// Mean drive force over the steady window \[N\].
@@ -45,6 +48,19 @@ pub struct Measures {
     pub trough_force: f64,
     /// Number of drops counted in the steady window.
     pub cycles: u32,
+}
+
+impl Measures {
+    /// The measures of a run with vibration, whose stick-slip cycles all differ (the slips
+    /// start at a different phase of the vibration each time, docs/model.md): a window of one
+    /// cycle then says nothing of their spread, and dF's standard error is unknown (NaN), not
+    /// the 0 one cycle gives. Without vibration the cycles repeat (a limit cycle), and 0 stands.
+    pub fn varying_cycles(mut self) -> Self {
+        if self.cycles == 1 {
+            self.d_f_stderr = f64::NAN;
+        }
+        self
+    }
 }
 
 /// Statistics of one block of smoothed samples (for windows chosen after the fact).
@@ -729,6 +745,42 @@ mod tests {
             "{m:?}"
         );
         assert_eq!(m.stick_fraction, 0.0);
+    }
+
+    /// One drop in the window: 0 spread for a run whose cycles repeat, an unknown one for a run
+    /// with vibration (r's error then too: `tests/cli.rs`); two drops of different size give
+    /// their spread over √2.
+    #[test]
+    fn a_single_cycle_of_a_vibrated_run_has_no_standard_error() {
+        let dt = 1e-3;
+        // The saw-tooth drops at t = 1, 2, ...: a window from 7.95 s to 9.5 s closes one drop
+        // (at 9; the one at 8 began before the window).
+        let mut a = Analyzer::new(1, 7.95, 0.1, 1e-4);
+        for k in 0..9_500 {
+            a.push(k as f64 * dt, saw(k as f64 * dt), 1.0);
+        }
+        let m = a.finish();
+        assert_eq!(m.cycles, 1, "{m:?}");
+        assert!((m.d_f - 6.0).abs() < 0.07, "{m:?}");
+        assert_eq!(m.d_f_stderr, 0.0);
+        let v = m.varying_cycles();
+        assert!(v.d_f_stderr.is_nan(), "{v:?}");
+        // Two drops of 6 and 4 N: mean 5 N, standard error |6 − 4| / 2 = 1 N, kept.
+        let drops = [
+            Drop {
+                peak_t: 1.0,
+                peak: 11.0,
+                trough: 5.0,
+            },
+            Drop {
+                peak_t: 2.0,
+                peak: 10.0,
+                trough: 6.0,
+            },
+        ];
+        let two = cycle_measures(&drops, 8.0, 0.0).varying_cycles();
+        assert_eq!((two.cycles, two.d_f), (2, 5.0));
+        assert!((two.d_f_stderr - 1.0).abs() < 1e-12, "{two:?}");
     }
 
     /// A force settling exponentially on 3 N: steady sliding is declared only once the window's

@@ -90,6 +90,64 @@ fn run_fig4_case_writes_hdf5_csv_plots_and_json() {
     python("check_run.py", &[&h5, &expected]);
 }
 
+/// A vibrated run whose window holds one stick-slip cycle reports r and dF without a standard
+/// error (one cycle has no spread), in the JSON (`null`) and on the terminal; its reference
+/// without vibration, whose cycles repeat, keeps its 0. Two cycles give a finite error again.
+#[test]
+fn one_vibrated_cycle_has_an_unknown_standard_error() {
+    // Default rig (cycle about 1.1 s), v_a = 0.1 v_d: the window of a 2.75-s run (its second
+    // half) holds one drop, that of a 3.5-s run two.
+    let dir = tempfile::tempdir().unwrap();
+    let h5 = dir.path().join("one.h5");
+    let h5 = h5.to_str().unwrap();
+    let json = |t_end: &str| -> serde_json::Value {
+        let out = stickslip(&[
+            "run",
+            "--va-ratio",
+            "0.1",
+            "--t-end",
+            t_end,
+            "--no-trace",
+            "--json",
+            "-o",
+            h5,
+        ]);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        serde_json::from_slice(&out.stdout).expect("one JSON object")
+    };
+    let one = json("2.75");
+    assert_eq!(one["cycles"], 1, "{one}");
+    assert!(one["r"].as_f64().is_some_and(|r| r > 0.5), "{one}");
+    assert!(
+        one["r_stderr"].is_null() && one["dF_stderr"].is_null(),
+        "{one}"
+    );
+    assert_eq!(one["reference"]["cycles"], 1, "{one}");
+    assert_eq!(one["reference"]["dF_stderr"].as_f64(), Some(0.0), "{one}");
+    let two = json("3.5");
+    assert_eq!(two["cycles"], 2, "{two}");
+    assert!(two["r_stderr"].as_f64().is_some_and(|s| s > 0.0), "{two}");
+    let out = stickslip(&[
+        "run",
+        "--va-ratio",
+        "0.1",
+        "--t-end",
+        "2.75",
+        "--no-trace",
+        "-o",
+        h5,
+    ]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains("standard error unknown") && !text.contains("± NaN"),
+        "{text}"
+    );
+}
+
 #[test]
 fn case_file_and_flags_combine_and_summary_prints() {
     let dir = tempfile::tempdir().unwrap();

@@ -120,7 +120,8 @@ class Run:
 
     Attributes are the JSON's fields: ``r`` (reduction coefficient, dF with over dF without
     vibration, Eq. 5.1), ``r_stderr``, ``dF`` [N] (mean stick-slip drop of the smoothed drive
-    force) and ``dF_stderr`` [N], ``mean_force`` [N], ``stick_fraction``, ``period`` [s],
+    force) and ``dF_stderr`` [N] (the standard errors ``None`` where the window holds a single
+    cycle), ``mean_force`` [N], ``stick_fraction``, ``period`` [s],
     ``status``, ``stats`` (steps, rejections, right-hand sides, Jacobians, LU factorisations),
     ``params`` (every parameter, SI), ``reference`` (the run without vibration) and more: see
     :meth:`to_dict`. ``trace`` is the time series as an :class:`xarray.Dataset` (``None`` when

@@ -443,6 +443,11 @@ impl Run {
             (Status::Success, None, None) => (rec.an.finish(), None),
             _ => (nan_measures(), None),
         };
+        let measures = if p.vibrates() {
+            measures.varying_cycles()
+        } else {
+            measures
+        };
         let status = if unsettled && rep.status == Status::Success {
             Status::Unsettled
         } else {

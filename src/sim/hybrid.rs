@@ -249,7 +249,8 @@ pub fn simulate_hybrid(
             status = Status::StepTooSmall;
         }
     }
-    let mut measures = an.finish();
+    // Hybrid windows serve runs with vibration only.
+    let mut measures = an.finish().varying_cycles();
     if let Some(m) = an.cycle_mean(window) {
         measures.mean_force = m;
     }

@@ -202,7 +202,8 @@ fn hybrid_run(
     })
 }
 
-/// Reduction coefficient and its standard error from a run and its reference.
+/// Reduction coefficient and its standard error from a run and its reference (NaN where a
+/// vibrated run's window holds a single cycle: [`Measures::varying_cycles`]).
 pub fn reduction(run: &Measures, reference: &Measures) -> (f64, f64) {
     let r = run.d_f / reference.d_f;
     let rel = ((run.d_f_stderr / run.d_f).powi(2) + (reference.d_f_stderr / reference.d_f).powi(2))
