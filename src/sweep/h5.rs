@@ -4,8 +4,8 @@
 //!
 //! | dataset | unit | meaning |
 //! |---|---|---|
-//! | `r`, `r_stderr` | 1 | reduction coefficient (5.1) and its standard error |
-//! | `dF`, `dF_stderr` | N | stick-slip amplitude and its standard error |
+//! | `r`, `r_stderr` | 1 | reduction coefficient (5.1) and its standard error (NaN: one cycle of a run with vibration) |
+//! | `dF`, `dF_stderr` | N | stick-slip amplitude and its standard error (NaN: one cycle of a run with vibration) |
 //! | `dF_reference` | N | dF of the run without vibration used for r |
 //! | `mean_force`, `peak_force`, `trough_force` | N | drive-force measures |
 //! | `stick_fraction` | 1 | share of the steady window spent sticking |
@@ -59,7 +59,12 @@ fn grids(spec: &SweepSpec, plan: &Plan, res: &Results) -> Vec<Grid> {
             "reduction coefficient dF/dF_reference (Eq. 5.1)",
             vec![],
         ),
-        ("r_stderr", "1", "standard error of r", vec![]),
+        (
+            "r_stderr",
+            "1",
+            "standard error of r (NaN where a run with vibration holds one cycle)",
+            vec![],
+        ),
         (
             "dF",
             "N",
@@ -69,7 +74,7 @@ fn grids(spec: &SweepSpec, plan: &Plan, res: &Results) -> Vec<Grid> {
         (
             "dF_stderr",
             "N",
-            "standard error of dF over the cycles",
+            "standard error of dF over the cycles (NaN where a run with vibration holds one)",
             vec![],
         ),
         (
