@@ -156,7 +156,9 @@ pub fn summary(plan: &Plan) -> String {
             p.name, p.candidate.duration, plan.space.rate, p.why
         );
     }
-    s += "Each rival as the truth, ln odds against each other rival (now -> expected -> simulated):\n";
+    s += "Each rival as the truth, ln odds against each other rival (now -> expected -> simulated; \
+          the evidence between the rivals as fitted: the diagnosis's screens, which decide what is \
+          fitted, are not run):\n";
     for o in &plan.outcomes {
         let sim = match (o.simulated, o.simulated_stderr) {
             (Some(v), Some(e)) => format!("{v:>8.1} ± {e:.1}"),
