@@ -1258,12 +1258,15 @@ pub fn case_summary(c: &CaseResult, o: &RunOptions) -> String {
     );
     let _ = writeln!(s, "status    {}", c.status().name());
     let ref_slides = c.reference.as_ref().is_some_and(|r| r.measures.cycles == 0);
+    // One cycle of a run with vibration: dF's spread, and so r's error, unknown
+    // (`Measures::varying_cycles`); a failed run's NaN measures are not that.
+    let one_cycle = m.cycles == 1 && m.d_f_stderr.is_nan();
     if ref_slides {
         let _ = writeln!(
             s,
             "r         undefined: the run without vibration has no stick-slip cycle either (nothing to reduce)"
         );
-    } else if c.r_stderr.is_nan() {
+    } else if one_cycle {
         let _ = writeln!(
             s,
             "r         {:.4}, standard error unknown: a window with a single stick-slip cycle (dF with / without vibration, Eq. 5.1)",
@@ -1286,7 +1289,7 @@ pub fn case_summary(c: &CaseResult, o: &RunOptions) -> String {
                 "the body slides"
             }
         );
-    } else if m.cycles == 1 && m.d_f_stderr.is_nan() {
+    } else if one_cycle {
         let _ = writeln!(
             s,
             "dF        {:.4} N over 1 cycle (standard error unknown: a spread needs two)",
