@@ -302,6 +302,57 @@ fn rig2_antialias_filter_with_delay_names_a_fourth_order_sensor() {
     right_in_form(RIG2, "daq-bessel-delay");
 }
 
+/// The two-mass actuator with screw error, extended by the six recordings its plan proposed
+/// (`tests/rig/plans/actuator+screw`, written by `stickslip plan` on the campaign): there the
+/// actuator's screen lowers the gap by 9.7 % and the screw error's by 6.5 %, so neither passes
+/// its screen alone and forward selection has no first step (the verdict was `unexplained`).
+/// Screened together they pass, and both are named, each needed beside the other.
+#[test]
+#[ignore = "about 3 minutes on 2 cores; left out of .ci/run for its time budget"]
+fn rig_actuator_and_screw_are_named_together_where_neither_passes_alone() {
+    let name = "actuator+screw";
+    let dir = tempfile::tempdir().unwrap();
+    let (_, truth) = make(name, dir.path());
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let rec = dir.path().join("planned");
+    let st = std::process::Command::new("python3")
+        .arg(root.join(RIG.script))
+        .arg(&rec)
+        .args(["--campaign", name, "--seed", RIG.seed, "--conditions"])
+        .arg(root.join("tests/rig/plans").join(name))
+        .status()
+        .expect("python3 runs");
+    assert!(st.success(), "{} --conditions failed", RIG.script);
+    for e in std::fs::read_dir(&rec).unwrap() {
+        let e = e.unwrap().path();
+        std::fs::copy(&e, dir.path().join(name).join(e.file_name().unwrap())).unwrap();
+    }
+    let c = Campaign::load(&dir.path().join(name)).unwrap();
+    assert_eq!(
+        c.recordings.len(),
+        16,
+        "the campaign's ten and the plan's six"
+    );
+    let d = diagnose(&c, &DiagnoseOptions::default()).unwrap();
+    let r = row(name, &truth, &d);
+    eprintln!("{r}");
+    for w in &d.warnings {
+        eprintln!("  {w}");
+    }
+    assert!(
+        right(&d, &truth["expect"]) && !confident_wrong(&d, &truth["expect"]),
+        "{r}"
+    );
+    let mut named: Vec<&str> = d.effects.iter().map(|k| k.name()).collect();
+    named.sort_unstable();
+    assert_eq!(named, ["actuator_response", "drive_ripple"], "{r}");
+    assert!(
+        d.warnings.iter().any(|w| w.contains("named together")),
+        "{r}: {:?}",
+        d.warnings
+    );
+}
+
 /// One campaign of `rig`'s panel: its verdict right and the named effect in the form its truth
 /// gives.
 fn right_in_form(rig: Rig, name: &str) {

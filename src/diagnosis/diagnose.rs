@@ -15,9 +15,9 @@
 //!
 //! **Fits shared across folds.** Each model (the base, every candidate) is fitted once on all
 //! recordings, a candidate only after a screening fit (on [`SCREEN_RECORDINGS`] of them in a
-//! larger campaign, else on all) from the global scan of its starts ([`scan::starts`]; a
+//! larger campaign, else on all) from the global scan of its starts ([`scan::starts`](super::scan::starts); a
 //! sensor's resonance is scanned again densely about the screen's optimum,
-//! [`scan::line_search`]), with a fresh finite-difference Jacobian at its optimum; each fold's
+//! [`scan::line_search`](super::scan::line_search)), with a fresh finite-difference Jacobian at its optimum; each fold's
 //! model is that fit refitted to the fold's calibration residuals by one damped Gauss–Newton
 //! step on the same Jacobian's rows ([`fit::refit_rows`]; halved where it raises the fold's
 //! calibration cost), and simulated once. A held-out gap is `√(mean z²)` over every held-out
@@ -62,28 +62,35 @@
 //! candidate is fitted together with it (forward selection), and a second
 //! effect is named by the same rule against the first (at least [`MIN_SECOND`] of the gap the
 //! first leaves; a tie among seconds names none, with a warning), and, where its fingerprints
-//! can test it, only where one of them is present in the recordings ([`fingerprint`]): beside
+//! can test it, only where one of them is present in the recordings ([`fingerprint`](super::fingerprint)): beside
 //! a first effect of another form than the data's, any candidate can take up part of that
 //! form's misfit.
 //!
+//! **Two effects that need each other** (`try_pair`). Where no candidate passed its screen,
+//! forward selection has no first step, yet two effects can act together with neither enough
+//! alone. The two best screens of different effects are screened together and, where the pair
+//! passes the bar, fitted on every recording with each member alone; both are named only where
+//! the pair passes the rule of a first effect against the base model and that of a second
+//! effect against each member alone.
+//!
 //! **Fingerprints.** Every candidate the rule would name or tie is checked on the recorded
-//! traces ([`fingerprint`]: the ringing after slips, absent rejects it; the breakaway's
+//! traces ([`fingerprint`](super::fingerprint): the ringing after slips, absent rejects it; the breakaway's
 //! vibration phase, stick time and position, read slip by slip) and on each feature family of
 //! [`FAMILIES`] held out of its fit ([`held_out_families`]); a slip-by-slip or held-out family
 //! absent names it only as partial, with a warning (`held_out_absent`), and no second effect
 //! is tried beside it. A second effect needs the ringing present where it can test it.
 
-use super::decide::{Side, between, decide};
+use super::candidate::{try_candidate, try_pair};
+use super::decide::{Side, between};
 pub use super::evidence::GAPPED;
 use super::evidence::breadth_of;
 use super::features::{FEATURES, Feature, N_FEATURES, PHASES};
-use super::fingerprint;
 use super::fit::{self, FitOptions, FitResult, Model, StepLog, Target};
 use super::folds::*;
 use super::forms::{Try, charge_forms, form_choice, form_reach, forms_of_one, other_forms};
 use super::limits::{self, Limits};
-use super::scan;
-use super::screen::{Screen, Screened};
+use super::screen::Screen;
+use super::vet::{held_out_absent, vetted};
 use crate::campaign::{Campaign, CampaignError};
 use crate::model::EffectKind;
 use rayon::prelude::*;
@@ -94,382 +101,7 @@ pub use super::screen::{
     RANK_REL_TOL, SCREEN_BAR, SCREEN_ITERATIONS, SCREEN_RECORDINGS, SCREEN_REL_TOL,
 };
 pub use super::verdict::*;
-
-/// Fits one candidate (or a candidate added to `with`) from the scan of its starts on `from`,
-/// cross-validates it and ranks it against the held-out gap `e0`. The screening fit starts
-/// from the scan's parameters of the candidate on `from` as fitted to the screen's recordings
-/// ([`Screen::start`]): from `from` fitted to every recording, the screen's few iterations
-/// would go to moving `from`'s own parameters to the subset's optimum, which the screen's
-/// refit of `from` has already found. With `reach` (another form of an effect that is not
-/// the leading one: [`form_reach`]), a screen that passes is fitted further only where its gap
-/// is at most `reach` times the extended model's on the screen's recordings.
-#[allow(clippy::too_many_arguments)]
-fn try_candidate(
-    all: &Target,
-    screen: &Screen,
-    from: &FitResult,
-    from_cv: &CrossValidated,
-    with: &[EffectKind],
-    k: EffectKind,
-    form: f64,
-    warm: Option<&Model>,
-    reach: Option<f64>,
-    e0: f64,
-    fold: &[usize],
-    k_folds: usize,
-    checked: &[bool],
-    opts: FitOptions,
-) -> Ranked {
-    let clock = std::time::Instant::now();
-    let mut start = scan::starts(all, from, k, form);
-    // Another form of an effect also starts from the default form's optimum, its form changed:
-    // a family's parameters mean the same in each form, and a coarse scan can miss a narrow
-    // valley the default form's fit has found.
-    start.extend(warm.cloned().map(scan::ScanStart::stopped));
-    let mut effects = with.to_vec();
-    effects.push(k);
-    let extra = fit::effect_params(&effects, &start[0].model.effects) - from.effect_params;
-    let form = k.form_of(form);
-    let name = match form {
-        Some(f) if f.value != k.default_form() => format!("{k}[{}]", f.name),
-        _ => k.name().to_string(),
-    };
-    // Never worse on the calibration data than the model it extends: at its neutral value the
-    // candidate is that model, so a fit that ends worse reports that model's results; and a
-    // fit that moves the gap by less than UNCHANGED is that model to within the held-out
-    // check's resolution: its results too.
-    let as_from = || Ranked {
-        effect: k,
-        form,
-        name: name.clone(),
-        form_charge: 0.0,
-        score: from_cv.gap * (1.0 + PARAM_PENALTY * extra as f64),
-        reduction: (e0 - from_cv.gap) / e0,
-        gap_after: from_cv.gap,
-        gap_spread: from_cv.spread,
-        per_recording: from_cv.per_recording.clone(),
-        per_recording_n: from_cv.per_recording_n.clone(),
-        evidence: evidence(
-            &from_cv.per_recording,
-            &from_cv.per_recording_n,
-            &from_cv.per_recording,
-            &from_cv.per_recording_n,
-            extra as f64,
-        ),
-        at_bound: vec![],
-        per_feature: from_cv.per_feature.iter().map(|p| p.0).collect(),
-        concentrated: concentrated(from_cv),
-        fit: from.clone(),
-        wall_time: clock.elapsed().as_secs_f64(),
-        fingerprints: vec![],
-        rejected: None,
-        short_of_leader: None,
-        screened: None,
-    };
-    // The fresh Jacobian at the optimum (p more evaluations) only for a fit that passes the
-    // bar: it gives the uncertainties and the folds' refits, which a candidate ranked with the
-    // model it extends does not use.
-    let opts = FitOptions {
-        final_jacobian: false,
-        ..opts
-    };
-    // Screened first against the extended model (refitted to the subset where the subset is
-    // not every recording); only a candidate that removes SCREEN_BAR of that gap is fitted
-    // further, on every recording, from the screen's optimum. From each of the scan's starts
-    // (scan::starts), and from the neutral start where the scanned one misses
-    // (Screen::starts). Another form of an effect whose default form passed its screen is
-    // screened in full (no stop where its linearised residuals miss the bar at the start): the
-    // family is known to reach, and a form's scan start can lie far from its valley (a
-    // fourth-order sensor's resonance at twice the data's). That of a trailing effect stops
-    // where it cannot come near the leader (`reach`): then it can neither be named nor tie.
-    let from_gap = screen.gap;
-    let Screened {
-        passed,
-        lowest,
-        lowest_model,
-        checks,
-    } = screen.screen(
-        all,
-        &from.model,
-        &start,
-        &effects,
-        reach,
-        warm.is_some(),
-        opts,
-    );
-    let sub = screen.recordings(all);
-    let Some(s) = passed else {
-        // A trailing effect's form stopped short of the leader's reach says so; and where its
-        // screen got to, for a plan's rivals (Ranked::screened).
-        return Ranked {
-            short_of_leader: reach
-                .filter(|_| lowest.is_finite())
-                .map(|r| (lowest, r * from_gap)),
-            screened: lowest_model.map(|m| (lowest, from_gap, m)),
-            ..as_from()
-        };
-    };
-    // Another form that cannot come near the leading candidate is not fitted further: it
-    // could neither be named nor tie.
-    if let Some(r) = reach
-        && s.gap > r * from_gap
-    {
-        return Ranked {
-            short_of_leader: Some((s.gap, r * from_gap)),
-            ..as_from()
-        };
-    }
-    // A resonance's narrow valley next to the screen's optimum (scan::line_search).
-    let (line, n) = scan::line_search(sub, &s, k);
-    let rank_opts = FitOptions {
-        rel_tol: opts.rel_tol.max(RANK_REL_TOL),
-        ..opts
-    };
-    let mut f = match (&screen.subset, line) {
-        // Screened on every recording: the screen's iterations go on from its optimum, on its
-        // Jacobian where that is fresh, instead of evaluating that point and differencing there
-        // again.
-        (None, None) => fit::refine(all, &s, rank_opts),
-        (_, line) => fit::fit(all, line.as_ref().unwrap_or(&s.model), &effects, rank_opts),
-    };
-    if screen.subset.is_none() {
-        // The same recordings: the screen's (with its starts' checks) and the line's
-        // evaluations are the fit's.
-        f.evaluations += checks + s.evaluations + n;
-    }
-    if !(f.gap <= (1.0 - UNCHANGED) * from.gap) {
-        return as_from();
-    }
-    let f = fit::with_fresh_jacobian(all, f);
-    let cv = cross_validate(all, &f, &start[0].model, fold, k_folds, checked);
-    Ranked {
-        effect: k,
-        form,
-        name,
-        form_charge: 0.0,
-        score: cv.gap * (1.0 + PARAM_PENALTY * extra as f64),
-        reduction: (e0 - cv.gap) / e0,
-        gap_after: cv.gap,
-        gap_spread: cv.spread,
-        evidence: evidence(
-            &cv.per_recording,
-            &cv.per_recording_n,
-            &from_cv.per_recording,
-            &from_cv.per_recording_n,
-            extra as f64,
-        ),
-        at_bound: fit::at_bounds(&all.bounds, &f),
-        per_feature: cv.per_feature.iter().map(|p| p.0).collect(),
-        concentrated: concentrated(&cv),
-        per_recording: cv.per_recording,
-        per_recording_n: cv.per_recording_n,
-        fit: f,
-        wall_time: clock.elapsed().as_secs_f64(),
-        fingerprints: vec![],
-        rejected: None,
-        short_of_leader: None,
-        screened: None,
-    }
-}
-
-/// [`decide`] (with its disagreements between evidence and gap in `disagreements`), with
-/// every candidate it would name or tie checked for its fingerprints against
-/// `from`, the model the candidates extend ([`fingerprint::check`]): one whose ringing is
-/// absent is rejected (with the reason) and the decision taken again without it. With
-/// `need_present` (a second effect beside a named one) a candidate whose ringing can test it is
-/// rejected too unless it is present ([`fingerprint::Check::decisive`]): beside a first effect whose form differs
-/// from the data's, any other candidate can take up the rest of that form's misfit, so only one
-/// that shows its own physics in the trace is named (one that predicts nothing the ringing could
-/// show, a screw error's, stands on its features as a first effect does). The ranking is then
-/// reordered so that the candidates not rejected come first, in their order of evidence.
-#[allow(clippy::too_many_arguments)]
-fn vetted(
-    ranked: &mut [Ranked],
-    all: &Target,
-    from: &FitResult,
-    from_side: Side,
-    share: impl Fn(f64) -> f64,
-    min_share: f64,
-    need_present: bool,
-    disagreements: &mut Vec<Disagreement>,
-) -> Option<Vec<usize>> {
-    let recs = &all.recs;
-    let names: Vec<String> = recs.iter().map(|r| r.name.clone()).collect();
-    // The measured statistics and `from`'s, made once for every candidate checked here.
-    let mut reference: Option<fingerprint::Reference> = None;
-    let out = loop {
-        let (t, found) = decide(ranked, from_side, &names, &share, min_share);
-        // The disagreements of the last decision (candidates rejected since take no part).
-        *disagreements = found;
-        let Some(t) = t else {
-            break None;
-        };
-        let mut any = false;
-        for &j in &t {
-            if ranked[j].fingerprints.is_empty() {
-                let r =
-                    reference.get_or_insert_with(|| fingerprint::Reference::of(recs, &from.model));
-                let mut checks = r.check(recs, &ranked[j].fit.model);
-                checks.extend(held_out_families(all, from, &ranked[j].fit));
-                ranked[j].fingerprints = checks;
-            }
-            if let Some(c) = ranked[j]
-                .fingerprints
-                .iter()
-                .find(|c| c.decisive() && c.seen == fingerprint::Seen::Absent)
-            {
-                ranked[j].rejected = Some(format!("its fingerprint is absent: {}", c.line()));
-                any = true;
-            } else if need_present
-                && ranked[j]
-                    .fingerprints
-                    .iter()
-                    .any(|c| c.decisive() && c.seen != fingerprint::Seen::NotTestable)
-                && !ranked[j]
-                    .fingerprints
-                    .iter()
-                    .any(|c| c.decisive() && c.seen == fingerprint::Seen::Present)
-            {
-                let seen: Vec<String> = ranked[j]
-                    .fingerprints
-                    .iter()
-                    .filter(|c| c.decisive())
-                    .map(|c| c.line())
-                    .collect();
-                ranked[j].rejected = Some(format!(
-                    "a second effect needs a fingerprint present, none is: {}",
-                    if seen.is_empty() {
-                        "none checked".to_string()
-                    } else {
-                        seen.join("; ")
-                    }
-                ));
-                any = true;
-            }
-        }
-        if !any {
-            break Some(t);
-        }
-    };
-    // Stable: the live candidates first, the named (or tied) ones at the head, the rejected
-    // last (also where none is named: the ranking's head is the best candidate not rejected).
-    let named: Vec<String> = out
-        .iter()
-        .flatten()
-        .map(|&j| ranked[j].name.clone())
-        .collect();
-    ranked.sort_by_key(|r| (r.rejected.is_some(), !named.contains(&r.name)));
-    let mut order: Vec<usize> = named
-        .iter()
-        .map(|n| ranked.iter().position(|r| r.name == *n).unwrap())
-        .collect();
-    order.sort_unstable();
-    out.map(|_| order)
-}
-
-/// The feature families a named candidate is judged on held out: `(family, what it holds)`,
-/// each the features of some phases of [`PHASES`] ([`family_of`]).
-pub const FAMILIES: [(&str, &str); 3] = [
-    (
-        "held_out_cycle",
-        "the stick-slip cycle's features (stick slope, period, peak, rounding, dF, slip time, trough, re-stick ripple) predicted by fits without them",
-    ),
-    (
-        "held_out_level",
-        "the whole-cycle features (mean force, drive ripple, r) predicted by fits without them",
-    ),
-    (
-        "held_out_forcing",
-        "the harmonics at f and 2f (force, body displacement) predicted by fits without them",
-    ),
-];
-
-/// The family of [`FAMILIES`] a feature belongs to: the cycle's phases (loading to re-stick),
-/// the whole cycle, the forcing frequency.
-pub fn family_of(f: Feature) -> usize {
-    match f.phase() {
-        0..=3 => 0,
-        4 => 1,
-        _ => 2,
-    }
-}
-
-/// The held-out feature families of candidate `cand` against the model `from` it extends
-/// (both fitted on every recording of `all`): per family of [`FAMILIES`], the candidate's own
-/// parameters are refitted without that family's rows (`refit_without`; the parameters it
-/// shares with `from` held at its fit's values) and judged on those rows as the trace
-/// fingerprints are ([`fingerprint`]'s rule), with `d_obs = −z_from` and
-/// `d_pred = z_cand − z_from` per held-out row (`z` in standard errors): the share of the
-/// departure from `from` that the candidate, its effect set by the other families, predicts
-/// there and the data carry. Absent: the other families put the effect where it does not
-/// explain this one, which names a stand-in, not the effect (a slow sensor that smooths the
-/// cycles, pulled back by the harmonics it would damp). The base parameters are held because
-/// refitting them without a family that alone pins one (the mean force pins `F_c`) moves
-/// both models apart in ways that say nothing of the effect. The refit keeps parameters that
-/// only the held-out family determines where the full fit put them (the step's damping), so a
-/// family can be present because it set them: a second effect is not named on a held-out
-/// family alone (`vetted`). A family the full fits tell apart by less than
-/// [`fingerprint::MIN_STRENGTH`] is not testable, and not refitted. Rows of failed runs
-/// (|z| of 1000) are left out.
-pub fn held_out_families(
-    all: &Target,
-    from: &FitResult,
-    cand: &FitResult,
-) -> Vec<fingerprint::Check> {
-    let fam: Vec<usize> = all.row_features().into_iter().map(family_of).collect();
-    let n = fam.len();
-    if from.z.len() != n || cand.z.len() != n {
-        return vec![];
-    }
-    // The candidate's own coordinates: those beyond the ones of the model it extends.
-    let first_free = fit::BASE_FITTED.len() + from.effect_params;
-    let pairs = |zc: &[f64], k: usize| -> Vec<(f64, f64)> {
-        (0..n)
-            .filter(|&i| fam[i] == k && from.z[i].abs() < 1e3 && zc[i].abs() < 1e3)
-            .map(|i| (-from.z[i], zc[i] - from.z[i]))
-            .collect()
-    };
-    let mut out = vec![];
-    for (k, &(family, what)) in FAMILIES.iter().enumerate() {
-        if fam.iter().all(|&f| f == k) || !fam.contains(&k) {
-            continue;
-        }
-        let full = pairs(&cand.z, k);
-        if full.iter().map(|p| p.1 * p.1).sum::<f64>().sqrt() < fingerprint::MIN_STRENGTH {
-            out.push(fingerprint::judge(family, what, &full));
-            continue;
-        }
-        let keep: Vec<bool> = fam.iter().map(|&f| f != k).collect();
-        let zc = refit_without(all, cand, &cand.model, &keep, first_free);
-        out.push(fingerprint::judge(family, what, &pairs(&zc, k)));
-    }
-    out
-}
-
-/// The warning for a named effect with a weaker fingerprint absent (a held-out feature family,
-/// [`held_out_families`], or a trace family read slip by slip): the effect is then named only
-/// as partial. Not a veto, as an absent ringing is ([`fingerprint::Check::decisive`]): the
-/// held-out refit is one damped step and holds the base parameters, so a family can also be
-/// absent where the effect is right but its fit trades that family for the others (a resonance
-/// fitted off its true value); a slip-by-slip statistic is a slope or a coefficient per stage
-/// over a few stages, and an effect of the library's kind in another form (the second rig's
-/// delayed load path) can move it the other way; either way the fit does not explain the whole
-/// campaign.
-fn held_out_absent(r: &Ranked) -> Option<String> {
-    let absent: Vec<String> = r
-        .fingerprints
-        .iter()
-        .filter(|c| !c.decisive() && c.seen == fingerprint::Seen::Absent)
-        .map(|c| c.line())
-        .collect();
-    (!absent.is_empty()).then(|| {
-        format!(
-            "{}: named only as partial, as a fingerprint it predicts (a feature family held out from its fit, or a statistic of the trace read slip by slip) is not in the data ({}): it stands in for another physics there, its form differs from the rig's, or its fit has not found the rig's values",
-            r.effect.name(),
-            absent.join("; ")
-        )
-    })
-}
+pub use super::vet::{FAMILIES, family_of, held_out_families};
 
 /// Diagnoses a campaign. A campaign none of whose recordings can be checked on held-out data
 /// (no kind of condition recorded at two drives) is refused: it names what is missing.
@@ -603,7 +235,7 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
         steps.end("fingerprints", &all);
         decided
     });
-    let verdict = match decided {
+    let mut verdict = match decided {
         None => Verdict::NoSignificantGap,
         Some(None) => Verdict::Unexplained,
         Some(Some(t)) if t.len() > 1 => match forms_of_one(&mut ranking, &t, share, MIN_PARTIAL) {
@@ -615,8 +247,56 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
         },
         Some(Some(_)) => Verdict::Effect,
     };
+    // Two effects together where none passed its screen alone (`try_pair`); its time counts
+    // in the step `second effect`.
+    let mut pair = None;
+    let mut pair_evidence = None;
+    if verdict == Verdict::Unexplained
+        && let Some(screen) = &screen
+    {
+        match try_pair(
+            &all,
+            screen,
+            &base,
+            &base_cv,
+            &ranking,
+            share,
+            (&fold, k_folds, &checked),
+            fo,
+            &mut disagreements,
+        ) {
+            None => {}
+            Some(Err(why)) => warnings.push(why),
+            Some(Ok(p)) => {
+                for r in [&p.first, &p.alone] {
+                    if let Some(x) = ranking.iter_mut().find(|x| x.name == r.name) {
+                        *x = r.clone();
+                    }
+                }
+                ranking.sort_by(by_evidence);
+                let i = ranking.iter().position(|x| x.name == p.first.name);
+                let first = ranking.remove(i.unwrap_or(0));
+                warnings.push(format!(
+                    "{} and {} are named together: neither passed its screen alone, the pair explains {:.0} % of the gap (ln odds {:.1} ± {:.1} against {} alone, {:.1} ± {:.1} against {} alone)",
+                    first.name,
+                    p.both.name,
+                    100.0 * p.both.reduction,
+                    p.both.evidence.ln_odds,
+                    p.both.evidence.stderr,
+                    first.name,
+                    between(&p.both, &p.alone).ln_odds,
+                    between(&p.both, &p.alone).stderr,
+                    p.alone.name,
+                ));
+                ranking.insert(0, first);
+                verdict = Verdict::Effect;
+                pair_evidence = Some((p.vs_base, (p.alone.effect, between(&p.both, &p.alone))));
+                pair = Some(p.both);
+            }
+        }
+    }
     let mut forms: Vec<FormChoice> = vec![];
-    if verdict == Verdict::Effect {
+    if verdict == Verdict::Effect && pair.is_none() {
         forms.extend(form_choice(&ranking));
     }
     let breadth = ranking.first().map_or(0.0, |b| {
@@ -629,6 +309,12 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
         let r = ranking[1..].iter().find(|r| r.effect != b.effect)?;
         Some((r.effect, between(b, r)))
     });
+    // A pair named together: its own evidence against the base model, and against its second
+    // member alone (the first alone is in the second effect's entry).
+    let (evidence_best, evidence_runner_up) = match pair_evidence {
+        Some((e, r)) => (Some(e), Some(r)),
+        None => (evidence_best, evidence_runner_up),
+    };
     // Forward selection: a second effect with the first, where a clear gap remains.
     let mut second: Vec<Ranked> = vec![];
     let mut effects = vec![];
@@ -638,7 +324,26 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
     let mut partial = false;
     // The fit of the named effects (the first, or the first with a second), for the limits.
     let mut named_fit: Option<FitResult> = None;
-    if verdict == Verdict::Effect {
+    if let Some(both) = pair {
+        // Named together (`try_pair`): the pair's fit is the named one, its entry the second's.
+        effects = vec![ranking[0].effect, both.effect];
+        for b in &both.at_bound {
+            warnings.push(format!(
+                "{} + {}: the fit ends on a bound of the plausible range ({b})",
+                ranking[0].name, both.name
+            ));
+        }
+        partial = !both.at_bound.is_empty()
+            || both.gap_after >= SIGNIFICANT_GAP
+            || (noise > 0.0 && both.concentrated.is_some());
+        if let Some(w) = held_out_absent(&both) {
+            warnings.push(w);
+            partial = true;
+        }
+        (gap_after, gap_after_spread) = (both.gap_after, both.gap_spread);
+        named_fit = Some(both.fit.clone());
+        second = vec![both];
+    } else if verdict == Verdict::Effect {
         // The first effect's fit, polished further from its optimum (on its Jacobian there):
         // a second effect is credited only with what the first cannot reach by itself.
         let first = &ranking[0];

@@ -6,10 +6,13 @@
 //! recordings with the shared simulation cache, Levenberg-Marquardt fits; [`linearised`], a fit's
 //! residuals and Jacobian at its optimum), [`fingerprint`] (the
 //! signatures an effect must leave beyond the features), [`diagnose`] (calibration, screens,
-//! held-out folds, evidence and the verdict; [`decide`], the rule that names or ties), [`report`] (JSON, HDF5, text and figures of a
+//! held-out folds, evidence and the verdict; [`decide`], the rule that names or ties;
+//! [`candidate`], one candidate screened, fitted and ranked, or two together; [`vet`], the
+//! fingerprints a candidate to be named must carry), [`report`] (JSON, HDF5, text and figures of a
 //! diagnosis). Each imports only the rooms above it in this list and [`crate::campaign`]; a
 //! planner of recordings belongs beside this room, importing it.
 
+pub mod candidate;
 pub mod decide;
 pub mod diagnose;
 pub mod evidence;
@@ -26,3 +29,4 @@ pub mod scan;
 pub mod screen;
 pub mod target;
 pub mod verdict;
+pub mod vet;

@@ -319,10 +319,12 @@ pub struct Diagnosis {
     /// Share of held-out recordings with a gap (at least [`GAPPED`]) whose gap the top
     /// candidate lowers (informative: the decision weighs the evidence).
     pub breadth: f64,
-    /// The top candidate's held-out evidence against the base model.
+    /// The top candidate's held-out evidence against the base model (two effects named
+    /// together where neither passed its screen alone: the pair's).
     pub evidence: Option<Evidence>,
     /// The top candidate's held-out evidence against the runner-up (the best candidate of
-    /// another effect), with the runner-up.
+    /// another effect), with the runner-up (a pair named together: the pair's against its
+    /// second effect alone).
     pub evidence_runner_up: Option<(EffectKind, Evidence)>,
     /// The candidates the data cannot tell apart, best first, with verdict [`Verdict::Tie`]
     /// (empty otherwise).
