@@ -516,7 +516,13 @@ pub fn summary(c: &Campaign, d: &Diagnosis) -> String {
     for f in &d.forms {
         let _ = writeln!(s, "form: {}", f.line());
     }
-    if let Some(top) = d.ranking.first().filter(|_| d.best_effect.is_some()) {
+    // The named model: the first effect's fit, or the fit of both where two are named.
+    let named = if d.effects.len() > 1 {
+        d.second.first()
+    } else {
+        d.ranking.first()
+    };
+    if let Some(top) = named.filter(|_| d.best_effect.is_some()) {
         // Where the named effect acts: the features whose held-out gap it lowers most.
         let mut moved: Vec<(&str, f64, f64)> = super::features::FEATURES
             .iter()
@@ -537,7 +543,10 @@ pub fn summary(c: &Campaign, d: &Diagnosis) -> String {
         let _ = writeln!(
             s,
             "where {} acts (held-out gap per feature): {}",
-            top.name,
+            match (d.effects.len() > 1, d.ranking.first()) {
+                (true, Some(first)) => format!("{} + {}", first.name, top.name),
+                _ => top.name.clone(),
+            },
             words.join(", ")
         );
     }
