@@ -20,8 +20,9 @@
 //!
 //! `.ci/run` runs, for its time budget, the cheap ones: the effect-free small unbalanced
 //! campaign of the first rig, the actuator scan on its in-band two-mass actuator, and the
-//! second rig's effect-free force-only campaign below twice the forcing frequency (about 3 min
-//! in all). Every other campaign (friction along the track, load modulation, screw error, two
+//! second rig's effect-free force-only campaign below twice the forcing frequency, and the
+//! first rig's two-mass actuator with screw error extended by its plan's six recordings, where
+//! the two effects are named together (about 6 min in all). Every other campaign (friction along the track, load modulation, screw error, two
 //! effects at once, the mimics, ...) is `--ignored` and runs in the whole panels:
 //! `cargo test --release --test rig -- --ignored --nocapture` (docs/campaigns.md).
 //!
@@ -308,7 +309,6 @@ fn rig2_antialias_filter_with_delay_names_a_fourth_order_sensor() {
 /// its screen alone and forward selection has no first step (the verdict was `unexplained`).
 /// Screened together they pass, and both are named, each needed beside the other.
 #[test]
-#[ignore = "about 3 minutes on 2 cores; left out of .ci/run for its time budget"]
 fn rig_actuator_and_screw_are_named_together_where_neither_passes_alone() {
     let name = "actuator+screw";
     let dir = tempfile::tempdir().unwrap();
