@@ -316,7 +316,7 @@ pub(crate) fn try_pair(
     .expect("four starts");
     let pct = |g: f64| 100.0 * (screen.gap - g) / screen.gap;
     let tried = format!(
-        "no candidate passed its screen alone; the two best, {} ({:.1} %) and {} ({:.1} %), screened together",
+        "no candidate passed its screen alone; the two best, {} ({:.2} %) and {} ({:.2} %), screened together",
         a.name,
         pct(ga),
         b.name,
@@ -324,7 +324,7 @@ pub(crate) fn try_pair(
     );
     if !(joint.gap <= bar) {
         return Some(Err(format!(
-            "{tried} lower the screen's gap by {:.1} %, short of the {:.0} % bar: not fitted further",
+            "{tried} lower the screen's gap by {:.2} %, short of the {:.0} % bar: not fitted further",
             pct(joint.gap),
             100.0 * SCREEN_BAR
         )));
