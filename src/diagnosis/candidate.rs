@@ -233,6 +233,8 @@ pub(crate) struct Pair {
     pub both: Ranked,
     /// Both together against the base model.
     pub vs_base: Evidence,
+    /// Both together against the second alone.
+    pub vs_alone: Evidence,
 }
 
 /// Two effects whose screens each fell short of [`SCREEN_BAR`] can still explain the gap
@@ -280,7 +282,9 @@ pub(crate) fn try_pair(
     let bar = (1.0 - SCREEN_BAR) * screen.gap;
     let both_effects = [a.effect, b.effect];
     // One member's screened model with the other's effect added, at the other's screened
-    // values or at its neutral ones (where the screened values together overshoot).
+    // values or at its neutral ones (where the screened values together overshoot). Not
+    // `scan::neutral_start`: the other's parameters without a neutral value (a ripple's
+    // wavelength, a load path's phase) keep where its screen put them.
     let with_other = |m: &Model, other: &Model, k: EffectKind, at_neutral: bool| {
         let mut m = m.clone();
         if let Some((_, v)) = other.effects.list.iter().find(|(e, _)| *e == k) {
@@ -339,11 +343,11 @@ pub(crate) fn try_pair(
         (mb, &both_effects[1..]),
         (&joint.model, &both_effects),
     ];
-    let fits: Vec<FitResult> = jobs
+    let mut fits: Vec<FitResult> = jobs
         .par_iter()
         .map(|(m, fx)| fit::with_fresh_jacobian(all, fit::fit(all, m, fx, rank_opts)))
         .collect();
-    let [fa, fb, fab]: [FitResult; 3] = fits.try_into().ok()?;
+    let (fab, fb, fa) = (fits.remove(2), fits.remove(1), fits.remove(0));
     let e0 = base_cv.gap;
     let ranked = |f: FitResult, start: &Model, of: &Ranked| {
         let extra = f.effect_params.saturating_sub(base.effect_params);
@@ -396,7 +400,9 @@ pub(crate) fn try_pair(
     {
         return Some(Err(said(&vs_base[0], "against the base model")));
     }
-    let mut vs_first = None;
+    // The pair against the first alone (the second effect's entry, with its fingerprints
+    // there), then against the second alone.
+    let mut vs_each = Vec::with_capacity(2);
     for (one, other) in [(&first, &b.name), (&alone, &a.name)] {
         let mut vs = [against(one, other)];
         let left = one.gap_after;
@@ -415,19 +421,18 @@ pub(crate) fn try_pair(
         {
             return Some(Err(said(&vs[0], &format!("against {} alone", one.name))));
         }
-        if std::ptr::eq(one, &first) {
-            vs_first = Some(vs[0].clone());
-        }
         found.extend(f2);
+        let [vs] = vs;
+        vs_each.push(vs);
     }
-    // The second effect's entry: the pair against the first, with its fingerprints there.
-    let mut both = vs_first.expect("checked against the first");
-    both.name = b.name.clone();
+    let vs_alone = vs_each.pop().expect("checked against the second").evidence;
+    let both = vs_each.pop().expect("checked against the first");
     disagreements.extend(found);
     Some(Ok(Pair {
         first,
         alone,
         both,
         vs_base: vs_base[0].evidence,
+        vs_alone,
     }))
 }

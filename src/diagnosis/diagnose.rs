@@ -80,7 +80,7 @@
 //! absent names it only as partial, with a warning (`held_out_absent`), and no second effect
 //! is tried beside it. A second effect needs the ringing present where it can test it.
 
-use super::candidate::{try_candidate, try_pair};
+use super::candidate::{Pair, try_candidate, try_pair};
 use super::decide::{Side, between};
 pub use super::evidence::GAPPED;
 use super::evidence::breadth_of;
@@ -250,7 +250,6 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
     // Two effects together where none passed its screen alone (`try_pair`); its time counts
     // in the step `second effect`.
     let mut pair = None;
-    let mut pair_evidence = None;
     if verdict == Verdict::Unexplained
         && let Some(screen) = &screen
     {
@@ -274,24 +273,24 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
                     }
                 }
                 ranking.sort_by(by_evidence);
-                let i = ranking.iter().position(|x| x.name == p.first.name);
-                let first = ranking.remove(i.unwrap_or(0));
+                // The first member heads the ranking, as a named first effect does.
+                if let Some(i) = ranking.iter().position(|x| x.name == p.first.name) {
+                    ranking[..=i].rotate_right(1);
+                }
                 warnings.push(format!(
                     "{} and {} are named together: neither passed its screen alone, the pair explains {:.0} % of the gap (ln odds {:.1} ± {:.1} against {} alone, {:.1} ± {:.1} against {} alone)",
-                    first.name,
+                    p.first.name,
                     p.both.name,
                     100.0 * p.both.reduction,
                     p.both.evidence.ln_odds,
                     p.both.evidence.stderr,
-                    first.name,
-                    between(&p.both, &p.alone).ln_odds,
-                    between(&p.both, &p.alone).stderr,
+                    p.first.name,
+                    p.vs_alone.ln_odds,
+                    p.vs_alone.stderr,
                     p.alone.name,
                 ));
-                ranking.insert(0, first);
                 verdict = Verdict::Effect;
-                pair_evidence = Some((p.vs_base, (p.alone.effect, between(&p.both, &p.alone))));
-                pair = Some(p.both);
+                pair = Some(p);
             }
         }
     }
@@ -311,8 +310,8 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
     });
     // A pair named together: its own evidence against the base model, and against its second
     // member alone (the first alone is in the second effect's entry).
-    let (evidence_best, evidence_runner_up) = match pair_evidence {
-        Some((e, r)) => (Some(e), Some(r)),
+    let (evidence_best, evidence_runner_up) = match &pair {
+        Some(p) => (Some(p.vs_base), Some((p.alone.effect, p.vs_alone))),
         None => (evidence_best, evidence_runner_up),
     };
     // Forward selection: a second effect with the first, where a clear gap remains.
@@ -324,7 +323,7 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
     let mut partial = false;
     // The fit of the named effects (the first, or the first with a second), for the limits.
     let mut named_fit: Option<FitResult> = None;
-    if let Some(both) = pair {
+    if let Some(Pair { both, .. }) = pair {
         // Named together (`try_pair`): the pair's fit is the named one, its entry the second's.
         effects = vec![ranking[0].effect, both.effect];
         for b in &both.at_bound {
