@@ -245,10 +245,12 @@ pub const STRONGER_START_MARGIN: f64 = 0.1;
 /// of the scan's starts at that strength: the base fit's parameters and the nominal ones);
 /// none where no start is. Why: the base fit absorbs the term (a lower `F_s` and `v_s` where
 /// stick-slip fades as the drive speeds up), so the scan's cost rises slowly as the term
-/// grows, while the base parameters still carry its work, and then jumps where a recording
-/// changes kind. The lowest start then lies next to the base model, and a screen's few steps
-/// from it stay in the absorbed basin, each gaining less than a percent; the strongest start
-/// short of the jump is the closest to the other basin. On the second independent rig's
+/// grows, while the base parameters still carry its work, and then rises steeply where a
+/// reference recording stops sticking (its `dF` carries that, and `r`, a ratio over it, did by
+/// ten orders of magnitude until it was left undefined there: `target::fill_r`). The lowest
+/// start then lies next to the base model, and a screen's few steps from it stay in the
+/// absorbed basin, each gaining less than a percent; the strongest start short of the steep
+/// rise is the closest to the other basin. On the second independent rig's
 /// campaign with quadratic viscous friction and a sensor, a screen from `h_v` 20 ends at a
 /// gap of 38.8, one from 100 at 6.0 (the linear form) and from 20 at 2.0 (the quadratic form,
 /// whose best start is the neutral one).

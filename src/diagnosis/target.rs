@@ -352,11 +352,24 @@ pub(crate) fn same_drive(a: &Params, b: &Params) -> bool {
     a.v_d == b.v_d && a.k_d == b.k_d && a.f_n == b.f_n && a.m == b.m
 }
 
-/// Fills `r` of every vibrated unit that has a reference.
+/// Fills `r` of every vibrated unit that has a reference whose `dF` is above its floor
+/// ([`Feature::floor`]); `r` stays undefined where it is not.
+///
+/// Why: `r = dF / dF_0` presupposes stick-slip without vibration. A reference that slides (a
+/// candidate that stabilises the sliding at a stiff spring predicts `dF_0` of 1e-7 N) makes the
+/// ratio explode (r of 1e5 against a measured 0.5), and with it the cost, by ten orders of
+/// magnitude over a step of a parameter: a wall no fit crosses, which hid the basin of viscous
+/// friction on the second independent rig's `sensor+viscous` campaign once recordings at stiff
+/// springs were added. Below the floor the reference's `dF` is no different from zero; its own
+/// residual carries that difference ([`zscore`] counts an undefined prediction 0 where `dF` is
+/// defined).
 pub(crate) fn fill_r(fs: &mut [FeatureSet], reference: &[Option<usize>]) {
     for i in 0..fs.len() {
         if let Some(j) = reference[i] {
             let (d, d0) = (fs[i].get(Feature::DF), fs[j].get(Feature::DF));
+            if !(d0 > Feature::DF.floor(d0)) {
+                continue;
+            }
             let (s, s0) = (
                 fs[i].stderr[Feature::DF as usize],
                 fs[j].stderr[Feature::DF as usize],
@@ -903,5 +916,52 @@ impl Plausible {
             ),
         );
         Plausible { bounds }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A unit with `dF = d` (its standard error 1 % of it) and nothing else defined.
+    fn unit(d: f64) -> FeatureSet {
+        let mut f = FeatureSet::nan();
+        f.value[Feature::DF as usize] = d;
+        f.stderr[Feature::DF as usize] = 0.01 * d;
+        f
+    }
+
+    /// `r` is the ratio where the reference stick-slips, undefined where its `dF` lies under
+    /// the floor; the residual of such a prediction's `r` is then 0 against a measured one and
+    /// its reference's `dF` carries the difference, where the ratio of 1e-7 N made a residual
+    /// of millions.
+    #[test]
+    fn r_is_undefined_where_the_reference_slides() {
+        let reference = [None, Some(0)];
+        let mut measured = vec![unit(2.0), unit(1.0)];
+        fill_r(&mut measured, &reference);
+        assert_eq!(measured[1].get(Feature::R), 0.5);
+
+        let mut sticks = vec![unit(1.0), unit(0.5)];
+        fill_r(&mut sticks, &reference);
+        assert_eq!(sticks[1].get(Feature::R), 0.5);
+        assert_eq!(zscore(&measured[1], &sticks[1], Feature::R), Some(0.0));
+
+        let floor = Feature::DF.floor(0.0);
+        for d0 in [1e-7, 0.5 * floor, floor] {
+            let mut slides = vec![unit(d0), unit(0.05)];
+            fill_r(&mut slides, &reference);
+            assert!(slides[1].get(Feature::R).is_nan(), "r at dF_0 = {d0}");
+            assert_eq!(zscore(&measured[1], &slides[1], Feature::R), Some(0.0));
+            let z0 = zscore(&measured[0], &slides[0], Feature::DF).expect("dF defined");
+            assert!(
+                z0 < -50.0,
+                "the reference's dF carries the difference: z {z0}"
+            );
+        }
+        // Just above the floor the ratio stands, large as it is.
+        let mut near = vec![unit(1.01 * floor), unit(0.05)];
+        fill_r(&mut near, &reference);
+        assert!(near[1].get(Feature::R) > 2.0);
     }
 }
