@@ -187,7 +187,13 @@ pub fn calibrate(a: &CalibrateArgs) -> Result<Calibrated, AppError> {
         }
     };
     let mut json = diagnosis::report::calibration_json(&c, &f);
-    json["skipped_implausible"] = skipped_json(&skipped);
+    json["skipped_implausible"] = serde_json::to_value(
+        skipped
+            .iter()
+            .map(diagnosis::record::Skipped::from)
+            .collect::<Vec<_>>(),
+    )
+    .expect("plain fields serialise");
     Ok(Calibrated {
         json,
         summary: diagnosis::report::calibration_summary(&c, &f),
@@ -243,22 +249,6 @@ fn print_skipped(skipped: &[campaign::check::Implausible]) {
     }
 }
 
-fn skipped_json(skipped: &[campaign::check::Implausible]) -> serde_json::Value {
-    serde_json::Value::Array(
-        skipped
-            .iter()
-            .map(|s| {
-                serde_json::json!({
-                    "recording": s.recording,
-                    "check": s.check,
-                    "found": s.found,
-                    "expected": s.expected,
-                })
-            })
-            .collect(),
-    )
-}
-
 /// `stickslip diagnose`.
 pub fn diagnose_cmd(a: &DiagnoseArgs) -> Result<(), AppError> {
     let d = diagnose(a)?;
@@ -305,8 +295,8 @@ pub fn diagnose(a: &DiagnoseArgs) -> Result<Diagnosed, AppError> {
     })?;
     let json_path = a.json.clone().unwrap_or_else(|| out.join("diagnosis.json"));
     output::ensure_parent(&json_path)?;
-    let mut j = diagnosis::report::json(&c, &d);
-    j["skipped_implausible"] = skipped_json(&skipped);
+    let record = diagnosis::record::DiagnosisRecord::of(&c, &d, &skipped);
+    let j = record.to_json();
     let text = serde_json::to_string_pretty(&j).unwrap_or_default();
     std::fs::write(&json_path, text).map_err(|e| CampaignError::Io {
         path: json_path.display().to_string(),
@@ -314,7 +304,7 @@ pub fn diagnose(a: &DiagnoseArgs) -> Result<Diagnosed, AppError> {
     })?;
     let h5 = out.join("diagnosis.h5");
     let traces = diagnosis::report::traces_figure(&c, &d);
-    diagnosis::report::write_h5(&h5, &c, &d, traces.as_ref())?;
+    diagnosis::report::write_h5(&h5, &c, &d, &record, traces.as_ref())?;
     let mut written = vec![json_path, h5];
     if !a.no_plots {
         written.extend(diagnosis::report::plots(&out, &d, traces.as_ref())?);
@@ -330,22 +320,23 @@ pub fn diagnose(a: &DiagnoseArgs) -> Result<Diagnosed, AppError> {
 
 /// Whether `path` holds a diagnosis of exactly these recordings by this version (its
 /// `recordings_digest` and `code_version`), and the diagnosis.
-fn matching_diagnosis(path: &std::path::Path, c: &Campaign) -> Result<serde_json::Value, String> {
+fn matching_diagnosis(
+    path: &std::path::Path,
+    c: &Campaign,
+) -> Result<diagnosis::record::DiagnosisRecord, String> {
     let text = std::fs::read_to_string(path).map_err(|e| e.to_string())?;
-    let j: serde_json::Value =
-        serde_json::from_str(&text).map_err(|e| format!("not a diagnosis JSON: {e}"))?;
-    let digest = campaign::digest(&c.recordings);
-    if j["recordings_digest"].as_str() != Some(digest.as_str()) {
-        return Err("it is of other recordings (or written before plans existed)".into());
+    let d = diagnosis::record::DiagnosisRecord::from_json(&text).map_err(|e| e.to_string())?;
+    if d.recordings_digest != campaign::digest(&c.recordings) {
+        return Err("it is of other recordings".into());
     }
-    if j["code_version"].as_str() != Some(env!("CARGO_PKG_VERSION")) {
+    if d.code_version != env!("CARGO_PKG_VERSION") {
         return Err(format!(
             "it was written by version {}, this is {}",
-            j["code_version"].as_str().unwrap_or("?"),
+            d.code_version,
             env!("CARGO_PKG_VERSION")
         ));
     }
-    Ok(j)
+    Ok(d)
 }
 
 /// A plan's results: what `stickslip plan` prints and writes.
@@ -488,24 +479,23 @@ pub fn plan(a: &PlanArgs) -> Result<Planned, AppError> {
         None => {
             say("no diagnosis of these recordings found: diagnosing first");
             let d = diagnosis::diagnose::diagnose(&c, &Default::default())?;
-            let j = diagnosis::report::json(&c, &d);
+            let record = diagnosis::record::DiagnosisRecord::of(&c, &d, &[]);
             std::fs::create_dir_all(&out).map_err(|e| CampaignError::Io {
                 path: out.display().to_string(),
                 msg: e.to_string(),
             })?;
             let path = out.join("diagnosis.json");
-            std::fs::write(&path, serde_json::to_string_pretty(&j).unwrap_or_default()).map_err(
-                |e| CampaignError::Io {
-                    path: path.display().to_string(),
-                    msg: e.to_string(),
-                },
-            )?;
-            (j, format!("{} (run now)", path.display()))
+            let text = serde_json::to_string_pretty(&record.to_json()).unwrap_or_default();
+            std::fs::write(&path, text).map_err(|e| CampaignError::Io {
+                path: path.display().to_string(),
+                msg: e.to_string(),
+            })?;
+            (record, format!("{} (run now)", path.display()))
         }
     };
     say(&format!(
         "from the diagnosis {source}: {}",
-        diag["verdict"].as_str().unwrap_or("?")
+        diag.verdict.name()
     ));
     let plan = crate::planning::plan(&c, &diag, &space, &opts, &say)?;
     let plan_name = format!("plan-{name}");
@@ -524,7 +514,11 @@ pub fn bench_cmd(a: &BenchArgs) -> Result<(), AppError> {
         return bench_batch_cmd(a);
     }
     let o = a.resolve()?;
-    let (cases, refs, rows) = crate::bench::run(&o, |line| crate::note!("{line}"))?;
+    let crate::bench::BenchRun {
+        cases,
+        references: refs,
+        rows,
+    } = crate::bench::run(&o, |line| crate::note!("{line}"))?;
     crate::bench::write_h5(&a.out, &cases, &refs, &rows, &o)?;
     crate::say!("wrote {}", a.out.display());
     for f in crate::bench::plot(&a.out.with_extension(""), &cases, &rows)? {

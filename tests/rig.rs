@@ -943,11 +943,11 @@ fn plan_loop_on_panel_campaigns() {
             continue;
         }
         asked += 1;
-        let j0 = stickslip::diagnosis::report::json(&c, &d0);
+        let j0 = stickslip::diagnosis::record::DiagnosisRecord::of(&c, &d0, &[]);
         let keep = |file: &str, j: &serde_json::Value| {
             std::fs::write(dir.join(file), serde_json::to_string_pretty(j).unwrap()).unwrap()
         };
-        keep("diagnosis-before.json", &j0);
+        keep("diagnosis-before.json", &j0.to_json());
         let mut after = vec![];
         let mut took = String::new();
         for random in [false, true] {
@@ -1003,7 +1003,7 @@ fn plan_loop_on_panel_campaigns() {
             let d = diagnose(&c2, &DiagnoseOptions::default()).unwrap();
             keep(
                 &format!("diagnosis-after-{kind}.json"),
-                &stickslip::diagnosis::report::json(&c2, &d),
+                &stickslip::diagnosis::record::DiagnosisRecord::of(&c2, &d, &[]).to_json(),
             );
             wrong += usize::from(confident_wrong(&d, expect));
             if right(&d, expect) {

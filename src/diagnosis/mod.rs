@@ -9,7 +9,7 @@
 //! held-out folds, evidence and the verdict; [`decide`], the rule that names or ties;
 //! [`candidate`], one candidate screened, fitted and ranked, or two together; [`vet`], the
 //! fingerprints a candidate to be named must carry), [`report`] (JSON, HDF5, text and figures of a
-//! diagnosis). Each imports only the rooms above it in this list and [`crate::campaign`]; a
+//! diagnosis; [`record`], the typed record the JSON file is, which the planner reads). Each imports only the rooms above it in this list and [`crate::campaign`]; a
 //! planner of recordings belongs beside this room, importing it.
 
 pub mod candidate;
@@ -24,6 +24,8 @@ pub mod forms;
 pub mod limits;
 pub mod linearised;
 pub mod model;
+pub mod nullable;
+pub mod record;
 pub mod report;
 pub mod scan;
 pub mod screen;

@@ -291,6 +291,21 @@ pub(crate) fn fit_range(kind: EffectKind, param: &str) -> Option<(f64, f64)> {
     }
 }
 
+/// A model in files is [`Model::to_json`]'s form.
+impl serde::Serialize for Model {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        self.to_json().serialize(s)
+    }
+}
+
+/// A model is read by [`Model::from_json`], whose message names what is missing or wrong.
+impl<'de> serde::Deserialize<'de> for Model {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let v = serde_json::Value::deserialize(d)?;
+        Model::from_json(&v).map_err(serde::de::Error::custom)
+    }
+}
+
 impl Model {
     /// The model as JSON, every parameter exact (`{"F_s", "F_c", "v_s", "h_d", "effects":
     /// {name: {param: value, ...}}}`), the effects' unfitted parameters and forms included:

@@ -13,249 +13,6 @@ use serde_json::json;
 use std::fmt::Write;
 use std::path::{Path, PathBuf};
 
-fn num(x: f64) -> serde_json::Value {
-    if x.is_finite() {
-        json!(x)
-    } else {
-        serde_json::Value::Null
-    }
-}
-
-fn estimates_json(e: &[Estimate]) -> serde_json::Value {
-    e.iter()
-        .map(|e| {
-            (
-                e.name.clone(),
-                json!({"value": num(e.value), "stderr": num(e.stderr), "unit": e.unit}),
-            )
-        })
-        .collect::<serde_json::Map<_, _>>()
-        .into()
-}
-
-/// The JSON verdict.
-pub fn json(c: &Campaign, d: &Diagnosis) -> serde_json::Value {
-    let w = &d.location;
-    json!({
-        "campaign": c.dir.display().to_string(),
-        "recordings": c.recordings.len(),
-        "recordings_digest": crate::campaign::digest(&c.recordings),
-        "code_version": env!("CARGO_PKG_VERSION"),
-        "planned_recordings": c.planned,
-        "held_out": d.held_out,
-        "verdict": d.verdict.name(),
-        "best_effect": d.best_effect.map(|k| k.name()),
-        "effects": d.effects.iter().map(|k| k.name()).collect::<Vec<_>>(),
-        "partial": d.partial,
-        "gap_before": num(d.gap_before),
-        "gap_before_spread": num(d.gap_before_spread),
-        "concentrated": d.concentrated.map(|(f, g, n)| json!({
-            "feature": f.name(), "gap": num(g), "recordings": n,
-        })),
-        "systematic": d.systematic.map(|(f, m, t, n)| json!({
-            "feature": f.name(), "mean_z": num(m), "t": num(t), "units": n,
-        })),
-        "gap_after": num(d.gap_after),
-        "gap_after_spread": num(d.gap_after_spread),
-        "reduction": num(d.reduction),
-        "reduction_beyond_noise": d.reduction_beyond_noise.map(num),
-        "breadth": num(d.breadth),
-        "remaining": d.remaining,
-        "cross_validation": {
-            "folds": d.folds,
-            "fold_of": c.recordings.iter().zip(&w.recordings)
-                .map(|(r, g)| (r.name.clone(), json!(g.fold)))
-                .collect::<serde_json::Map<_, _>>(),
-            "not_checked": d.not_checked,
-        },
-        "missing_channels": missing_channels(c),
-        "evidence": d.evidence.map(|e| evidence_json(&e)),
-        "evidence_runner_up": d.evidence_runner_up.map(|(k, e)| {
-            let mut v = evidence_json(&e);
-            v["runner_up"] = json!(k.name());
-            v
-        }),
-        "tie": d.tie.iter().map(|k| k.name()).collect::<Vec<_>>(),
-        "forms": d.forms.iter().map(|f| json!({
-            "effect": f.effect.name(),
-            "form": f.form,
-            "tried": f.tried,
-            "not_excluded": f.not_excluded,
-            "settled": f.settled(),
-            "default": f.is_default(),
-            "doc": f.effect.form_named(f.form).map(|x| x.doc),
-        })).collect::<Vec<_>>(),
-        "warnings": d.warnings,
-        "disagreements": d.disagreements,
-        "limits": d.limits,
-        "bounds": d.bounds.bounds.iter().map(|b| json!({
-            "effect": b.effect.name(), "param": b.param,
-            "lo": num(b.lo), "hi": num(b.hi), "reason": b.reason,
-        })).collect::<Vec<_>>(),
-        "thresholds": {
-            "rule": "a candidate qualifies where the held-out data make it clearly more likely than the model it extends (ln odds >= ln_prior_odds, >= evidence_se standard errors above 0, and >= ln_prior_odds with any one recording left out) and it explains at least min_partial of the gap; the qualifying candidate of best evidence is named where it is clearly more likely than every plausible rival and no rival's held-out gap is lower than its own (by more than gap_rel of it and gap_se jackknife errors); rivals it does not beat, and candidates of better evidence that do not qualify, make a tie; where evidence and held-out gap order two models the opposite way, the pair is listed under disagreements; where no candidate passes its screen alone, the two best screens of different effects are fitted together and named together only where both together qualify against the base model and, as a second effect does (min_second), against each of the two alone",
-            "gap_rel": super::diagnose::GAP_REL,
-            "gap_se": super::diagnose::GAP_SE,
-            "ln_prior_odds": super::diagnose::LN_PRIOR_ODDS,
-            "evidence_se": super::diagnose::EVIDENCE_SE,
-            "param_nats": super::diagnose::PARAM_NATS,
-            "significant_gap": super::diagnose::SIGNIFICANT_GAP,
-            "feature_gap": super::diagnose::FEATURE_GAP,
-            "min_partial": super::diagnose::MIN_PARTIAL,
-            "min_second": super::diagnose::MIN_SECOND,
-            "gapped": super::diagnose::GAPPED,
-            "param_penalty": super::diagnose::PARAM_PENALTY,
-        },
-        "calibration": {
-            "params": estimates_json(&d.base.estimates),
-            "gap": num(d.base.gap),
-            "evaluations": d.base.evaluations,
-            "iterations": d.base.iterations,
-            "converged": d.base.converged,
-            "model": d.base.model.to_json(),
-        },
-        "second": d.second.iter().map(|r| json!({
-            "effect": r.effect.name(),
-            "model": r.fit.model.to_json(),
-            "fitted_effects": r.fit.effects.iter().map(|k| k.name()).collect::<Vec<_>>(),
-            "per_recording": r.per_recording.iter().map(|g| num(*g)).collect::<Vec<_>>(),
-            "per_recording_n": r.per_recording_n,
-            "name": r.name,
-            "form": r.form.map(|f| f.name),
-            "form_charge": r.form_charge,
-            "evidence": evidence_json(&r.evidence),
-            "at_bound": r.at_bound,
-            "gap_after": num(r.gap_after),
-            "gap_spread": num(r.gap_spread),
-            "reduction": num(r.reduction),
-            "score": num(r.score),
-            "params": estimates_json(&r.fit.estimates),
-            "fingerprints": r.fingerprints,
-            "rejected": r.rejected,
-            "short_of_leader": short_json(r),
-        })).collect::<Vec<_>>(),
-        "rejected": d.ranking.iter().chain(&d.second).filter_map(|r| r.rejected.as_ref().map(|why| json!({
-            "effect": r.effect.name(), "form": r.form.map(|f| f.name), "reason": why,
-        }))).collect::<Vec<_>>(),
-        "ranking": d.ranking.iter().map(|r| json!({
-            "effect": r.effect.name(),
-            "model": r.fit.model.to_json(),
-            "fitted_effects": r.fit.effects.iter().map(|k| k.name()).collect::<Vec<_>>(),
-            "per_recording": r.per_recording.iter().map(|g| num(*g)).collect::<Vec<_>>(),
-            "per_recording_n": r.per_recording_n,
-            "name": r.name,
-            "form": r.form.map(|f| f.name),
-            "form_charge": r.form_charge,
-            "per_feature": per_feature_json(&d.base_per_feature, &r.per_feature),
-            "evidence": evidence_json(&r.evidence),
-            "at_bound": r.at_bound,
-            "stderr_from": if r.fit.jacobian_fresh {
-                "finite-difference Jacobian at the optimum"
-            } else {
-                "Broyden-updated Jacobian at the optimum (approximate)"
-            },
-            "gap_after": num(r.gap_after),
-            "gap_spread": num(r.gap_spread),
-            "reduction": num(r.reduction),
-            "score": num(r.score),
-            "gap_calibration": num(r.fit.gap),
-            "params": estimates_json(&r.fit.estimates),
-            "fingerprints": r.fingerprints,
-            "rejected": r.rejected,
-            "short_of_leader": short_json(r),
-            "screen": r.screened.as_ref().map(|(g, from, m)| json!({
-                "gap": num(*g), "extended_gap": num(*from), "model": m.to_json(),
-            })),
-        })).collect::<Vec<_>>(),
-        "where": {
-            "summary": w.summary,
-            "features": w.features.iter().map(|(f, rms, share)| json!({
-                "feature": f.name(), "phase": super::features::PHASES[f.phase()],
-                "rms_z": num(*rms), "share": num(*share)})).collect::<Vec<_>>(),
-            "phases": w.phases.iter().map(|(p, rms, share)| json!({
-                "phase": p, "rms_z": num(*rms), "share": num(*share)})).collect::<Vec<_>>(),
-            "conditions": w.conditions.iter().map(|(n, rho)| json!({
-                "condition": n, "spearman_rho": num(*rho)})).collect::<Vec<_>>(),
-            "with_vibration": num(w.with_vibration.0),
-            "without_vibration": num(w.with_vibration.1),
-            "recordings": w.recordings.iter().map(|r| json!({
-                "name": r.name, "gap_base": num(r.gap_base), "gap_best": num(r.gap_best),
-                "held_out": r.held_out,
-                "conditions": CONDITIONS.iter().zip(r.conditions).map(|(n, v)| (n.to_string(), num(v)))
-                    .collect::<serde_json::Map<_, _>>(),
-            })).collect::<Vec<_>>(),
-        },
-        "wall_time": d.wall_time,
-        "work": {
-            "simulations": d.work.simulations,
-            "cache_hits": d.work.cache_hits,
-            "simulation_cpu": num(d.work.simulation_cpu),
-            "fidelity": fidelity_json(&d.work),
-            "steps": d.steps.iter().map(|st| json!({
-                "step": st.step, "simulations": st.work.simulations,
-                "cache_hits": st.work.cache_hits,
-                "simulation_cpu": num(st.work.simulation_cpu), "wall": num(st.wall),
-                "fidelity": fidelity_json(&st.work),
-            })).collect::<Vec<_>>(),
-        },
-    })
-}
-
-/// A form stopped short of the leader ([`Ranked::short_of_leader`]): its screen's gap and the
-/// gap it needed; null for any other candidate.
-fn short_json(r: &Ranked) -> serde_json::Value {
-    r.short_of_leader.map_or(
-        serde_json::Value::Null,
-        |(got, needed)| json!({"screen_gap": num(got), "needed": num(needed)}),
-    )
-}
-
-/// The simulations and their CPU time by fidelity (`full`, `search`).
-fn fidelity_json(w: &super::target::Work) -> serde_json::Value {
-    super::target::Fidelity::ALL
-        .iter()
-        .zip(w.by_fidelity)
-        .map(|(f, r)| {
-            (
-                f.name().to_string(),
-                json!({"simulations": r.simulations, "simulation_cpu": num(r.simulation_cpu)}),
-            )
-        })
-        .collect::<serde_json::Map<_, _>>()
-        .into()
-}
-
-/// Each feature's held-out gap under the base model and under a candidate (`before`, `after`),
-/// where held-out units define it: where the candidate's fit acts.
-fn per_feature_json(base: &[f64], cand: &[f64]) -> serde_json::Value {
-    super::features::FEATURES
-        .iter()
-        .filter_map(|&f| {
-            let (b, a) = (*base.get(f as usize)?, *cand.get(f as usize)?);
-            (b.is_finite() && a.is_finite()).then(|| {
-                (
-                    f.name().to_string(),
-                    json!({"before": num(b), "after": num(a)}),
-                )
-            })
-        })
-        .collect::<serde_json::Map<_, _>>()
-        .into()
-}
-
-/// One [`Evidence`] in the JSON: the log-likelihood ratio in nats and as a power of ten, its
-/// standard error, the recordings it rests on and whether it is clear.
-fn evidence_json(e: &super::diagnose::Evidence) -> serde_json::Value {
-    json!({
-        "ln_odds": num(e.ln_odds),
-        "log10_odds": num(e.log10_odds()),
-        "stderr": num(e.stderr),
-        "recordings": e.recordings,
-        "least_left_out": num(e.least_left_out),
-        "clear": e.clear(),
-    })
-}
-
 /// Words for an evidence: "10^x times as likely (ln odds a ± s over n recordings)".
 fn evidence_words(e: &super::diagnose::Evidence) -> String {
     format!(
@@ -265,36 +22,6 @@ fn evidence_words(e: &super::diagnose::Evidence) -> String {
         e.stderr,
         e.recordings
     )
-}
-
-/// The channels some recordings lack, and the features skipped for it.
-fn missing_channels(c: &Campaign) -> Vec<String> {
-    let mut out = vec![];
-    for (name, skipped, has) in [
-        (
-            "x_s",
-            "x_s_amp_f, x_s_phase_f",
-            (|r: &Recording| r.x_s.is_some()) as fn(&Recording) -> bool,
-        ),
-        ("x_d", "drive_ripple (and the ripple's start)", |r| {
-            r.x_d.is_some()
-        }),
-    ] {
-        let without: Vec<&str> = c
-            .recordings
-            .iter()
-            .filter(|r| !has(r))
-            .map(|r| r.name.as_str())
-            .collect();
-        if !without.is_empty() {
-            out.push(format!(
-                "{} recording(s) have no `{name}` column ({}): {skipped} skipped there",
-                without.len(),
-                without.join(", ")
-            ));
-        }
-    }
-    out
 }
 
 fn est_line(e: &Estimate) -> String {
@@ -328,7 +55,7 @@ pub fn summary(c: &Campaign, d: &Diagnosis) -> String {
     for n in &d.not_checked {
         let _ = writeln!(s, "  not checked: {n}");
     }
-    for m in missing_channels(c) {
+    for m in super::record::missing_channels(c) {
         let _ = writeln!(s, "  {m}");
     }
     let _ = writeln!(
@@ -661,8 +388,8 @@ pub fn calibration_json(c: &Campaign, f: &FitResult) -> serde_json::Value {
     json!({
         "campaign": c.dir.display().to_string(),
         "recordings": c.recordings.len(),
-        "params": estimates_json(&f.estimates),
-        "gap": num(f.gap),
+        "params": super::record::estimates(&f.estimates),
+        "gap": f.gap,
         "residuals": f.residuals,
         "evaluations": f.evaluations,
     })
@@ -690,6 +417,7 @@ pub fn write_h5(
     path: &Path,
     c: &Campaign,
     d: &Diagnosis,
+    record: &super::record::DiagnosisRecord,
     traces: Option<&TracesFigure<'_>>,
 ) -> Result<(), OutputError> {
     use rust_hdf5::H5File;
@@ -707,7 +435,7 @@ pub fn write_h5(
         attr("campaign", &c.dir.display().to_string())?;
         attr("program", &output::program())?;
         attr("created", &output::now_iso())?;
-        attr("json", &json(c, d).to_string())?;
+        attr("json", &record.to_json().to_string())?;
         let g = root.create_group("recordings").map_err(h5err(&tmp))?;
         let w = &d.location;
         let names: Vec<String> = w.recordings.iter().map(|r| r.name.clone()).collect();

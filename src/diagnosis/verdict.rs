@@ -200,7 +200,8 @@ pub struct RecordingGap {
 pub const CONDITIONS: [&str; 6] = ["v_d", "k_d", "f", "va_ratio", "stick_time", "kt_u0_over_Fc"];
 
 /// Verdict.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
 pub enum Verdict {
     /// A candidate explains the gap.
     Effect,
@@ -228,19 +229,24 @@ impl Verdict {
 /// Two models the held-out data order one way by their evidence and the other way by their
 /// held-out gap ([`crate::diagnosis::decide`], module docs), with the recordings that carry each
 /// side.
-#[derive(Clone, Debug, serde::Serialize)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Disagreement {
     /// The model the evidence prefers.
     pub by_evidence: String,
     /// The model the held-out gap prefers.
     pub by_gap: String,
     /// The evidence \[nats\] for `by_evidence` against `by_gap`.
+    #[serde(deserialize_with = "crate::diagnosis::nullable::f64")]
     pub ln_odds: f64,
     /// Pooled held-out gap of `by_evidence` over the recordings both define.
+    #[serde(deserialize_with = "crate::diagnosis::nullable::f64")]
     pub gap_by_evidence: f64,
     /// Pooled held-out gap of `by_gap` there (the lower).
+    #[serde(deserialize_with = "crate::diagnosis::nullable::f64")]
     pub gap_by_gap: f64,
     /// Jackknife standard error of the gaps' difference.
+    #[serde(deserialize_with = "crate::diagnosis::nullable::f64")]
     pub gap_stderr: f64,
     /// How many recordings' log ratios favour `by_evidence`.
     pub evidence_recordings: usize,
@@ -251,6 +257,7 @@ pub struct Disagreement {
     /// Those carrying most of it, largest first (at most four).
     pub gap_carried_by: Vec<String>,
     /// The share of the net squared-gap difference the listed recordings carry.
+    #[serde(deserialize_with = "crate::diagnosis::nullable::f64")]
     pub gap_share: f64,
 }
 

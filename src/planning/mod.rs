@@ -29,7 +29,9 @@ use crate::diagnosis::evidence::evidence;
 use crate::diagnosis::features::{FeatureSet, noise_sd};
 use crate::diagnosis::fit::{Model, Target};
 use crate::diagnosis::linearised::{Linearised, linearise};
+use crate::diagnosis::record::{CandidateRecord, DiagnosisRecord};
 use crate::diagnosis::target::trace_of;
+use crate::diagnosis::verdict::Verdict;
 use crate::model::EffectKind;
 use criterion::{Existing, Predicted, Rows, carriers, covariance, discrimination, refit_alone};
 use rand::{SeedableRng, rngs::StdRng};
@@ -119,13 +121,62 @@ impl PlanOptions {
     }
 }
 
+/// Why a rival stands: its place in the diagnosis, or how the plan fitted it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Role {
+    /// The calibrated base model.
+    Base,
+    /// The two effects the diagnosis named, together.
+    NamedEffects,
+    /// The effect the diagnosis named.
+    Named,
+    /// A member of the diagnosis's tie.
+    Tied,
+    /// The leading candidate of an unexplained gap.
+    BestOfUnexplained,
+    /// A fitted candidate whose evidence against the leader is not clear.
+    NotClearlyWorse,
+    /// One of the best three candidates of an unexplained gap.
+    BestThree,
+    /// A second effect the diagnosis tried beside the first and did not name.
+    SecondTried,
+    /// One of an unexplained gap's best three, fitted by the plan ([`second`]).
+    BestThreeFittedByPlan,
+    /// A second effect beside the named one, fitted by the plan ([`second`]).
+    SecondFittedByPlan,
+}
+
+impl Role {
+    /// The role in words, as `plan.json` and the summary give it.
+    pub fn describe(self) -> &'static str {
+        match self {
+            Role::Base => "the base model",
+            Role::NamedEffects => "the named effects",
+            Role::Named => "named",
+            Role::Tied => "tied",
+            Role::BestOfUnexplained => "the best of an unexplained gap",
+            Role::NotClearlyWorse => "not clearly worse than the leader",
+            Role::BestThree => "one of the best three of an unexplained gap",
+            Role::SecondTried => "a second effect tried and not named",
+            Role::BestThreeFittedByPlan => {
+                "one of the best three of an unexplained gap, fitted by the plan (in-sample \
+                 evidence: the diagnosis's screen fell short)"
+            }
+            Role::SecondFittedByPlan => {
+                "a second effect beside the named one, fitted by the plan (in-sample \
+                 evidence: the diagnosis tried none)"
+            }
+        }
+    }
+}
+
 /// One explanation a diagnosis leaves standing.
 #[derive(Clone, Debug)]
 pub struct Rival {
     /// Its name in reports (`base`, `sensor_dynamics[order4]`, `aging+viscous`).
     pub name: String,
-    /// Why it is a rival (named, tied, not clearly worse than the leader, ...).
-    pub role: String,
+    /// Why it is a rival.
+    pub role: Role,
     /// The fitted model.
     pub model: Model,
     /// Its effects fitted beside the base parameters.
@@ -136,137 +187,86 @@ pub struct Rival {
     pub clear: bool,
 }
 
-fn entry_rival(e: &serde_json::Value, role: &str) -> Result<Rival, PlanError> {
-    let name = e["name"].as_str().unwrap_or("?").to_string();
-    let model = Model::from_json(&e["model"]).map_err(|m| {
-        PlanError::Diagnosis(format!(
-            "candidate {name}: {m} (a diagnosis.json written before plans existed: diagnose again)"
-        ))
-    })?;
-    let effects = e["fitted_effects"]
-        .as_array()
-        .map(|a| {
-            a.iter()
-                .filter_map(|x| x.as_str().and_then(EffectKind::from_name))
-                .collect()
-        })
-        .unwrap_or_default();
-    Ok(Rival {
-        name,
-        role: role.to_string(),
-        model,
-        effects,
-        ln_odds: e["evidence"]["ln_odds"].as_f64().unwrap_or(f64::NAN),
-        clear: e["evidence"]["clear"].as_bool().unwrap_or(false),
-    })
+fn entry_rival(e: &CandidateRecord, role: Role) -> Rival {
+    Rival {
+        name: e.name.clone(),
+        role,
+        model: e.model.clone(),
+        effects: e.fitted_effects.clone(),
+        ln_odds: e.evidence.ln_odds,
+        clear: e.evidence.clear,
+    }
 }
 
-fn gaps(e: &serde_json::Value) -> (Vec<f64>, Vec<usize>) {
-    let g = e["per_recording"]
-        .as_array()
-        .map(|a| a.iter().map(|x| x.as_f64().unwrap_or(f64::NAN)).collect())
-        .unwrap_or_default();
-    let n = e["per_recording_n"]
-        .as_array()
-        .map(|a| a.iter().map(|x| x.as_u64().unwrap_or(0) as usize).collect())
-        .unwrap_or_default();
-    (g, n)
-}
-
-fn n_params(e: &serde_json::Value) -> f64 {
-    e["params"].as_object().map_or(0, |p| p.len()) as f64
-}
-
-/// The rivals of a diagnosis (its `diagnosis.json`): the base model; the named effects (with a
-/// second named effect, the model of both); every member of a tie; every other fitted
-/// candidate, another form of the named effect included, whose held-out evidence against the
-/// leader is not clear (the [`evidence`] of their per-recording held-out gaps); a second
-/// effect tried and not named; for `unexplained`, the three best candidates. At most
-/// [`MAX_RIVALS`], the best supported first. Candidates whose screen stopped short of the
-/// leader, or of the bar (their fit holds no effect, `fitted_effects` empty), are not rivals;
-/// where an unexplained gap leaves fewer than three, [`plan`] fits the others itself.
-pub fn rivals(diag: &serde_json::Value) -> Result<Vec<Rival>, PlanError> {
-    let verdict = diag["verdict"].as_str().unwrap_or("");
-    let base = Model::from_json(&diag["calibration"]["model"]).map_err(|m| {
-        PlanError::Diagnosis(format!(
-            "the base calibration: {m} (a diagnosis.json written before plans existed: diagnose again)"
-        ))
-    })?;
+/// The rivals of a diagnosis: the base model; the named effects (with a second named effect,
+/// the model of both); every member of a tie; every other fitted candidate, another form of
+/// the named effect included, whose held-out evidence against the leader is not clear (the
+/// [`evidence`] of their per-recording held-out gaps); a second effect tried and not named; for
+/// `unexplained`, the three best candidates. At most [`MAX_RIVALS`], the best supported first.
+/// Candidates whose screen stopped short of the leader, or of the bar (their fit holds no
+/// effect of its own, [`CandidateRecord::holds_effect`]), are not rivals; where an unexplained gap
+/// leaves fewer than three, [`plan`] fits the others itself.
+pub fn rivals(diag: &DiagnosisRecord) -> Vec<Rival> {
+    let verdict = diag.verdict;
     let mut out = vec![Rival {
         name: "base".into(),
-        role: "the base model".into(),
-        model: base,
+        role: Role::Base,
+        model: diag.calibration.model.clone(),
         effects: vec![],
         ln_odds: 0.0,
         clear: false,
     }];
-    let empty = vec![];
-    let ranking: Vec<&serde_json::Value> = diag["ranking"]
-        .as_array()
-        .unwrap_or(&empty)
+    let standing = |e: &&CandidateRecord| e.short_of_leader.is_none() && e.holds_effect();
+    let ranking: Vec<&CandidateRecord> = diag
+        .ranking
         .iter()
-        .filter(|e| e["short_of_leader"].is_null() && !e["model"].is_null() && holds_effect(e))
+        .map(|e| &e.candidate)
+        .filter(standing)
         .collect();
-    let second: Vec<&serde_json::Value> = diag["second"]
-        .as_array()
-        .unwrap_or(&empty)
-        .iter()
-        .filter(|e| e["short_of_leader"].is_null() && !e["model"].is_null() && holds_effect(e))
-        .collect();
-    let names = |k: &str| -> Vec<String> {
-        diag[k]
-            .as_array()
-            .map(|a| {
-                a.iter()
-                    .filter_map(|x| x.as_str().map(String::from))
-                    .collect()
-            })
-            .unwrap_or_default()
-    };
-    let named = names("effects");
-    let tie = names("tie");
-    let first_of = |effect: &str| ranking.iter().find(|e| e["effect"] == effect).copied();
+    let second: Vec<&CandidateRecord> = diag.second.iter().filter(standing).collect();
+    let named = &diag.effects;
+    let tie = &diag.tie;
+    let first_of = |k: EffectKind| ranking.iter().find(|e| e.effect == k).copied();
     let push = |r: Rival, out: &mut Vec<Rival>| {
         if !out.iter().any(|x| x.name == r.name) {
             out.push(r);
         }
     };
-    let mut leader: Option<&serde_json::Value> = None;
+    let mut leader: Option<&CandidateRecord> = None;
     if named.len() >= 2
-        && let Some(s) = second.iter().find(|e| e["effect"] == named[1].as_str())
+        && let Some(s) = second.iter().find(|e| e.effect == named[1])
     {
-        {
-            let mut r = entry_rival(s, "the named effects")?;
-            r.name = format!("{}+{}", named[0], s["name"].as_str().unwrap_or("?"));
-            // Its evidence is against the first effect: add the first's against the base.
-            if let Some(f) = first_of(&named[0]) {
-                r.ln_odds += f["evidence"]["ln_odds"].as_f64().unwrap_or(0.0);
-                leader = Some(f);
-            }
-            push(r, &mut out);
+        let mut r = entry_rival(s, Role::NamedEffects);
+        r.name = format!("{}+{}", named[0], s.name);
+        // Its evidence is against the first effect: add the first's against the base.
+        if let Some(f) = first_of(named[0]) {
+            r.ln_odds += f.evidence.ln_odds;
+            leader = Some(f);
         }
+        push(r, &mut out);
     }
-    if let Some(first) = named.first()
+    if let Some(&first) = named.first()
         && let Some(e) = first_of(first)
     {
-        push(entry_rival(e, "named")?, &mut out);
+        push(entry_rival(e, Role::Named), &mut out);
         leader = leader.or(Some(e));
     }
-    for t in &tie {
+    for &t in tie {
         if let Some(e) = first_of(t) {
-            push(entry_rival(e, "tied")?, &mut out);
+            push(entry_rival(e, Role::Tied), &mut out);
             leader = leader.or(Some(e));
         }
     }
     let leader = leader.or(ranking.first().copied());
+    let unexplained = verdict == Verdict::Unexplained;
     // Neither named nor tied (an unexplained gap): the leading candidate is the first of its
     // best three.
     if let Some(l) = leader
-        && verdict == "unexplained"
+        && unexplained
         && named.is_empty()
         && tie.is_empty()
     {
-        push(entry_rival(l, "the best of an unexplained gap")?, &mut out);
+        push(entry_rival(l, Role::BestOfUnexplained), &mut out);
     }
     // Every fitted candidate, each form of an effect its own (a form the data did not settle
     // is a rival like another effect).
@@ -277,27 +277,31 @@ pub fn rivals(diag: &serde_json::Value) -> Result<Vec<Rival>, PlanError> {
         if std::ptr::eq(*e, l) {
             continue;
         }
-        let (gl, nl) = gaps(l);
-        let (gc, nc) = gaps(e);
-        let ev = evidence(&gl, &nl, &gc, &nc, n_params(l) - n_params(e));
+        let ev = evidence(
+            &l.per_recording,
+            &l.per_recording_n,
+            &e.per_recording,
+            &e.per_recording_n,
+            l.n_params() as f64 - e.n_params() as f64,
+        );
         if !ev.clear() {
-            others.push((*e, "not clearly worse than the leader"));
-        } else if verdict == "unexplained" && best_three < 2 {
-            others.push((*e, "one of the best three of an unexplained gap"));
+            others.push((*e, Role::NotClearlyWorse));
+        } else if unexplained && best_three < 2 {
+            others.push((*e, Role::BestThree));
         }
         best_three += 1;
     }
     for (e, role) in others {
-        push(entry_rival(e, role)?, &mut out);
+        push(entry_rival(e, role), &mut out);
     }
     if named.len() < 2
         && let Some(s) = second.first()
     {
-        let mut r = entry_rival(s, "a second effect tried and not named")?;
-        if let Some(first) = named.first().or(tie.first()) {
+        let mut r = entry_rival(s, Role::SecondTried);
+        if let Some(&first) = named.first().or(tie.first()) {
             r.name = format!("{first}+{}", r.name);
             if let Some(f) = first_of(first) {
-                r.ln_odds += f["evidence"]["ln_odds"].as_f64().unwrap_or(0.0);
+                r.ln_odds += f.evidence.ln_odds;
             }
         }
         push(r, &mut out);
@@ -307,7 +311,7 @@ pub fn rivals(diag: &serde_json::Value) -> Result<Vec<Rival>, PlanError> {
     rest.sort_by(|a, b| b.ln_odds.total_cmp(&a.ln_odds));
     rest.truncate(MAX_RIVALS - 1);
     out.extend(rest);
-    Ok(out)
+    out
 }
 
 /// The names of the rivals a plan fitted itself, for its warning (`none` where it kept none).
@@ -320,17 +324,6 @@ fn kept_names(extra: &[Rival], none: &str) -> String {
         .map(|x| x.name.as_str())
         .collect::<Vec<_>>()
         .join(", ")
-}
-
-/// Whether a ranking or second-effect entry's fit holds its own effect: one whose screen fell
-/// short reports the model it extends (`fitted_effects` without its `effect`: the base model,
-/// or the named model beside which a second effect was tried), which is no rival of its own.
-fn holds_effect(e: &serde_json::Value) -> bool {
-    match (e["fitted_effects"].as_array(), e["effect"].as_str()) {
-        (Some(a), Some(k)) => a.iter().any(|x| x.as_str() == Some(k)),
-        (Some(a), None) => !a.is_empty(),
-        (None, _) => true,
-    }
 }
 
 /// Per recording of `target`, the root mean square of the residuals `z` (rows as
@@ -657,130 +650,25 @@ fn pair_scores(
         .collect()
 }
 
-/// Plans `opts.recordings` recordings for the campaign `c` whose diagnosis is `diag` (its
-/// JSON), within `space`. `say` gets a line at each stage.
+/// Plans `opts.recordings` recordings for the campaign `c` whose diagnosis is `diag`, within
+/// `space`. `say` gets a line at each stage. The stages, in order: the rivals ([`rivals`], and
+/// those the plan fits itself), the campaign's noise, the open pairs and the design space's
+/// candidates; then either a random draw ([`PlanOptions::random`]) or the rivals linearised,
+/// simulated on every candidate, screened, differenced on the finalists, the recordings chosen
+/// one after another and every pair's expected outcome; last the check by simulation.
 pub fn plan(
     c: &Campaign,
-    diag: &serde_json::Value,
+    diag: &DiagnosisRecord,
     space: &Space,
     opts: &PlanOptions,
     say: &(dyn Fn(&str) + Sync),
 ) -> Result<Plan, PlanError> {
     opts.validate()?;
-    let start = std::time::Instant::now();
-    let mut rivals = rivals(diag)?;
-    let mut warnings = vec![];
-    let recs: Vec<&Recording> = c.recordings.iter().collect();
-    let target = Target::new(recs);
-    let mut work = Steps::new(&target);
-    let tried_second = diag["second"].as_array().is_some_and(|a| !a.is_empty());
-    let named = rivals.iter().position(|x| x.role == "named");
-    if diag["partial"].as_bool() == Some(true)
-        && !tried_second
-        && let Some(i) = named
-    {
-        if opts.second_effects {
-            say(&format!(
-                "the diagnosis names {} only in part and fitted nothing beside it: fitting second effects",
-                rivals[i].name
-            ));
-            let extra = second::rivals(
-                &target,
-                &rivals[i],
-                &EffectKind::candidates(),
-                second::Keep::SECOND,
-                say,
-            );
-            warnings.push(format!(
-                "the diagnosis named {} only in part and tried no second effect; the plan fitted \
-                 each candidate beside it (in-sample) and kept {}: {}",
-                rivals[i].name,
-                extra.len(),
-                kept_names(&extra, "none lowered its gap enough")
-            ));
-            rivals.extend(extra);
-            rivals.truncate(MAX_RIVALS);
-        } else {
-            warnings.push(format!(
-                "the diagnosis named {} only in part and tried no second effect beside it: the \
-                 plan tells apart only the rivals the diagnosis fitted and cannot aim at a second \
-                 effect (--second-effects fits each candidate beside it first, minutes more; \
-                 docs/planning.md says what that found on the bench)",
-                rivals[i].name
-            ));
-        }
-    }
-    // An unexplained gap's best three candidates, where the diagnosis's screens left fewer
-    // fitted: the plan fits the candidates itself (hypotheses to tell apart, not verdicts).
-    let fitted = rivals.len() - 1;
-    // (Recordings drawn at random need no rivals: the baseline costs no fit.)
-    if diag["verdict"].as_str() == Some("unexplained") && fitted < 3 && !opts.random {
-        say(&format!(
-            "the diagnosis fitted {fitted} candidate{} of the unexplained gap: the best of the others for the best three",
-            if fitted == 1 { "" } else { "s" }
-        ));
-        let have: Vec<EffectKind> = rivals.iter().flat_map(|x| x.effects.clone()).collect();
-        let keep = second::Keep {
-            min_gain: crate::diagnosis::evidence::UNCHANGED,
-            most: 3 - fitted,
-        };
-        // The diagnosis's own screens where it recorded them, else screened here.
-        let (extra, how) = match second::from_screens(&target, &rivals[0], diag, &have, keep, say) {
-            Some(x) => (
-                x,
-                "took the others from the diagnosis's screens, refitted on every recording",
-            ),
-            None => (
-                second::rivals(
-                    &target,
-                    &rivals[0],
-                    &EffectKind::candidates()
-                        .into_iter()
-                        .filter(|k| !have.contains(k))
-                        .collect::<Vec<_>>(),
-                    keep,
-                    say,
-                ),
-                "screened each other candidate beside the base model itself",
-            ),
-        };
-        warnings.push(format!(
-            "on this unexplained gap {fitted} of the diagnosis's candidates passed its screen; the \
-             plan {how} (in-sample), keeping those that lower the base model's gap by {:.0} % \
-             (at most {}): {}",
-            100.0 * keep.min_gain,
-            keep.most,
-            kept_names(&extra, "none did")
-        ));
-        rivals.extend(extra);
-    }
-    if rivals.len() < 2 && !opts.random {
-        return Err(PlanError::Nothing(format!(
-            "the diagnosis ({}) leaves no candidate standing beside the base model, so there \
-             is nothing to tell apart; its detection limits say what the campaign could not \
-             have seen (`limits` in diagnosis.json)",
-            diag["verdict"].as_str().unwrap_or("?")
-        )));
-    }
-    work.end("rivals", &target, 0);
-    let r = rivals.len();
-    say(&format!(
-        "{} rivals: {}",
-        r,
-        rivals
-            .iter()
-            .map(|x| x.name.as_str())
-            .collect::<Vec<_>>()
-            .join(", ")
-    ));
-    let noise = noise_of(c);
-    if !noise.0.is_finite() || noise.0 <= 0.0 {
-        return Err(PlanError::Diagnosis(
-            "the campaign's force noise could not be estimated (flat recordings?)".into(),
-        ));
-    }
+    let mut p = Planning::new(c, space, opts, say);
+    let rivals = p.rivals(diag)?;
+    let noise = noise_checked(c)?;
     let (open, why) = open_pairs(&rivals);
-    warnings.extend(why);
+    p.warnings.extend(why);
     let cands = space.candidates(&c.recordings[0].params);
     if cands.len() < opts.recordings {
         return Err(PlanError::Nothing(format!(
@@ -790,25 +678,10 @@ pub fn plan(
         )));
     }
     if opts.random {
-        let mut p = random_plan(c, rivals, open, cands, space, opts, noise, start, warnings);
-        p.steps = work.list;
-        return Ok(p);
+        return Ok(p.random(rivals, open, cands, noise));
     }
-    say("linearising each rival on the campaign's recordings");
-    let lins: Vec<Linearised> = rivals
-        .iter()
-        .map(|x| linearise(&target, &x.model, &x.effects))
-        .collect();
-    for (x, l) in rivals.iter().zip(&lins) {
-        if l.z.is_empty() {
-            return Err(PlanError::Diagnosis(format!(
-                "rival {} cannot be simulated on every recording of the campaign",
-                x.name
-            )));
-        }
-    }
-    work.end("linearisation", &target, 0);
-    let row_rec = target.row_recordings();
+    let lins = p.linearise(&rivals)?;
+    let row_rec = p.target.row_recordings();
     let ex: Vec<Existing> = lins
         .iter()
         .map(|l| Existing {
@@ -818,279 +691,19 @@ pub fn plan(
         })
         .collect();
     let delta0: Vec<Vec<f64>> = ex.iter().map(refit_alone).collect();
-    let covs: Vec<Option<faer::Mat<f64>>> = lins.iter().map(covariance).collect();
-    let has_x = noise.1.is_some();
-    let blanks: Vec<Recording> = cands
-        .iter()
-        .enumerate()
-        .map(|(k, x)| blank(&format!("candidate{k}"), x, space.rate, has_x))
-        .collect();
-    say(&format!(
-        "simulating {} rivals on {} candidate recordings",
-        r,
-        cands.len()
-    ));
-    let tol = crate::campaign::FIT_TOLERANCE;
-    let asks: Vec<(Model, &Recording)> = blanks
-        .iter()
-        .flat_map(|b| lins.iter().map(move |l| (l.at(&l.theta), b)))
-        .collect();
-    let traces = simulate_on(&asks, tol);
-    // Per candidate and rival: noiseless features, and the measured ones of a noisy recording.
-    let per: Vec<(Vec<FeatureSet>, Vec<FeatureSet>)> = (0..asks.len())
-        .into_par_iter()
-        .map(|q| {
-            let rec = asks[q].1;
-            let clean = features_of(rec, traces[q].as_ref());
-            let meas = match &traces[q] {
-                Some(tr) => {
-                    let nz = noisy(
-                        tr,
-                        noise,
-                        opts.seed.wrapping_mul(7919).wrapping_add(q as u64),
-                    );
-                    let mut m = features_of(rec, Some(&nz));
-                    for (mm, cl) in m.iter_mut().zip(&clean) {
-                        mm.value = cl.value;
-                        mm.cycles = cl.cycles;
-                    }
-                    criterion::without_r(m)
-                }
-                None => clean.clone(),
-            };
-            (clean, meas)
-        })
-        .collect();
-    drop(traces);
-    let pred0 = |k: usize, j: usize| &per[k * r + j].0;
-    let meas = |k: usize, i: usize| &per[k * r + i].1;
-    // The screen: each candidate's smallest open-pair distance before any refit.
-    let screened: Vec<(Candidate, f64)> = (0..cands.len())
-        .map(|k| {
-            let ok = (0..r).all(|j| {
-                pred0(k, j)
-                    .iter()
-                    .any(|f| f.value.iter().any(|v| v.is_finite()))
-            });
-            let s = if !ok {
-                f64::NAN
-            } else {
-                open.iter()
-                    .map(|&(a, b)| {
-                        let d = |i: usize, j: usize| {
-                            let (z, _) = criterion::rows_raw(meas(k, i), pred0(k, j));
-                            let n = z.len() as f64;
-                            let ss: f64 = z.iter().map(|v| v * v).sum();
-                            if n > 0.0 {
-                                0.5 * n * (1.0 + ss / n).ln()
-                            } else {
-                                0.0
-                            }
-                        };
-                        d(a, b).min(d(b, a))
-                    })
-                    .fold(f64::INFINITY, f64::min)
-            };
-            (cands[k], s)
-        })
-        .collect();
-    let mut order: Vec<usize> = (0..cands.len())
-        .filter(|&k| screened[k].1.is_finite())
-        .collect();
-    let failed = cands.len() - order.len();
-    if failed > 0 {
-        warnings.push(format!(
-            "{failed} candidate recordings could not be simulated under every rival and were left out"
-        ));
-    }
-    order.sort_by(|&a, &b| screened[b].1.total_cmp(&screened[a].1));
-    work.end("candidates", &target, asks.len());
-    // Finalists: the best by the screen, and the best of each frequency and rest so that a
-    // recording the refit favours is not lost to one the screen favours.
-    let mut fin: Vec<usize> = vec![];
-    let mut kinds: Vec<(u64, u64)> = vec![];
-    for &k in &order {
-        let kind = (cands[k].params.f.to_bits(), cands[k].params.k_d.to_bits());
-        if !kinds.contains(&kind) {
-            kinds.push(kind);
-            fin.push(k);
-        }
-    }
-    for &k in &order {
-        if fin.len() >= opts.finalists {
-            break;
-        }
-        if !fin.contains(&k) {
-            fin.push(k);
-        }
-    }
-    fin.truncate(opts.finalists.max(opts.recordings));
-    if fin.len() < opts.recordings {
-        return Err(PlanError::Nothing(format!(
-            "only {} candidate recordings could be simulated under every rival, fewer than the {} asked",
-            fin.len(),
-            opts.recordings
-        )));
-    }
-    say(&format!(
-        "differencing the rivals' predictions on {} finalists",
-        fin.len()
-    ));
-    let mut fd_asks: Vec<(Model, &Recording)> = vec![];
-    let mut fd_index: Vec<(usize, usize, usize)> = vec![];
-    let mut steps: Vec<Vec<f64>> = vec![];
-    for l in &lins {
-        steps.push((0..l.theta.len()).map(|k| l.step_at(k, &l.theta)).collect());
-    }
-    for (fi, &k) in fin.iter().enumerate() {
-        for (j, l) in lins.iter().enumerate() {
-            for c_ in 0..l.theta.len() {
-                let mut th = l.theta.clone();
-                th[c_] += steps[j][c_];
-                fd_asks.push((l.at(&th), &blanks[k]));
-                fd_index.push((fi, j, c_));
-            }
-        }
-    }
-    let fd_traces = simulate_on(&fd_asks, tol);
-    let fd_feats: Vec<Vec<FeatureSet>> = fd_asks
-        .par_iter()
-        .zip(&fd_traces)
-        .map(|((_, rec), tr)| features_of(rec, tr.as_ref()))
-        .collect();
-    drop(fd_traces);
-    let mut predicted: Vec<Predicted> = fin
-        .iter()
-        .map(|&k| Predicted {
-            candidate: cands[k],
-            pred: (0..r).map(|j| vec![pred0(k, j).clone()]).collect(),
-            steps: steps.clone(),
-            meas: (0..r).map(|i| meas(k, i).clone()).collect(),
-        })
-        .collect();
-    for (q, &(fi, j, _)) in fd_index.iter().enumerate() {
-        predicted[fi].pred[j].push(fd_feats[q].clone());
-    }
-    // Rows of every (finalist, truth, rival).
-    let rows: Vec<Vec<Vec<Rows>>> = predicted
-        .par_iter()
-        .map(|pr| {
-            (0..r)
-                .map(|i| (0..r).map(|j| pr.rows(i, j, covs[i].as_ref())).collect())
-                .collect()
-        })
-        .collect();
-    work.end("finalists", &target, fd_asks.len());
-    say(&format!("choosing {} recordings", opts.recordings));
-    let mut chosen: Vec<usize> = vec![];
-    let mut before = pair_scores(&open, &rows, &ex, &delta0, &chosen);
-    let mut planned = vec![];
-    for step in 0..opts.recordings {
-        let best = (0..fin.len())
-            .into_par_iter()
-            .filter(|x| !chosen.contains(x))
-            .map(|x| {
-                let mut with = chosen.clone();
-                with.push(x);
-                let s = pair_scores(&open, &rows, &ex, &delta0, &with);
-                let worst = s.iter().map(|p| p.0.min(p.1)).fold(f64::INFINITY, f64::min);
-                let sum: f64 = s.iter().map(|p| p.0.min(p.1)).sum();
-                (x, worst, sum, s)
-            })
-            .reduce_with(|a, b| {
-                // Larger worst pair, then larger sum, then the lower index: deterministic.
-                let ka = (a.1, a.2);
-                let kb = (b.1, b.2);
-                match kb.0.total_cmp(&ka.0).then(kb.1.total_cmp(&ka.1)) {
-                    std::cmp::Ordering::Greater => b,
-                    std::cmp::Ordering::Less => a,
-                    std::cmp::Ordering::Equal => {
-                        if a.0 < b.0 {
-                            a
-                        } else {
-                            b
-                        }
-                    }
-                }
-            })
-            .expect("finalists outnumber the recordings planned");
-        let (x, _, _, after) = best;
-        // The pair worst told apart before it.
-        let wp = (0..open.len())
-            .min_by(|&p, &q| {
-                before[p]
-                    .0
-                    .min(before[p].1)
-                    .total_cmp(&before[q].0.min(before[q].1))
-            })
-            .expect("at least one open pair");
-        let (a, b) = open[wp];
-        // Its weaker direction, and the features carrying this recording's share of it.
-        let (ti, tj) = if after[wp].0 <= after[wp].1 {
-            (a, b)
-        } else {
-            (b, a)
-        };
-        let mut with = chosen.clone();
-        with.push(x);
-        let planned_rows: Vec<&Rows> = with.iter().map(|&y| &rows[y][ti][tj]).collect();
-        let d = discrimination(&ex[tj], &planned_rows, &delta0[tj]);
-        let (_, by) = d.per_planned.last().expect("the new recording").clone();
-        let carry = carriers(&by, 3);
-        let gains: Vec<PairGain> = open
-            .iter()
-            .enumerate()
-            .map(|(p, &pair)| PairGain {
-                pair,
-                nats: after[p].0.min(after[p].1) - before[p].0.min(before[p].1),
-            })
-            .collect();
-        let cand = predicted[x].candidate;
-        let name = unique_name(
-            c,
-            &planned,
-            &format!("plan{:02}_{}", step + 1, cand.label()),
-        );
-        let why = sentence(
-            &cand,
-            &rivals[tj].name,
-            &rivals[ti].name,
-            &carry,
-            gains[wp].nats,
-        );
-        planned.push(Planned {
-            name,
-            candidate: cand,
-            gains,
-            chosen_for: (a, b),
-            carriers: carry,
-            why,
-        });
-        chosen.push(x);
-        before = after;
-    }
-    // Expected ln odds for every ordered pair.
-    let now = |i: usize, j: usize| rivals[i].ln_odds - rivals[j].ln_odds;
-    let mut outcomes = vec![];
-    for i in 0..r {
-        for j in 0..r {
-            if i == j {
-                continue;
-            }
-            let planned_rows: Vec<&Rows> = chosen.iter().map(|&y| &rows[y][i][j]).collect();
-            let d = discrimination(&ex[j], &planned_rows, &delta0[j]).nats;
-            outcomes.push(Outcome {
-                truth: i,
-                other: j,
-                now: now(i, j),
-                expected: now(i, j) + d,
-                simulated: None,
-                simulated_stderr: None,
-                clear: None,
-            });
-        }
-    }
-    work.end("choice", &target, 0);
+    let on = p.simulate_candidates(&lins, &cands, noise);
+    let screened = on.screen(&cands, &open);
+    let fin = p.finalists(&cands, &screened, on.r)?;
+    let rows = p.differenced(&lins, &cands, &fin, &on);
+    let choice = Choice {
+        open: &open,
+        rows: &rows,
+        ex: &ex,
+        delta0: &delta0,
+    };
+    let (chosen, planned) = p.choose(&choice, &rivals, &cands, &fin);
+    let outcomes = choice.outcomes(&rivals, &chosen);
+    p.work.end("choice", &p.target, 0);
     let mut plan = Plan {
         rivals,
         open,
@@ -1104,18 +717,620 @@ pub fn plan(
         simulations: 0,
         wall_time: 0.0,
         steps: vec![],
-        warnings,
+        warnings: std::mem::take(&mut p.warnings),
         random: false,
     };
     if opts.check {
         say("checking the plan: each rival as the truth, every rival refitted");
-        let outside = verify::check(&target, &lins, &mut plan, opts.seed, say);
-        work.end("check", &target, outside);
+        let outside = verify::check(&p.target, &lins, &mut plan, opts.seed, say);
+        p.work.end("check", &p.target, outside);
     }
-    plan.simulations = work.total();
-    plan.steps = work.list;
-    plan.wall_time = start.elapsed().as_secs_f64();
+    plan.simulations = p.work.total();
+    plan.steps = p.work.list;
+    plan.wall_time = p.start.elapsed().as_secs_f64();
     Ok(plan)
+}
+
+/// The campaign's noise (force \[N\], displacement \[m\]), refused where it cannot be
+/// estimated.
+fn noise_checked(c: &Campaign) -> Result<(f64, Option<f64>), PlanError> {
+    let noise = noise_of(c);
+    if !noise.0.is_finite() || noise.0 <= 0.0 {
+        return Err(PlanError::Diagnosis(
+            "the campaign's force noise could not be estimated (flat recordings?)".into(),
+        ));
+    }
+    Ok(noise)
+}
+
+/// What the stages of a plan share: the campaign and its target, the options, the clock of the
+/// steps, what the reader must know.
+struct Planning<'a> {
+    c: &'a Campaign,
+    space: &'a Space,
+    opts: &'a PlanOptions,
+    say: &'a (dyn Fn(&str) + Sync),
+    target: Target<'a>,
+    work: Steps,
+    warnings: Vec<String>,
+    start: std::time::Instant,
+}
+
+/// The rivals simulated on every candidate recording: per candidate and rival (index
+/// `k * r + j`), the noiseless features and those measured on a noisy recording.
+struct OnCandidates {
+    blanks: Vec<Recording>,
+    per: Vec<(Vec<FeatureSet>, Vec<FeatureSet>)>,
+    r: usize,
+}
+
+impl OnCandidates {
+    /// Rival `j`'s noiseless features on candidate `k`.
+    fn pred0(&self, k: usize, j: usize) -> &Vec<FeatureSet> {
+        &self.per[k * self.r + j].0
+    }
+
+    /// The features measured on candidate `k` recorded from rival `i` with noise.
+    fn meas(&self, k: usize, i: usize) -> &Vec<FeatureSet> {
+        &self.per[k * self.r + i].1
+    }
+
+    /// The screen: each candidate's smallest open-pair distance before any refit (NaN where a
+    /// rival could not be simulated on it).
+    fn screen(&self, cands: &[Candidate], open: &[(usize, usize)]) -> Vec<(Candidate, f64)> {
+        let (r, pred0, meas) = (self.r, |k, j| self.pred0(k, j), |k, i| self.meas(k, i));
+        (0..cands.len())
+            .map(|k| {
+                let ok = (0..r).all(|j| {
+                    pred0(k, j)
+                        .iter()
+                        .any(|f| f.value.iter().any(|v| v.is_finite()))
+                });
+                let s = if !ok {
+                    f64::NAN
+                } else {
+                    open.iter()
+                        .map(|&(a, b)| {
+                            let d = |i: usize, j: usize| {
+                                let (z, _) = criterion::rows_raw(meas(k, i), pred0(k, j));
+                                let n = z.len() as f64;
+                                let ss: f64 = z.iter().map(|v| v * v).sum();
+                                if n > 0.0 {
+                                    0.5 * n * (1.0 + ss / n).ln()
+                                } else {
+                                    0.0
+                                }
+                            };
+                            d(a, b).min(d(b, a))
+                        })
+                        .fold(f64::INFINITY, f64::min)
+                };
+                (cands[k], s)
+            })
+            .collect()
+    }
+}
+
+/// What the choice of recordings weighs: the open pairs, the rows of every (finalist, truth,
+/// rival), the existing recordings and each rival's refit on them alone.
+struct Choice<'a> {
+    open: &'a [(usize, usize)],
+    rows: &'a [Vec<Vec<Rows>>],
+    ex: &'a [Existing<'a>],
+    delta0: &'a [Vec<f64>],
+}
+
+impl Choice<'_> {
+    /// Expected ln odds for every ordered pair once the `chosen` finalists are recorded.
+    // `i` and `j` index the rivals, each finalist's rows and the existing recordings alike.
+    #[allow(clippy::needless_range_loop)]
+    fn outcomes(&self, rivals: &[Rival], chosen: &[usize]) -> Vec<Outcome> {
+        let (r, rows, ex, delta0) = (rivals.len(), self.rows, self.ex, self.delta0);
+        let now = |i: usize, j: usize| rivals[i].ln_odds - rivals[j].ln_odds;
+        let mut outcomes = vec![];
+        for i in 0..r {
+            for j in 0..r {
+                if i == j {
+                    continue;
+                }
+                let planned_rows: Vec<&Rows> = chosen.iter().map(|&y| &rows[y][i][j]).collect();
+                let d = discrimination(&ex[j], &planned_rows, &delta0[j]).nats;
+                outcomes.push(Outcome {
+                    truth: i,
+                    other: j,
+                    now: now(i, j),
+                    expected: now(i, j) + d,
+                    simulated: None,
+                    simulated_stderr: None,
+                    clear: None,
+                });
+            }
+        }
+        outcomes
+    }
+}
+
+impl<'a> Planning<'a> {
+    fn new(
+        c: &'a Campaign,
+        space: &'a Space,
+        opts: &'a PlanOptions,
+        say: &'a (dyn Fn(&str) + Sync),
+    ) -> Self {
+        let recs: Vec<&Recording> = c.recordings.iter().collect();
+        let target = Target::new(recs);
+        let work = Steps::new(&target);
+        Planning {
+            c,
+            space,
+            opts,
+            say,
+            target,
+            work,
+            warnings: vec![],
+            start: std::time::Instant::now(),
+        }
+    }
+
+    /// The rivals: the diagnosis's ([`rivals`]), and those the plan fits itself (second
+    /// effects beside an effect named in part, with [`PlanOptions::second_effects`]; an
+    /// unexplained gap's best three).
+    fn rivals(&mut self, diag: &DiagnosisRecord) -> Result<Vec<Rival>, PlanError> {
+        let p = self;
+        let mut rivals = rivals(diag);
+        let tried_second = !diag.second.is_empty();
+        let named = rivals.iter().position(|x| x.role == Role::Named);
+        if diag.partial
+            && !tried_second
+            && let Some(i) = named
+        {
+            if p.opts.second_effects {
+                (p.say)(&format!(
+                    "the diagnosis names {} only in part and fitted nothing beside it: fitting second effects",
+                    rivals[i].name
+                ));
+                let extra = second::rivals(
+                    &p.target,
+                    &rivals[i],
+                    &EffectKind::candidates(),
+                    second::Keep::SECOND,
+                    p.say,
+                );
+                p.warnings.push(format!(
+                    "the diagnosis named {} only in part and tried no second effect; the plan fitted \
+                     each candidate beside it (in-sample) and kept {}: {}",
+                    rivals[i].name,
+                    extra.len(),
+                    kept_names(&extra, "none lowered its gap enough")
+                ));
+                rivals.extend(extra);
+                rivals.truncate(MAX_RIVALS);
+            } else {
+                p.warnings.push(format!(
+                    "the diagnosis named {} only in part and tried no second effect beside it: the \
+                     plan tells apart only the rivals the diagnosis fitted and cannot aim at a second \
+                     effect (--second-effects fits each candidate beside it first, minutes more; \
+                     docs/planning.md says what that found on the bench)",
+                    rivals[i].name
+                ));
+            }
+        }
+        // An unexplained gap's best three candidates, where the diagnosis's screens left fewer
+        // fitted: the plan fits the candidates itself (hypotheses to tell apart, not verdicts).
+        let fitted = rivals.len() - 1;
+        // (Recordings drawn at random need no rivals: the baseline costs no fit.)
+        if diag.verdict == Verdict::Unexplained && fitted < 3 && !p.opts.random {
+            (p.say)(&format!(
+                "the diagnosis fitted {fitted} candidate{} of the unexplained gap: the best of the others for the best three",
+                if fitted == 1 { "" } else { "s" }
+            ));
+            let have: Vec<EffectKind> = rivals.iter().flat_map(|x| x.effects.clone()).collect();
+            let keep = second::Keep {
+                min_gain: crate::diagnosis::evidence::UNCHANGED,
+                most: 3 - fitted,
+            };
+            // The diagnosis's own screens where it recorded them, else screened here.
+            let (extra, how) = match second::from_screens(
+                &p.target,
+                &rivals[0],
+                &diag.ranking,
+                &have,
+                keep,
+                p.say,
+            ) {
+                Some(x) => (
+                    x,
+                    "took the others from the diagnosis's screens, refitted on every recording",
+                ),
+                None => (
+                    second::rivals(
+                        &p.target,
+                        &rivals[0],
+                        &EffectKind::candidates()
+                            .into_iter()
+                            .filter(|k| !have.contains(k))
+                            .collect::<Vec<_>>(),
+                        keep,
+                        p.say,
+                    ),
+                    "screened each other candidate beside the base model itself",
+                ),
+            };
+            p.warnings.push(format!(
+                "on this unexplained gap {fitted} of the diagnosis's candidates passed its screen; the \
+                 plan {how} (in-sample), keeping those that lower the base model's gap by {:.0} % \
+                 (at most {}): {}",
+                100.0 * keep.min_gain,
+                keep.most,
+                kept_names(&extra, "none did")
+            ));
+            rivals.extend(extra);
+        }
+        if rivals.len() < 2 && !p.opts.random {
+            return Err(PlanError::Nothing(format!(
+                "the diagnosis ({}) leaves no candidate standing beside the base model, so there \
+                 is nothing to tell apart; its detection limits say what the campaign could not \
+                 have seen (`limits` in diagnosis.json)",
+                diag.verdict.name()
+            )));
+        }
+        p.work.end("rivals", &p.target, 0);
+        (p.say)(&format!(
+            "{} rivals: {}",
+            rivals.len(),
+            rivals
+                .iter()
+                .map(|x| x.name.as_str())
+                .collect::<Vec<_>>()
+                .join(", ")
+        ));
+        Ok(rivals)
+    }
+
+    /// Each rival linearised on the campaign's recordings.
+    fn linearise(&mut self, rivals: &[Rival]) -> Result<Vec<Linearised>, PlanError> {
+        (self.say)("linearising each rival on the campaign's recordings");
+        let lins: Vec<Linearised> = rivals
+            .iter()
+            .map(|x| linearise(&self.target, &x.model, &x.effects))
+            .collect();
+        for (x, l) in rivals.iter().zip(&lins) {
+            if l.z.is_empty() {
+                return Err(PlanError::Diagnosis(format!(
+                    "rival {} cannot be simulated on every recording of the campaign",
+                    x.name
+                )));
+            }
+        }
+        self.work.end("linearisation", &self.target, 0);
+        Ok(lins)
+    }
+
+    /// Every rival simulated on every candidate recording.
+    fn simulate_candidates(
+        &mut self,
+        lins: &[Linearised],
+        cands: &[Candidate],
+        noise: (f64, Option<f64>),
+    ) -> OnCandidates {
+        let (opts, space, r) = (self.opts, self.space, lins.len());
+        let has_x = noise.1.is_some();
+        let blanks: Vec<Recording> = cands
+            .iter()
+            .enumerate()
+            .map(|(k, x)| blank(&format!("candidate{k}"), x, space.rate, has_x))
+            .collect();
+        (self.say)(&format!(
+            "simulating {} rivals on {} candidate recordings",
+            r,
+            cands.len()
+        ));
+        let tol = crate::campaign::FIT_TOLERANCE;
+        let asks: Vec<(Model, &Recording)> = blanks
+            .iter()
+            .flat_map(|b| lins.iter().map(move |l| (l.at(&l.theta), b)))
+            .collect();
+        let traces = simulate_on(&asks, tol);
+        // Per candidate and rival: noiseless features, and the measured ones of a noisy recording.
+        let per: Vec<(Vec<FeatureSet>, Vec<FeatureSet>)> = (0..asks.len())
+            .into_par_iter()
+            .map(|q| {
+                let rec = asks[q].1;
+                let clean = features_of(rec, traces[q].as_ref());
+                let meas = match &traces[q] {
+                    Some(tr) => {
+                        let nz = noisy(
+                            tr,
+                            noise,
+                            opts.seed.wrapping_mul(7919).wrapping_add(q as u64),
+                        );
+                        let mut m = features_of(rec, Some(&nz));
+                        for (mm, cl) in m.iter_mut().zip(&clean) {
+                            mm.value = cl.value;
+                            mm.cycles = cl.cycles;
+                        }
+                        criterion::without_r(m)
+                    }
+                    None => clean.clone(),
+                };
+                (clean, meas)
+            })
+            .collect();
+        drop(traces);
+        OnCandidates { blanks, per, r }
+    }
+
+    /// The finalists: the best by the screen, and the best of each frequency and rest so that
+    /// a recording the refit favours is not lost to one the screen favours.
+    fn finalists(
+        &mut self,
+        cands: &[Candidate],
+        screened: &[(Candidate, f64)],
+        rivals: usize,
+    ) -> Result<Vec<usize>, PlanError> {
+        let opts = self.opts;
+        let mut order: Vec<usize> = (0..cands.len())
+            .filter(|&k| screened[k].1.is_finite())
+            .collect();
+        let failed = cands.len() - order.len();
+        if failed > 0 {
+            self.warnings.push(format!(
+                "{failed} candidate recordings could not be simulated under every rival and were left out"
+            ));
+        }
+        order.sort_by(|&a, &b| screened[b].1.total_cmp(&screened[a].1));
+        self.work
+            .end("candidates", &self.target, cands.len() * rivals);
+        let mut fin: Vec<usize> = vec![];
+        let mut kinds: Vec<(u64, u64)> = vec![];
+        for &k in &order {
+            let kind = (cands[k].params.f.to_bits(), cands[k].params.k_d.to_bits());
+            if !kinds.contains(&kind) {
+                kinds.push(kind);
+                fin.push(k);
+            }
+        }
+        for &k in &order {
+            if fin.len() >= opts.finalists {
+                break;
+            }
+            if !fin.contains(&k) {
+                fin.push(k);
+            }
+        }
+        fin.truncate(opts.finalists.max(opts.recordings));
+        if fin.len() < opts.recordings {
+            return Err(PlanError::Nothing(format!(
+                "only {} candidate recordings could be simulated under every rival, fewer than the {} asked",
+                fin.len(),
+                opts.recordings
+            )));
+        }
+        Ok(fin)
+    }
+
+    /// The rows of every (finalist, truth, rival): each rival's predictions on each finalist
+    /// differenced in its parameters.
+    fn differenced(
+        &mut self,
+        lins: &[Linearised],
+        cands: &[Candidate],
+        fin: &[usize],
+        on: &OnCandidates,
+    ) -> Vec<Vec<Vec<Rows>>> {
+        (self.say)(&format!(
+            "differencing the rivals' predictions on {} finalists",
+            fin.len()
+        ));
+        let (r, blanks, tol) = (on.r, &on.blanks, crate::campaign::FIT_TOLERANCE);
+        let (pred0, meas) = (|k, j| on.pred0(k, j), |k, i| on.meas(k, i));
+        let covs: Vec<Option<faer::Mat<f64>>> = lins.iter().map(covariance).collect();
+        let mut fd_asks: Vec<(Model, &Recording)> = vec![];
+        let mut fd_index: Vec<(usize, usize, usize)> = vec![];
+        let mut steps: Vec<Vec<f64>> = vec![];
+        for l in lins {
+            steps.push((0..l.theta.len()).map(|k| l.step_at(k, &l.theta)).collect());
+        }
+        for (fi, &k) in fin.iter().enumerate() {
+            for (j, l) in lins.iter().enumerate() {
+                for c_ in 0..l.theta.len() {
+                    let mut th = l.theta.clone();
+                    th[c_] += steps[j][c_];
+                    fd_asks.push((l.at(&th), &blanks[k]));
+                    fd_index.push((fi, j, c_));
+                }
+            }
+        }
+        let fd_traces = simulate_on(&fd_asks, tol);
+        let fd_feats: Vec<Vec<FeatureSet>> = fd_asks
+            .par_iter()
+            .zip(&fd_traces)
+            .map(|((_, rec), tr)| features_of(rec, tr.as_ref()))
+            .collect();
+        drop(fd_traces);
+        let mut predicted: Vec<Predicted> = fin
+            .iter()
+            .map(|&k| Predicted {
+                candidate: cands[k],
+                pred: (0..r).map(|j| vec![pred0(k, j).clone()]).collect(),
+                steps: steps.clone(),
+                meas: (0..r).map(|i| meas(k, i).clone()).collect(),
+            })
+            .collect();
+        for (q, &(fi, j, _)) in fd_index.iter().enumerate() {
+            predicted[fi].pred[j].push(fd_feats[q].clone());
+        }
+        // Rows of every (finalist, truth, rival).
+        let rows: Vec<Vec<Vec<Rows>>> = predicted
+            .par_iter()
+            .map(|pr| {
+                (0..r)
+                    .map(|i| (0..r).map(|j| pr.rows(i, j, covs[i].as_ref())).collect())
+                    .collect()
+            })
+            .collect();
+        self.work.end("finalists", &self.target, fd_asks.len());
+        rows
+    }
+
+    /// The recordings chosen one after another by the maximin ([`criterion`]), each with the
+    /// finalist it is (an index into `fin`).
+    fn choose(
+        &mut self,
+        ch: &Choice<'_>,
+        rivals: &[Rival],
+        cands: &[Candidate],
+        fin: &[usize],
+    ) -> (Vec<usize>, Vec<Planned>) {
+        let (c, opts) = (self.c, self.opts);
+        let (open, rows, ex, delta0) = (ch.open, ch.rows, ch.ex, ch.delta0);
+        (self.say)(&format!("choosing {} recordings", opts.recordings));
+        let mut chosen: Vec<usize> = vec![];
+        let mut before = pair_scores(open, rows, ex, delta0, &chosen);
+        let mut planned = vec![];
+        for step in 0..opts.recordings {
+            let best = (0..fin.len())
+                .into_par_iter()
+                .filter(|x| !chosen.contains(x))
+                .map(|x| {
+                    let mut with = chosen.clone();
+                    with.push(x);
+                    let s = pair_scores(open, rows, ex, delta0, &with);
+                    let worst = s.iter().map(|p| p.0.min(p.1)).fold(f64::INFINITY, f64::min);
+                    let sum: f64 = s.iter().map(|p| p.0.min(p.1)).sum();
+                    (x, worst, sum, s)
+                })
+                .reduce_with(|a, b| {
+                    // Larger worst pair, then larger sum, then the lower index: deterministic.
+                    let ka = (a.1, a.2);
+                    let kb = (b.1, b.2);
+                    match kb.0.total_cmp(&ka.0).then(kb.1.total_cmp(&ka.1)) {
+                        std::cmp::Ordering::Greater => b,
+                        std::cmp::Ordering::Less => a,
+                        std::cmp::Ordering::Equal => {
+                            if a.0 < b.0 {
+                                a
+                            } else {
+                                b
+                            }
+                        }
+                    }
+                })
+                .expect("finalists outnumber the recordings planned");
+            let (x, _, _, after) = best;
+            // The pair worst told apart before it.
+            let wp = (0..open.len())
+                .min_by(|&p, &q| {
+                    before[p]
+                        .0
+                        .min(before[p].1)
+                        .total_cmp(&before[q].0.min(before[q].1))
+                })
+                .expect("at least one open pair");
+            let (a, b) = open[wp];
+            // Its weaker direction, and the features carrying this recording's share of it.
+            let (ti, tj) = if after[wp].0 <= after[wp].1 {
+                (a, b)
+            } else {
+                (b, a)
+            };
+            let mut with = chosen.clone();
+            with.push(x);
+            let planned_rows: Vec<&Rows> = with.iter().map(|&y| &rows[y][ti][tj]).collect();
+            let d = discrimination(&ex[tj], &planned_rows, &delta0[tj]);
+            let (_, by) = d.per_planned.last().expect("the new recording").clone();
+            let carry = carriers(&by, 3);
+            let gains: Vec<PairGain> = open
+                .iter()
+                .enumerate()
+                .map(|(p, &pair)| PairGain {
+                    pair,
+                    nats: after[p].0.min(after[p].1) - before[p].0.min(before[p].1),
+                })
+                .collect();
+            let cand = cands[fin[x]];
+            let name = unique_name(
+                c,
+                &planned,
+                &format!("plan{:02}_{}", step + 1, cand.label()),
+            );
+            let why = sentence(
+                &cand,
+                &rivals[tj].name,
+                &rivals[ti].name,
+                &carry,
+                gains[wp].nats,
+            );
+            planned.push(Planned {
+                name,
+                candidate: cand,
+                gains,
+                chosen_for: (a, b),
+                carriers: carry,
+                why,
+            });
+            chosen.push(x);
+            before = after;
+        }
+        (chosen, planned)
+    }
+
+    /// [`PlanOptions::random`]: `opts.recordings` distinct candidates drawn uniformly (a
+    /// seeded shuffle), nothing simulated.
+    fn random(
+        self,
+        rivals: Vec<Rival>,
+        open: Vec<(usize, usize)>,
+        cands: Vec<Candidate>,
+        noise: (f64, Option<f64>),
+    ) -> Plan {
+        let Planning {
+            c,
+            space,
+            opts,
+            start,
+            mut warnings,
+            work,
+            ..
+        } = self;
+        use rand::seq::SliceRandom;
+        let mut idx: Vec<usize> = (0..cands.len()).collect();
+        idx.shuffle(&mut StdRng::seed_from_u64(opts.seed));
+        let mut recordings: Vec<Planned> = vec![];
+        for (step, &k) in idx.iter().take(opts.recordings).enumerate() {
+            let x = cands[k];
+            let name = unique_name(
+                c,
+                &recordings,
+                &format!("rand{:02}_{}", step + 1, x.label()),
+            );
+            recordings.push(Planned {
+                name,
+                candidate: x,
+                gains: vec![],
+                chosen_for: open.first().copied().unwrap_or((0, 0)),
+                carriers: vec![],
+                why: "drawn at random from the design space (the baseline a plan must beat)".into(),
+            });
+        }
+        warnings.push("recordings drawn at random: no discrimination computed".into());
+        Plan {
+            rivals,
+            open,
+            recordings,
+            outcomes: vec![],
+            space: space.clone(),
+            candidates: cands.len(),
+            finalists: 0,
+            screened: cands.iter().map(|x| (*x, f64::NAN)).collect(),
+            noise,
+            simulations: 0,
+            wall_time: start.elapsed().as_secs_f64(),
+            steps: work.list,
+            warnings,
+            random: true,
+        }
+    }
 }
 
 fn unique_name(c: &Campaign, planned: &[Planned], want: &str) -> String {
@@ -1168,90 +1383,36 @@ fn sentence(
     )
 }
 
-/// [`PlanOptions::random`]: `opts.recordings` distinct candidates drawn uniformly (a seeded
-/// shuffle), nothing simulated.
-#[allow(clippy::too_many_arguments)]
-fn random_plan(
-    c: &Campaign,
-    rivals: Vec<Rival>,
-    open: Vec<(usize, usize)>,
-    cands: Vec<Candidate>,
-    space: &Space,
-    opts: &PlanOptions,
-    noise: (f64, Option<f64>),
-    start: std::time::Instant,
-    mut warnings: Vec<String>,
-) -> Plan {
-    use rand::seq::SliceRandom;
-    let mut idx: Vec<usize> = (0..cands.len()).collect();
-    idx.shuffle(&mut StdRng::seed_from_u64(opts.seed));
-    let mut recordings: Vec<Planned> = vec![];
-    for (step, &k) in idx.iter().take(opts.recordings).enumerate() {
-        let x = cands[k];
-        let name = unique_name(
-            c,
-            &recordings,
-            &format!("rand{:02}_{}", step + 1, x.label()),
-        );
-        recordings.push(Planned {
-            name,
-            candidate: x,
-            gains: vec![],
-            chosen_for: open.first().copied().unwrap_or((0, 0)),
-            carriers: vec![],
-            why: "drawn at random from the design space (the baseline a plan must beat)".into(),
-        });
-    }
-    warnings.push("recordings drawn at random: no discrimination computed".into());
-    Plan {
-        rivals,
-        open,
-        recordings,
-        outcomes: vec![],
-        space: space.clone(),
-        candidates: cands.len(),
-        finalists: 0,
-        screened: cands.iter().map(|x| (*x, f64::NAN)).collect(),
-        noise,
-        simulations: 0,
-        wall_time: start.elapsed().as_secs_f64(),
-        steps: vec![],
-        warnings,
-        random: true,
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    /// A diagnosis JSON: the base calibration and ranking entries `(name, fitted effects, ln
+    /// A diagnosis: the base calibration and ranking entries `(name, fitted effects, ln
     /// odds)`, each over the same three recordings.
     fn diagnosis(
-        verdict: &str,
+        verdict: Verdict,
         named: &[&str],
         entries: &[(&str, &[&str], f64)],
-    ) -> serde_json::Value {
+    ) -> DiagnosisRecord {
+        let kind = |f: &str| EffectKind::from_name(f).unwrap();
         let base = Model::default();
-        let ranking: Vec<serde_json::Value> = entries
+        let mut d = DiagnosisRecord::for_test(
+            verdict,
+            named.iter().map(|n| kind(n)).collect(),
+            base.clone(),
+        );
+        d.ranking = entries
             .iter()
             .map(|(name, fitted, ln_odds)| {
                 let mut m = base.clone();
                 for f in *fitted {
-                    m.effects.enable(EffectKind::from_name(f).unwrap());
+                    m.effects.enable(kind(f));
                 }
-                serde_json::json!({
-                    "name": name, "effect": name, "model": m.to_json(),
-                    "fitted_effects": fitted, "params": {},
-                    "per_recording": [1.0, 1.0, 1.0], "per_recording_n": [10, 10, 10],
-                    "evidence": {"ln_odds": ln_odds, "clear": false},
-                })
+                let fitted = fitted.iter().map(|f| kind(f)).collect();
+                CandidateRecord::for_test(kind(name), name, m, fitted, *ln_odds).ranked(None)
             })
             .collect();
-        serde_json::json!({
-            "verdict": verdict, "effects": named, "tie": [],
-            "calibration": {"model": base.to_json()}, "ranking": ranking, "second": [],
-        })
+        d
     }
 
     /// A second effect whose screen fell short beside the named one reports the named model
@@ -1259,26 +1420,25 @@ mod tests {
     #[test]
     fn a_second_effect_without_its_effect_is_not_a_rival() {
         let mut d = diagnosis(
-            "effect",
+            Verdict::Effect,
             &["actuator_response"],
             &[("actuator_response", &["actuator_response"], 40.0)],
         );
         let second = |fitted: &[&str]| {
             let mut m = Model::default();
+            let mut effects = vec![];
             for f in fitted {
-                m.effects.enable(EffectKind::from_name(f).unwrap());
+                let k = EffectKind::from_name(f).unwrap();
+                m.effects.enable(k);
+                effects.push(k);
             }
-            serde_json::json!({
-                "name": "presliding", "effect": "presliding", "model": m.to_json(),
-                "fitted_effects": fitted, "per_recording": [1.0, 1.0, 1.0],
-                "per_recording_n": [10, 10, 10], "evidence": {"ln_odds": 2.0, "clear": false},
-            })
+            CandidateRecord::for_test(EffectKind::Presliding, "presliding", m, effects, 2.0)
         };
-        d["second"] = serde_json::json!([second(&["actuator_response"])]);
-        let names: Vec<String> = rivals(&d).unwrap().into_iter().map(|r| r.name).collect();
+        d.second = vec![second(&["actuator_response"])];
+        let names: Vec<String> = rivals(&d).into_iter().map(|r| r.name).collect();
         assert_eq!(names, ["base", "actuator_response"]);
-        d["second"] = serde_json::json!([second(&["actuator_response", "presliding"])]);
-        let names: Vec<String> = rivals(&d).unwrap().into_iter().map(|r| r.name).collect();
+        d.second = vec![second(&["actuator_response", "presliding"])];
+        let names: Vec<String> = rivals(&d).into_iter().map(|r| r.name).collect();
         // Best supported first: the pair's evidence adds the named effect's.
         assert_eq!(
             names,
@@ -1291,23 +1451,23 @@ mod tests {
     #[test]
     fn a_fit_without_its_effect_is_not_a_rival() {
         let d = diagnosis(
-            "unexplained",
+            Verdict::Unexplained,
             &[],
             &[("aging", &[], -1.7), ("viscous", &["viscous"], 3.0)],
         );
-        let names: Vec<String> = rivals(&d).unwrap().into_iter().map(|r| r.name).collect();
+        let names: Vec<String> = rivals(&d).into_iter().map(|r| r.name).collect();
         assert_eq!(names, ["base", "viscous"]);
         // None fitted: the base model alone (the plan then fits the best three itself).
         let d = diagnosis(
-            "unexplained",
+            Verdict::Unexplained,
             &[],
             &[("aging", &[], -1.7), ("viscous", &[], -1.7)],
         );
-        assert_eq!(rivals(&d).unwrap().len(), 1);
+        assert_eq!(rivals(&d).len(), 1);
         // Four fitted, their evidence against each other clear: the best three of the ranking
         // (the leader among them), the fourth left out.
         let mut d = diagnosis(
-            "unexplained",
+            Verdict::Unexplained,
             &[],
             &[
                 ("viscous", &["viscous"], 3.0),
@@ -1316,10 +1476,10 @@ mod tests {
                 ("drive_ripple", &["drive_ripple"], 0.5),
             ],
         );
-        for (k, e) in d["ranking"].as_array_mut().unwrap().iter_mut().enumerate() {
-            e["per_recording"] = serde_json::json!(vec![1.0 + k as f64; 3]);
+        for (k, e) in d.ranking.iter_mut().enumerate() {
+            e.candidate.per_recording = vec![1.0 + k as f64; 3];
         }
-        let names: Vec<String> = rivals(&d).unwrap().into_iter().map(|r| r.name).collect();
+        let names: Vec<String> = rivals(&d).into_iter().map(|r| r.name).collect();
         assert_eq!(names, ["base", "viscous", "aging", "presliding"]);
     }
 
@@ -1327,7 +1487,7 @@ mod tests {
     fn rival(name: &str, effects: &[EffectKind], clear: bool) -> Rival {
         Rival {
             name: name.into(),
-            role: String::new(),
+            role: Role::Base,
             model: Model::default(),
             effects: effects.to_vec(),
             ln_odds: 0.0,

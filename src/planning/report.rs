@@ -74,7 +74,7 @@ pub fn json(c: &Campaign, plan: &Plan, plan_name: &str) -> serde_json::Value {
         "random": plan.random,
         "criterion": "greedy maximin of the smallest pairwise discrimination min(D_ij, D_ji) over the open pairs; D_ij: expected log-likelihood ratio for rival i against rival j refitted (linearised) to the existing and planned recordings, as the diagnosis's evidence counts it",
         "rivals": plan.rivals.iter().map(|r| json!({
-            "name": r.name, "role": r.role, "ln_odds_vs_base": num(r.ln_odds),
+            "name": r.name, "role": r.role.describe(), "ln_odds_vs_base": num(r.ln_odds),
             "clear_vs_base": r.clear, "model": r.model.to_json(),
             "fitted_effects": r.effects.iter().map(|k| k.name()).collect::<Vec<_>>(),
         })).collect::<Vec<_>>(),
@@ -146,7 +146,9 @@ pub fn summary(plan: &Plan) -> String {
     for r in &plan.rivals {
         s += &format!(
             "  rival {:<32} {:<40} ln odds vs base {:>8.1}\n",
-            r.name, r.role, r.ln_odds
+            r.name,
+            r.role.describe(),
+            r.ln_odds
         );
     }
     s += "Recordings, in the order chosen:\n";

@@ -12,9 +12,10 @@
 //! not run twice), else screened beside the base model the same way; kept where they lower its
 //! gap by [`crate::diagnosis::evidence::UNCHANGED`] at least.
 
-use super::{Rival, per_recording};
+use super::{Rival, Role, per_recording};
 use crate::diagnosis::evidence::evidence;
 use crate::diagnosis::fit::{self, FitOptions, FitResult, Target, gap};
+use crate::diagnosis::record::{RankedRecord, Screen};
 use crate::diagnosis::scan;
 use crate::model::EffectKind;
 
@@ -148,13 +149,10 @@ fn fitted(
             format!("{}+{}", named.name, name)
         },
         role: if beside_base {
-            "one of the best three of an unexplained gap, fitted by the plan (in-sample \
-                     evidence: the diagnosis's screen fell short)"
+            Role::BestThreeFittedByPlan
         } else {
-            "a second effect beside the named one, fitted by the plan (in-sample \
-                     evidence: the diagnosis tried none)"
-        }
-        .into(),
+            Role::SecondFittedByPlan
+        },
         model: fr.model,
         effects,
         ln_odds: named.ln_odds + ev.ln_odds,
@@ -162,8 +160,8 @@ fn fitted(
     }
 }
 
-/// An unexplained gap's best candidates as its diagnosis screened them (`screen` of each
-/// ranking entry of `diag`: the lowest gap its screen reached, the base model's gap on the
+/// An unexplained gap's best candidates as its diagnosis screened them (the `screen` of each
+/// entry of its `ranking`: the lowest gap its screen reached, the base model's gap on the
 /// screen's recordings, and the model there), instead of screening every candidate again:
 /// those not in `have` whose screen lowered the base model's gap by `keep.min_gain`, the
 /// lowest share of it first and one form per effect kind, at most `keep.most`, each fitted on
@@ -172,12 +170,12 @@ fn fitted(
 pub fn from_screens(
     target: &Target,
     base: &Rival,
-    diag: &serde_json::Value,
+    ranking: &[RankedRecord],
     have: &[EffectKind],
     keep: Keep,
     say: &(dyn Fn(&str) + Sync),
 ) -> Option<Vec<Rival>> {
-    let best = screen_choices(diag, have, keep, say)?;
+    let best = screen_choices(ranking, have, keep, say)?;
     let z = target.residuals(&target.predict(&base.model));
     if z.is_empty() {
         return Some(vec![]);
@@ -198,33 +196,26 @@ pub fn from_screens(
 /// name and the screened model.
 type Choice = (f64, EffectKind, String, crate::diagnosis::fit::Model);
 
-/// The choice of [`from_screens`] before any fit: the ranking entries of `diag` with a
-/// `screen`, the rule applied, the lowest share first. `None` where none has a screen.
+/// The choice of [`from_screens`] before any fit: the entries of `ranking` with a `screen`,
+/// the rule applied, the lowest share first. `None` where none has a screen.
 fn screen_choices(
-    diag: &serde_json::Value,
+    ranking: &[RankedRecord],
     have: &[EffectKind],
     keep: Keep,
     say: &(dyn Fn(&str) + Sync),
 ) -> Option<Vec<Choice>> {
-    let ranking = diag["ranking"].as_array()?;
-    let screened: Vec<&serde_json::Value> =
-        ranking.iter().filter(|e| e["screen"].is_object()).collect();
+    let screened: Vec<(&RankedRecord, &Screen)> = ranking
+        .iter()
+        .filter_map(|e| e.screen.as_ref().map(|s| (e, s)))
+        .collect();
     if screened.is_empty() {
         return None;
     }
     let mut best: Vec<Choice> = vec![];
-    for e in screened {
-        let (Some(k), Some(g), Some(g0)) = (
-            e["effect"].as_str().and_then(EffectKind::from_name),
-            e["screen"]["gap"].as_f64(),
-            e["screen"]["extended_gap"].as_f64(),
-        ) else {
-            continue;
-        };
-        let Ok(model) = crate::diagnosis::fit::Model::from_json(&e["screen"]["model"]) else {
-            continue;
-        };
-        let name = e["name"].as_str().unwrap_or(k.name()).to_string();
+    for (e, screen) in screened {
+        let (k, g, g0) = (e.candidate.effect, screen.gap, screen.extended_gap);
+        let model = screen.model.clone();
+        let name = e.candidate.name.clone();
         let share = g / g0;
         say(&format!(
             "  {name}: its screen in the diagnosis reached {g:.2} against the base model's {g0:.2} (to keep: at most {:.2})",
@@ -247,21 +238,25 @@ fn screen_choices(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::diagnosis::record::CandidateRecord;
 
     /// A ranking entry of `name` (effect `k`) whose screen reached `gap` against `extended`.
-    fn entry(k: EffectKind, name: &str, gap: f64, extended: f64) -> serde_json::Value {
+    fn entry(k: EffectKind, name: &str, gap: f64, extended: f64) -> RankedRecord {
         let mut m = crate::diagnosis::fit::Model::default();
         m.effects.enable(k);
-        serde_json::json!({
-            "effect": k.name(), "name": name, "fitted_effects": [],
-            "screen": {"gap": gap, "extended_gap": extended, "model": m.to_json()},
-        })
+        let base = crate::diagnosis::fit::Model::default();
+        let screen = Screen {
+            gap,
+            extended_gap: extended,
+            model: m,
+        };
+        CandidateRecord::for_test(k, name, base, vec![], 0.0).ranked(Some(screen))
     }
 
     #[test]
     fn an_unexplained_gaps_best_are_its_screens_lowest_one_form_each() {
         use EffectKind::*;
-        let diag = serde_json::json!({"ranking": [
+        let diag = [
             entry(SensorDynamics, "sensor_dynamics", 1.46, 1.51),
             entry(SensorDynamics, "sensor_dynamics[order4]", 1.39, 1.51),
             // 1 % below the base model's gap: short of the 2 % asked.
@@ -270,7 +265,7 @@ mod tests {
             entry(Aging, "aging", 1.40, 1.51),
             // Worse than the base model.
             entry(FrictionalLag, "frictional_lag", 2.7, 1.51),
-        ]});
+        ];
         let quiet = |_: &str| {};
         let names = |have: &[EffectKind], most: usize| -> Vec<String> {
             let keep = Keep {
@@ -292,7 +287,14 @@ mod tests {
         // A kind a rival already holds is not taken again.
         assert_eq!(names(&[SensorDynamics], 2), ["aging", "viscous"]);
         // A diagnosis without screens recorded: the plan screens the candidates itself.
-        let old = serde_json::json!({"ranking": [{"effect": "viscous", "name": "viscous"}]});
+        let old = [CandidateRecord::for_test(
+            Viscous,
+            "viscous",
+            crate::diagnosis::fit::Model::default(),
+            vec![],
+            0.0,
+        )
+        .ranked(None)];
         let keep = Keep {
             min_gain: 0.02,
             most: 3,
