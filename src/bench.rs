@@ -221,11 +221,19 @@ fn tight(method: Method, tol: f64) -> RunOptions {
     }
 }
 
+/// What a benchmark measured: its cases, each case's reference, and a row per setting and
+/// tolerance.
+pub struct BenchRun {
+    /// The cases run.
+    pub cases: Vec<BenchCase>,
+    /// Each case's reference, in the order of `cases`.
+    pub references: Vec<Reference>,
+    /// One row per case, setting and tolerance.
+    pub rows: Vec<BenchRow>,
+}
+
 /// Runs the benchmark; `progress` is called with a line per finished point.
-pub fn run(
-    o: &BenchOptions,
-    mut progress: impl FnMut(&str),
-) -> Result<(Vec<BenchCase>, Vec<Reference>, Vec<BenchRow>), sim::SimError> {
+pub fn run(o: &BenchOptions, mut progress: impl FnMut(&str)) -> Result<BenchRun, sim::SimError> {
     let all = cases();
     let chosen: Vec<BenchCase> = all
         .into_iter()
@@ -336,7 +344,11 @@ pub fn run(
         }
         refs.push(reference);
     }
-    Ok((chosen, refs, rows))
+    Ok(BenchRun {
+        cases: chosen,
+        references: refs,
+        rows,
+    })
 }
 
 /// Writes the table to HDF5: one 1-D dataset per column (`case` and `method` as strings).
@@ -499,7 +511,14 @@ impl Figure for WorkPrecision<'_> {
             )
             .map_err(e)?;
         let (left, right) = root.split_horizontally(crate::plot::SIZE.0 / 2);
-        let panels: [(&DrawingArea<DB, Shift>, &str, fn(&BenchRow) -> f64, f64); 2] = [
+        // (area, label, the error read off a row, its target)
+        type Panel<'p, DB> = (
+            &'p DrawingArea<DB, Shift>,
+            &'p str,
+            fn(&BenchRow) -> f64,
+            f64,
+        );
+        let panels: [Panel<'_, DB>; 2] = [
             (&left, "|r - r_ref|", |r| r.err_r, 0.01),
             (&right, "|mean F_d - ref| / ref", |r| r.err_mean, 0.005),
         ];

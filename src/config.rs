@@ -31,6 +31,7 @@ use crate::model::effects::{self, EffectKind, Effects};
 use crate::model::{Params, params};
 use crate::ode::Method;
 use crate::sim::{EarlyStop, RunOptions};
+use std::cmp::Ordering;
 use std::path::{Path, PathBuf};
 
 /// A problem in a configuration file.
@@ -286,7 +287,7 @@ pub fn resolve_amplitude(p: &mut Params, key: &str, x: f64) -> Result<(), String
             "{key} = {x} is not allowed: must be finite and >= 0"
         ));
     }
-    if x > 0.0 && !(p.f > 0.0) {
+    if x > 0.0 && p.f.partial_cmp(&0.0) != Some(Ordering::Greater) {
         return Err(format!(
             "{key} = {x} needs a vibration frequency f > 0 Hz (f = {})",
             p.f

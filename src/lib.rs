@@ -5,14 +5,6 @@
 //! integrators ([`ode`]), measures the stick-slip amplitude, the reduction coefficient `r` and the
 //! mean drive force ([`measures`], [`sim`]).
 #![recursion_limit = "256"]
-// Numerical kernels index several arrays with one loop variable, validation writes `!(x >= a)` so
-// that NaN fails the check, and the integrators' inner routines take their buffers one by one.
-#![allow(
-    clippy::needless_range_loop,
-    clippy::neg_cmp_op_on_partial_ord,
-    clippy::too_many_arguments,
-    clippy::type_complexity
-)]
 pub mod app;
 pub mod averaged;
 pub mod bench;

@@ -17,6 +17,7 @@
 //!   counted drops (with no drop: max and min of the smoothed force).
 
 use serde::{Deserialize, Serialize};
+use std::cmp::Ordering;
 
 /// Hysteresis of the cycle detector as a share of `F_s − F_c` (so 1 % of the nominal
 /// amplitude `2 (F_s − F_c)` without vibration): smaller wiggles do not make a cycle.
@@ -249,7 +250,7 @@ impl Analyzer {
             return None;
         }
         let all = Totals::of(w);
-        if !(all.hi - all.lo < range) || all.n == 0 {
+        if (all.hi - all.lo).partial_cmp(&range) != Some(Ordering::Less) || all.n == 0 {
             return None;
         }
         // The mean force settles like an exponential (the drive spring against the friction
@@ -323,7 +324,10 @@ impl Analyzer {
         // Parts span equal numbers of blocks of equal width.
         let h = w[per].start - w[0].start;
         // Near its sliding level only: there the relaxation is linear, with one time constant.
-        if !((m[5] - m[4]).abs() <= slope * h) {
+        if !matches!(
+            ((m[5] - m[4]).abs()).partial_cmp(&(slope * h)),
+            Some(Ordering::Less | Ordering::Equal)
+        ) {
             return None;
         }
         let s0 = w[0].start;
@@ -331,11 +335,11 @@ impl Analyzer {
         // with c the start of part j + 2; returns A and the change of F over the last part.
         let fit = |j: usize| -> Option<(f64, f64)> {
             let (d1, d2) = (m[j + 1] - m[j], m[j + 2] - m[j + 1]);
-            if !(d1 * d2 > 0.0) {
+            if (d1 * d2).partial_cmp(&0.0) != Some(Ordering::Greater) {
                 return None;
             }
             let q = d2 / d1;
-            if !(q < 0.95) {
+            if q.partial_cmp(&0.95) != Some(Ordering::Less) {
                 return None;
             }
             let tau = -h / q.ln();

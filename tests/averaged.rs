@@ -382,16 +382,20 @@ fn hybrid_windows_reproduce_the_full_model_below_the_resonance() {
     let t_end = end_time(&p, &RunOptions::default()).expect("a time");
     let (_, k) = sampling(&p, 16);
     let env = envelope_for(&p, k, DEFAULT_ENVELOPE);
+    let ode = Options::default();
+    let ho = stickslip::sim::hybrid::HybridOptions {
+        slow_rtol: 1e-7,
+        ode: &ode,
+        samples_per_period: k,
+        envelope: Some(&env),
+        trace: None,
+    };
     let run = stickslip::sim::hybrid::simulate_hybrid(
         &rig,
         &table,
         t_end,
-        1e-7,
-        &Options::default(),
-        k,
-        Some(&env),
+        &ho,
         &mut Solver::new(Method::Auto),
-        None,
     )
     .expect("a hybrid run");
     eprintln!(

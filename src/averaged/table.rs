@@ -4,6 +4,7 @@
 use crate::averaged::orbit::{AveragingError, AveragingOptions, Fast, FastBase, Orbit, Shooter};
 use crate::model::Params;
 use crate::ode::{Method, Options, OutputGrid, Solver, Status};
+use std::cmp::Ordering;
 
 /// `F_eff(V)` tabulated on `0 ≤ V ≤ V_max` (odd in `V`: `F_eff(−V) = −F_eff(V)`), with the orbit
 /// at every node.
@@ -183,7 +184,7 @@ impl Table {
     /// node, which then stands twice); `None` beyond the table or inside a gap.
     fn interval(&self, a: f64) -> Option<usize> {
         let last = *self.at.last()?;
-        if !(a <= last) {
+        if !matches!(a.partial_cmp(&last), Some(Ordering::Less | Ordering::Equal)) {
             return None;
         }
         let k = self.at.partition_point(|&x| x < a).max(1);

@@ -56,9 +56,13 @@ impl std::str::FromStr for Design {
     }
 }
 
+/// Pairs of a design's conditions: `(v_d [m/s], k_d [N/m])` of a drive or `(f \[Hz\],
+/// v_a/v_d)` of a vibration.
+type Pairs = Vec<(f64, f64)>;
+
 impl Design {
     /// `(v_d [m/s], k_d [N/m])` of each drive and `(f \[Hz\], v_a/v_d)` of each vibration.
-    fn grid(self) -> (Vec<(f64, f64)>, Vec<(f64, f64)>) {
+    fn grid(self) -> (Pairs, Pairs) {
         match self {
             Design::Full => (
                 vec![

@@ -8,14 +8,50 @@ use super::decide::{Side, between};
 use super::evidence::*;
 use super::fit::{self, FitOptions, FitResult, Model, Target};
 use super::folds::*;
+use super::forms::Try;
 use super::scan;
 use super::screen::*;
 use super::verdict::*;
 use super::vet::vetted;
 use crate::model::EffectKind;
 use rayon::prelude::*;
+use std::cmp::Ordering;
 
-/// Fits one candidate (or a candidate added to `with`) from the scan of its starts on `from`,
+/// The folds a candidate is cross-validated over: each recording's fold, their number, and
+/// which recordings are checked on held-out data.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Folds<'a> {
+    /// Each recording's fold.
+    pub fold: &'a [usize],
+    /// Number of folds.
+    pub k: usize,
+    /// Whether each recording is checked on held-out data.
+    pub checked: &'a [bool],
+}
+
+/// A round of candidates: what each candidate of one round is screened, fitted, cross-validated
+/// and ranked against.
+#[derive(Clone, Copy)]
+pub(crate) struct Round<'a> {
+    /// Every recording.
+    pub all: &'a Target<'a>,
+    /// The screen of the model the candidates extend.
+    pub screen: &'a Screen<'a>,
+    /// That model's fit on every recording.
+    pub from: &'a FitResult,
+    /// Its cross-validation.
+    pub from_cv: &'a CrossValidated,
+    /// Its effects (empty for the base model).
+    pub with: &'a [EffectKind],
+    /// The held-out gap a candidate's reduction is taken against.
+    pub e0: f64,
+    /// The folds.
+    pub folds: Folds<'a>,
+    /// Fit options.
+    pub opts: FitOptions,
+}
+
+/// Fits one candidate `t` (or a candidate added to `with`) from the scan of its starts on `from`,
 /// cross-validates it and ranks it against the held-out gap `e0`. The screening fit starts
 /// from the scan's parameters of the candidate on `from` as fitted to the screen's recordings
 /// ([`Screen::start`]): from `from` fitted to every recording, the screen's few iterations
@@ -23,23 +59,18 @@ use rayon::prelude::*;
 /// refit of `from` has already found. With `reach` (another form of an effect that is not
 /// the leading one: [`form_reach`]), a screen that passes is fitted further only where its gap
 /// is at most `reach` times the extended model's on the screen's recordings.
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn try_candidate(
-    all: &Target,
-    screen: &Screen,
-    from: &FitResult,
-    from_cv: &CrossValidated,
-    with: &[EffectKind],
-    k: EffectKind,
-    form: f64,
-    warm: Option<&Model>,
-    reach: Option<f64>,
-    e0: f64,
-    fold: &[usize],
-    k_folds: usize,
-    checked: &[bool],
-    opts: FitOptions,
-) -> Ranked {
+pub(crate) fn try_candidate(r: &Round<'_>, t: &Try) -> Ranked {
+    let Round {
+        all,
+        screen,
+        from,
+        from_cv,
+        with,
+        e0,
+        folds,
+        opts,
+    } = *r;
+    let (k, form, warm, reach) = (t.effect, t.form, t.warm.as_ref(), t.reach);
     let clock = std::time::Instant::now();
     let mut start = scan::starts(all, from, k, form);
     // Another form of an effect also starts from the default form's optimum, its form changed:
@@ -157,19 +188,14 @@ pub(crate) fn try_candidate(
         // evaluations are the fit's.
         f.evaluations += checks + s.evaluations + n;
     }
-    if !(f.gap <= (1.0 - UNCHANGED) * from.gap) {
+    if !matches!(
+        f.gap.partial_cmp(&((1.0 - UNCHANGED) * from.gap)),
+        Some(Ordering::Less | Ordering::Equal)
+    ) {
         return as_from();
     }
     let f = fit::with_fresh_jacobian(all, f);
-    let mut r = ranked_fit(
-        all,
-        f,
-        &start[0].model,
-        from_cv,
-        extra,
-        e0,
-        (fold, k_folds, checked),
-    );
+    let mut r = ranked_fit(all, f, &start[0].model, from_cv, extra, e0, folds);
     (r.effect, r.form, r.name) = (k, form, name);
     r.wall_time = clock.elapsed().as_secs_f64();
     r
@@ -186,9 +212,9 @@ fn ranked_fit(
     against: &CrossValidated,
     extra: usize,
     e0: f64,
-    (fold, k_folds, checked): (&[usize], usize, &[bool]),
+    folds: Folds<'_>,
 ) -> Ranked {
-    let cv = cross_validate(all, &f, start, fold, k_folds, checked);
+    let cv = cross_validate(all, &f, start, folds.fold, folds.k, folds.checked);
     let k = *f
         .effects
         .last()
@@ -251,18 +277,21 @@ pub(crate) struct Pair {
 /// pair of weak screens can share out a misfit neither causes, so each must show its own
 /// physics). One extra screen where no pair passes; three fits and their cross-validations where
 /// one does. `None`: no pair to try; `Err`: why the pair tried is not named.
-#[allow(clippy::too_many_arguments)]
 pub(crate) fn try_pair(
-    all: &Target,
-    screen: &Screen,
-    base: &FitResult,
-    base_cv: &CrossValidated,
+    r: &Round<'_>,
     ranking: &[Ranked],
     share: impl Fn(f64) -> f64,
-    cv_args: (&[usize], usize, &[bool]),
-    fo: FitOptions,
     disagreements: &mut Vec<Disagreement>,
 ) -> Option<Result<Pair, String>> {
+    let Round {
+        all,
+        screen,
+        from: base,
+        from_cv: base_cv,
+        folds: cv_args,
+        opts: fo,
+        ..
+    } = *r;
     // Only where nothing was fitted in full: a candidate that passed its screen has had its
     // own chance, and a second effect beside it is forward selection's.
     if ranking.iter().any(|r| r.fit.effects.contains(&r.effect)) {
@@ -326,7 +355,10 @@ pub(crate) fn try_pair(
         b.name,
         pct(gb)
     );
-    if !(joint.gap <= bar) {
+    if !matches!(
+        joint.gap.partial_cmp(&bar),
+        Some(Ordering::Less | Ordering::Equal)
+    ) {
         return Some(Err(format!(
             "{tried} lower the screen's gap by {:.2} %, short of the {:.0} % bar: not fitted further",
             pct(joint.gap),

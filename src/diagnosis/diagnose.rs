@@ -80,6 +80,7 @@
 //! absent names it only as partial, with a warning (`held_out_absent`), and no second effect
 //! is tried beside it. A second effect needs the ringing present where it can test it.
 
+use super::candidate::{Folds, Round};
 use super::candidate::{Pair, try_candidate, try_pair};
 use super::decide::{Side, between};
 pub use super::evidence::GAPPED;
@@ -94,6 +95,7 @@ use super::vet::{held_out_absent, vetted};
 use crate::campaign::{Campaign, CampaignError};
 use crate::model::EffectKind;
 use rayon::prelude::*;
+use std::cmp::Ordering;
 
 pub use super::evidence::*;
 pub use super::folds::{BIAS_T, BIAS_UNITS, BIAS_Z, folds, spearman};
@@ -126,12 +128,20 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
     };
     let base = fit::fit(&all, &Model::default(), &[], fo);
     steps.end("calibration", &all);
+    let folds = Folds {
+        fold: &fold,
+        k: k_folds,
+        checked: &checked,
+    };
     let base_cv = cross_validate(&all, &base, &Model::default(), &fold, k_folds, &checked);
     steps.end("cross-validation", &all);
     let gap_before = base_cv.gap;
     let concentrated = concentrated(&base_cv);
     // The verdict `no_significant_gap` needs no candidate: fit them only on request.
-    let no_gap = !(gap_before >= SIGNIFICANT_GAP) && concentrated.is_none();
+    let no_gap = !matches!(
+        gap_before.partial_cmp(&SIGNIFICANT_GAP),
+        Some(Ordering::Greater | Ordering::Equal)
+    ) && concentrated.is_none();
     let fitted: &[EffectKind] = if no_gap && !opts.rank_always {
         &[]
     } else {
@@ -152,32 +162,19 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
         let Some(screen) = &screen else {
             return vec![];
         };
-        cands
-            .par_iter()
-            .map(|(k, form, warm, reach)| {
-                try_candidate(
-                    &all,
-                    screen,
-                    &base,
-                    &base_cv,
-                    &[],
-                    *k,
-                    *form,
-                    warm.as_ref(),
-                    *reach,
-                    gap_before,
-                    &fold,
-                    k_folds,
-                    &checked,
-                    fo,
-                )
-            })
-            .collect()
+        let r = Round {
+            all: &all,
+            screen,
+            from: &base,
+            from_cv: &base_cv,
+            with: &[],
+            e0: gap_before,
+            folds,
+            opts: fo,
+        };
+        cands.par_iter().map(|t| try_candidate(&r, t)).collect()
     };
-    let defaults: Vec<Try> = fitted
-        .iter()
-        .map(|&k| (k, k.default_form(), None, None))
-        .collect();
+    let defaults: Vec<Try> = fitted.iter().map(|&k| Try::default_form(k)).collect();
     let mut ranking = round(&defaults);
     steps.end("candidates", &all);
     // Best evidence first (ties by the informative score, then the library's order).
@@ -253,17 +250,17 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
     if verdict == Verdict::Unexplained
         && let Some(screen) = &screen
     {
-        match try_pair(
-            &all,
+        let r = Round {
+            all: &all,
             screen,
-            &base,
-            &base_cv,
-            &ranking,
-            share,
-            (&fold, k_folds, &checked),
-            fo,
-            &mut disagreements,
-        ) {
+            from: &base,
+            from_cv: &base_cv,
+            with: &[],
+            e0: gap_before,
+            folds,
+            opts: fo,
+        };
+        match try_pair(&r, &ranking, share, &mut disagreements) {
             None => {}
             Some(Err(why)) => warnings.push(why),
             Some(Ok(p)) => {
@@ -403,33 +400,23 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
         if first_settled && first_cv.gap >= SIGNIFICANT_GAP {
             let second_screen = Screen::of(&all, &first_fit, fo);
             let round = |cands: &[Try]| -> Vec<Ranked> {
-                cands
-                    .par_iter()
-                    .map(|(k, form, warm, reach)| {
-                        try_candidate(
-                            &all,
-                            &second_screen,
-                            &first_fit,
-                            &first_cv,
-                            &[first.effect],
-                            *k,
-                            *form,
-                            warm.as_ref(),
-                            *reach,
-                            first_cv.gap,
-                            &fold,
-                            k_folds,
-                            &checked,
-                            fo,
-                        )
-                    })
-                    .collect()
+                let r = Round {
+                    all: &all,
+                    screen: &second_screen,
+                    from: &first_fit,
+                    from_cv: &first_cv,
+                    with: &[first.effect],
+                    e0: first_cv.gap,
+                    folds,
+                    opts: fo,
+                };
+                cands.par_iter().map(|t| try_candidate(&r, t)).collect()
             };
             let defaults: Vec<Try> = opts
                 .candidates
                 .iter()
                 .filter(|&&k| k != first.effect)
-                .map(|&k| (k, k.default_form(), None, None))
+                .map(|&k| Try::default_form(k))
                 .collect();
             let first_share = |e2: f64| (first_cv.gap - e2) / first_cv.gap;
             second = round(&defaults);
@@ -615,7 +602,10 @@ fn locate(
             for f in FEATURES {
                 if let Some(z) = fit::zscore(m, &pred[u], f) {
                     let zb = &mut z_base[f as usize];
-                    if !(zb.abs() >= z.abs()) {
+                    if !matches!(
+                        zb.abs().partial_cmp(&z.abs()),
+                        Some(Ordering::Greater | Ordering::Equal)
+                    ) {
                         *zb = z;
                     }
                     feat_sum[f as usize] += z * z;

@@ -37,6 +37,7 @@
 //! force) and a floor that stands for what a model cannot be asked to match
 //! ([`Feature::floor`]).
 
+use std::cmp::Ordering;
 /// A feature's identity.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Feature {
@@ -648,7 +649,7 @@ pub fn weigh_quantum(fs: &mut FeatureSet, q: f64) {
     let se = fs.stderr[a];
     let se = if se.is_finite() { se } else { 0.0 };
     fs.stderr[a] = se.hypot(0.5 * q);
-    if !(fs.value[a] > 3.0 * fs.stderr[a]) {
+    if fs.value[a].partial_cmp(&(3.0 * fs.stderr[a])) != Some(Ordering::Greater) {
         fs.value[p] = f64::NAN;
         fs.stderr[p] = f64::NAN;
     }

@@ -54,6 +54,7 @@ use super::fit::Model;
 use super::target::{Fidelity, simulate_many};
 use crate::campaign::Recording;
 use rayon::prelude::*;
+use std::cmp::Ordering;
 
 /// Strength (in standard errors, summed in quadrature over statistics) below which a family
 /// cannot test a candidate.
@@ -69,7 +70,7 @@ pub const MAX_WINDOW: usize = 1024;
 pub const MIN_WINDOW: usize = 32;
 
 /// What a family showed.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Seen {
     /// The data carry the predicted departure.
@@ -289,7 +290,7 @@ fn serial_factor(u: &[f64]) -> f64 {
     }
     let m = u.iter().sum::<f64>() / n as f64;
     let c0: f64 = u.iter().map(|v| (v - m).powi(2)).sum();
-    if !(c0 > 0.0) {
+    if c0.partial_cmp(&0.0) != Some(Ordering::Greater) {
         return 1.0;
     }
     let c1: f64 = u.windows(2).map(|w| (w[0] - m) * (w[1] - m)).sum();
@@ -406,7 +407,7 @@ fn slope(x: &[f64], y: &[f64]) -> Option<(f64, f64)> {
     );
     let sxx: f64 = x.iter().map(|v| (v - mx).powi(2)).sum();
     let sxy: f64 = x.iter().zip(y).map(|(a, b)| (a - mx) * (b - my)).sum();
-    if !(sxx > 1e-12 * n as f64) {
+    if sxx.partial_cmp(&(1e-12 * n as f64)) != Some(Ordering::Greater) {
         return None;
     }
     let b = sxy / sxx;
@@ -456,7 +457,7 @@ fn position(rec: &Recording, stages: &[(usize, super::features::Stage, Vec<Slip>
         // drive velocity (the same for every trace of the recording).
         let t_lo = rec.t[st.lo + (st.hi - st.lo) / 2];
         let travel = rec.t[st.hi - 1] - t_lo;
-        if !(travel > 0.0) {
+        if travel.partial_cmp(&0.0) != Some(Ordering::Greater) {
             continue;
         }
         let d: Vec<f64> = {
@@ -565,7 +566,10 @@ pub(super) fn judge(family: &'static str, what: &'static str, pairs: &[(f64, f64
         share_se: f64::NAN,
         seen: Seen::NotTestable,
     };
-    if !(strength >= MIN_STRENGTH) {
+    if !matches!(
+        strength.partial_cmp(&MIN_STRENGTH),
+        Some(Ordering::Greater | Ordering::Equal)
+    ) {
         return c;
     }
     let beta = pairs.iter().map(|p| p.0 * p.1).sum::<f64>() / spp;

@@ -42,10 +42,31 @@ pub(crate) fn other_forms(ranked: &[Ranked], all: bool) -> Vec<(EffectKind, f64,
         .collect()
 }
 
-/// A candidate to try: the effect, its form's value, a warm start (another form, from the
-/// default form's fit), and the reach asked of its screen (another form of an effect that is
-/// not the leading one: [`form_reach`]).
-pub(crate) type Try = (EffectKind, f64, Option<Model>, Option<f64>);
+/// A candidate to try.
+#[derive(Clone, Debug)]
+pub(crate) struct Try {
+    /// The effect.
+    pub effect: EffectKind,
+    /// Its form's value ([`crate::model::effects::form_param`]).
+    pub form: f64,
+    /// A warm start: another form starts from the default form's fit.
+    pub warm: Option<Model>,
+    /// The reach asked of its screen: another form of an effect that is not the leading one
+    /// ([`form_reach`]); `None`, fitted in full.
+    pub reach: Option<f64>,
+}
+
+impl Try {
+    /// The effect in its default form, from its scan alone, fitted in full.
+    pub(crate) fn default_form(effect: EffectKind) -> Try {
+        Try {
+            effect,
+            form: effect.default_form(),
+            warm: None,
+            reach: None,
+        }
+    }
+}
 
 /// How far above the leading candidate's gap another form of a trailing effect may screen and
 /// still be fitted further: its screen's gap at most `FORM_REACH` times the leader's, both as
@@ -85,7 +106,12 @@ pub(crate) fn form_reach(
             let reach = leader
                 .filter(|l| l.effect != k && !exempt.contains(&k) && from.gap > 0.0)
                 .map(|l| FORM_REACH * l.fit.gap / from.gap);
-            (k, f, warm, reach)
+            Try {
+                effect: k,
+                form: f,
+                warm,
+                reach,
+            }
         })
         .collect()
 }
@@ -183,7 +209,7 @@ mod tests {
         let reach = |ranked: &[Ranked], exempt: &[K]| -> Vec<Option<f64>> {
             form_reach(ranked, &from, exempt, others.clone())
                 .into_iter()
-                .map(|t| t.3)
+                .map(|t| t.reach)
                 .collect()
         };
         let want = Some(FORM_REACH * 1.0 / 4.0);

@@ -85,6 +85,7 @@ use crate::model::effects::form_param;
 use rand::{RngExt, SeedableRng, rngs::StdRng};
 use rand_distr::{Distribution, Normal};
 use rayon::prelude::*;
+use std::cmp::Ordering;
 
 /// The power at which an effect counts as detectable.
 pub const POWER: f64 = 0.95;
@@ -1193,7 +1194,7 @@ fn shared_misfit(feats: &[Feature], freq: &[f64], held: &[f64]) -> Vec<f64> {
             let within: f64 = ix.iter().map(|&i| (held[i] - m).powi(2)).sum();
             (ss + within, dof + ix.len() - 1)
         });
-        if dof < 2 || !(ss > 0.0) {
+        if dof < 2 || ss.partial_cmp(&0.0) != Some(Ordering::Greater) {
             continue;
         }
         let var = ss / dof as f64;
@@ -1280,8 +1281,8 @@ mod tests {
         // Pooled within variance of F_phase_f: its one group, (0.25 + 0.25) / 3.
         let var: f64 = 0.5 / 3.0;
         let want = 2.0 * (1.0 - var / (4.0 * 4.0));
-        for i in 0..4 {
-            assert!((m[i] - want).abs() < 1e-12, "{i}: {} against {want}", m[i]);
+        for (i, mi) in m.iter().enumerate().take(4) {
+            assert!((mi - want).abs() < 1e-12, "{i}: {mi} against {want}");
         }
         assert_eq!(m[4], 0.0, "alone at its frequency");
         // F_amp_f: means 0.1 and -0.1, pooled variance (1.62 + 2.0) / 2 = 1.81: t² < 1.

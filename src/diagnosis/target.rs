@@ -95,9 +95,13 @@ pub struct Target<'a> {
 /// recording, a scan's reference recordings, a model evaluated twice, cost a lookup instead of a
 /// simulation. A hit returns exactly what the simulation would (it is deterministic), so results
 /// do not depend on what the cache holds or on the order threads fill it.
+/// A simulation's key in the cache: the recording, the fidelity and the model's parameters'
+/// bits.
+type SimKey = (usize, Fidelity, Vec<u64>);
+
 #[derive(Default)]
 pub(crate) struct SimCache {
-    map: Mutex<HashMap<(usize, Fidelity, Vec<u64>), Vec<FeatureSet>>>,
+    map: Mutex<HashMap<SimKey, Vec<FeatureSet>>>,
     /// The measured features of each recording ([`measured_features`]), by recording.
     measured: Mutex<HashMap<usize, Vec<FeatureSet>>>,
     /// Simulations run (each a recording under a model: a cache miss), by fidelity (in the
@@ -367,7 +371,7 @@ pub(crate) fn fill_r(fs: &mut [FeatureSet], reference: &[Option<usize>]) {
     for i in 0..fs.len() {
         if let Some(j) = reference[i] {
             let (d, d0) = (fs[i].get(Feature::DF), fs[j].get(Feature::DF));
-            if !(d0 > Feature::DF.floor(d0)) {
+            if d0.partial_cmp(&Feature::DF.floor(d0)) != Some(std::cmp::Ordering::Greater) {
                 continue;
             }
             let (s, s0) = (

@@ -20,6 +20,9 @@
 //!
 //! The vector instruction set is found at run time (`pulp`: AVX2 and FMA where the machine has
 //! them); without one the same generic code runs as scalar loops, with the same results.
+// The kernels below step several arrays of one state (stages, weights, tolerances) with one
+// index, as the method's equations are written.
+#![allow(clippy::needless_range_loop)]
 
 use super::dopri5::{Control, Eval, Judged, Powers, Stages, dense_coefficients, dense_value};
 use super::lanes::{Lanes, Real};
@@ -272,6 +275,9 @@ struct Lane<S, O> {
     inner: Options,
 }
 
+/// A job that ended before its first step, with its report.
+type EndedAtStart<S, O> = Box<(Job<S, O>, RunReport)>;
+
 impl<S: Lanewise, O: Observe> Lane<S, O> {
     /// Starts `job` in lane `i` (its coefficients already packed); `Err` where it ends before
     /// a step.
@@ -279,7 +285,7 @@ impl<S: Lanewise, O: Observe> Lane<S, O> {
         mut job: Job<S, O>,
         b: &mut Batch<W, N>,
         i: usize,
-    ) -> Result<Self, Box<(Job<S, O>, RunReport)>> {
+    ) -> Result<Self, EndedAtStart<S, O>> {
         let mut shared = Shared::sized(N);
         let inner = shared.prepare(&job.sys, &job.opts, job.envelope.as_ref());
         let mut view = LaneView { b, i };

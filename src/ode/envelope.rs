@@ -1,5 +1,8 @@
 //! Bookkeeping of envelope following (see [`Envelope`]): the stroboscopic samples, the slope
 //! and its change, the choice of the jump and the samples synthesised inside a jump.
+// The kernels below step several arrays of one state (stages, weights, tolerances) with one
+// index, as the method's equations are written.
+#![allow(clippy::needless_range_loop)]
 
 use super::options::Envelope;
 

@@ -19,6 +19,9 @@
 //! operation, and with no such set the same code runs as scalar loops, with the same results.
 //! Rust never contracts a multiply and an add into a fused one on its own, so enabling FMA does
 //! not change a result either.
+// The kernels below step several arrays of one state (stages, weights, tolerances) with one
+// index, as the method's equations are written.
+#![allow(clippy::needless_range_loop)]
 
 use std::ops::{Add, Div, Mul, Neg, Sub};
 

@@ -6,6 +6,9 @@
 //! blocked LU with preallocated scratch; at and below it a plain row-major kernel is used, because
 //! for a 3×3 to 8×8 matrix the per-call dispatch of a general library costs more than the O(n³)
 //! arithmetic. Both paths allocate only when the solver is built.
+// The kernels below step several arrays of one state (stages, weights, tolerances) with one
+// index, as the method's equations are written.
+#![allow(clippy::needless_range_loop)]
 
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::lu::partial_pivoting::{factor, solve};

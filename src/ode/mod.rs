@@ -385,6 +385,8 @@ pub(crate) trait Stepper {
 
 /// Chooses an initial step from the first two derivatives (Hairer, Nørsett & Wanner,
 /// *Solving ODEs I*, Sect. II.4, algorithm of the HINIT routine).
+// the step-size heuristic's inputs, one by one, as HINIT takes them
+#[allow(clippy::too_many_arguments)]
 fn initial_step<S: OdeSystem>(
     sys: &S,
     t0: f64,
@@ -531,6 +533,8 @@ impl Solver {
     ///
     /// Options must be valid ([`Options::validate`]); invalid options panic in debug builds
     /// only, so validate once before a batch.
+    // self, the system, the span, the state, options, outputs and the observer
+    #[allow(clippy::too_many_arguments)]
     pub fn solve<S: OdeSystem>(
         &mut self,
         sys: &S,
@@ -550,6 +554,8 @@ impl Solver {
     /// As [`Solver::solve`], but `observe` returns whether to go on: the run ends with
     /// [`Status::Success`] at the first output time where it returns `false` (`RunReport::t`
     /// tells where), and `y0` holds the state there.
+    // as `solve`
+    #[allow(clippy::too_many_arguments)]
     pub fn solve_until<S: OdeSystem>(
         &mut self,
         sys: &S,

@@ -1,6 +1,7 @@
 //! The per-call options of the integrators: tolerances and step limits ([`Options`]), and
 //! envelope following ([`Envelope`]); each validates its documented ranges.
 
+use std::cmp::Ordering;
 /// Per-call options. Every field documents its unit, default and valid range;
 /// [`Options::validate`] quotes the violated bound.
 #[derive(Clone, Debug, PartialEq)]
@@ -62,7 +63,7 @@ impl Options {
         if !(self.h0 >= 0.0 && self.h0.is_finite()) {
             return bad("h0", self.h0, "finite and >= 0 (0 chooses automatically)");
         }
-        if !(self.h_max > 0.0) {
+        if self.h_max.partial_cmp(&0.0) != Some(Ordering::Greater) {
             return bad("h_max", self.h_max, "h_max > 0");
         }
         if self.max_steps == 0 {

@@ -11,13 +11,16 @@
 //! - Dense output: the collocation polynomial (order 3 at any point, 5 at the step's end).
 //! - Tolerances are transformed as in RADAU5: `rtol' = 0.1 rtol^(2/3)`,
 //!   `atol' = rtol' · atol / rtol`, because the error estimate is of lower order than the method.
-
+// The kernels below step several arrays of one state (stages, weights, tolerances) with one
+// index, as the method's equations are written.
+#![allow(clippy::needless_range_loop)]
 // The transformation matrices below carry the digits RADAU5 publishes, more than an f64 holds.
 #![allow(clippy::excessive_precision)]
 
 use super::linalg::DenseLu;
 use super::{OdeSystem, Stats, Status, StepOutcome, Stepper, error_norm};
 use num_complex::Complex64;
+use std::cmp::Ordering;
 
 /// Newton iterations per step before the step is retried with `h/2`.
 const NIT: usize = 7;
@@ -450,7 +453,7 @@ impl Stepper for Radau5 {
             self.e1.solve(c);
         }
         let mut err = error_norm(&self.tmp, &self.y, &self.y, &self.atol, self.rtol);
-        if !(err < 1.0) && (self.first || self.reject) {
+        if err.partial_cmp(&1.0) != Some(Ordering::Less) && (self.first || self.reject) {
             for i in 0..n {
                 self.w3[i] = self.y[i] + self.tmp[i];
             }

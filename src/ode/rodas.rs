@@ -10,6 +10,9 @@
 //! One Jacobian, one `∂f/∂t` and one LU per attempt, no Newton iteration. Dense output: the cubic
 //! Hermite interpolant through `(y₀, f₀)` and `(y₁, f₁)` (order 3), where `f₁` is the first stage
 //! of the next step and so costs nothing extra.
+// The kernels below step several arrays of one state (stages, weights, tolerances) with one
+// index, as the method's equations are written.
+#![allow(clippy::needless_range_loop)]
 
 use super::linalg::DenseLu;
 use super::{OdeSystem, Stats, Status, StepOutcome, Stepper, error_norm};

@@ -542,6 +542,8 @@ fn extend(
 /// step control at the switch-on, where the substrate velocity jumps from 0 to `u0 ω`
 /// (docs/model.md); the output times of `grid` (at or after 0) are shared out by index: those up to
 /// `t_on` to the first stage. The work is added up.
+// as `Solver::solve_until`, with the switch-on time
+#[allow(clippy::too_many_arguments)]
 pub fn integrate_stages(
     solver: &mut Solver,
     rig: &Rig,

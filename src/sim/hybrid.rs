@@ -33,6 +33,7 @@ use crate::model::{Rig, V, X};
 use crate::ode::{Envelope, Method, OdeSystem, Options, OutputGrid, Solver, Stats, Status};
 use crate::sim::slow::Slow;
 use crate::sim::trace::Trace;
+use std::cmp::Ordering;
 
 /// Largest difference between the stroboscopic body velocity's changes over the last two
 /// periods, relative to `max(v_a, |V̄|)`, for a full window to hand back to the slow model: the
@@ -72,21 +73,38 @@ enum Mode {
     Full([f64; 3]),
 }
 
-/// A hybrid run of `rig` (the base model, vibrating from `t = 0`) to `t_end`: the slow model at
-/// relative tolerance `slow_rtol`, the full windows with `solver` at `ode`, `k` samples per
-/// period in the windows (the full run's sampling, [`crate::sim::sampling`]); at most `trace`
-/// samples kept where given.
+/// How a hybrid run integrates its two models.
+#[derive(Clone, Copy, Debug)]
+pub struct HybridOptions<'a> {
+    /// Relative (and absolute) tolerance of the slow model; positive.
+    pub slow_rtol: f64,
+    /// The full windows' integrator options.
+    pub ode: &'a Options,
+    /// Samples per vibration period in the windows (the full run's sampling,
+    /// [`crate::sim::sampling`]); at least 1.
+    pub samples_per_period: usize,
+    /// Envelope following in the windows, where given.
+    pub envelope: Option<&'a Envelope>,
+    /// At most this many trace samples kept, where given.
+    pub trace: Option<usize>,
+}
+
+/// A hybrid run of `rig` (the base model, vibrating from `t = 0`) to `t_end`: the slow model
+/// and the full windows (with `solver`) as `o` says.
 pub fn simulate_hybrid(
     rig: &Rig,
     table: &Table,
     t_end: f64,
-    slow_rtol: f64,
-    ode: &Options,
-    k: usize,
-    envelope: Option<&Envelope>,
+    o: &HybridOptions<'_>,
     solver: &mut Solver,
-    trace: Option<usize>,
 ) -> Result<HybridRun, AveragingError> {
+    let HybridOptions {
+        slow_rtol,
+        ode,
+        samples_per_period: k,
+        envelope,
+        trace,
+    } = *o;
     let p = &rig.p;
     if let Some(v) = table.stopped_at {
         return Err(AveragingError::Invalid(format!(
@@ -156,7 +174,10 @@ pub fn simulate_hybrid(
                         i += 1;
                         // A runaway of the slow integration is no friction: the run stops
                         // and the full model serves (as for an averaged run that diverged).
-                        if !(y[1].abs() <= reach) {
+                        if !matches!(
+                            y[1].abs().partial_cmp(&reach),
+                            Some(Ordering::Less | Ordering::Equal)
+                        ) {
                             ran_away = Some(y[1]);
                             return false;
                         }

@@ -176,17 +176,14 @@ fn hybrid_run(
     let (_, k) = sampling(&rig.p, opts.samples_per_period);
     let envelope = opts.envelope.map(|tol| envelope_for(&rig.p, k, tol));
     let trace = opts.trace.then_some(opts.trace_points);
-    let h = hybrid::simulate_hybrid(
-        rig,
-        table,
-        t_end,
-        slow_rtol(opts),
-        &opts.ode,
-        k,
-        envelope.as_ref(),
-        solver,
+    let ho = hybrid::HybridOptions {
+        slow_rtol: slow_rtol(opts),
+        ode: &opts.ode,
+        samples_per_period: k,
+        envelope: envelope.as_ref(),
         trace,
-    )?;
+    };
+    let h = hybrid::simulate_hybrid(rig, table, t_end, &ho, solver)?;
     Ok(RunResult {
         status: h.status,
         stats: h.stats,

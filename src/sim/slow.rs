@@ -5,6 +5,7 @@ use crate::averaged::orbit::AveragingError;
 use crate::averaged::table::Table;
 use crate::model::Params;
 use crate::ode::{Method, OdeSystem, Options, OutputGrid, Solver, Status};
+use std::cmp::Ordering;
 
 /// The slow model of the averaged rig: the spring's stretch `z = v_d t − x` and the body's
 /// mean velocity `V`, with the vibration replaced by `F_eff`:
@@ -235,7 +236,11 @@ pub fn simulate_slow_with(
     // A window that runs far past both the table and the fastest slip, or through non-finite
     // values, has diverged: no law holds it there.
     let reach = divergence_bound(p, table);
-    let left_law = if !finite || !(seen.0.abs().max(seen.1.abs()) <= reach) {
+    let left_law = if !finite
+        || !matches!(
+            (seen.0.abs().max(seen.1.abs())).partial_cmp(&reach),
+            Some(Ordering::Less | Ordering::Equal)
+        ) {
         Some(f64::INFINITY)
     } else {
         (seen.0 <= seen.1)

@@ -6,6 +6,7 @@ use crate::sim::options::{
     EARLY_STOP_EARLIEST, EARLY_STOP_FIRST, EARLY_STOP_SETTLED, PERIODS_MAX, RunOptions, T_END_MAX,
 };
 use crate::sim::result::SimError;
+use std::cmp::Ordering;
 
 /// Simulated time chosen for a run \[s\]: long enough that the second half (the steady window)
 /// holds `min_cycles` stick-slip cycles of the run without vibration plus a spare 1.5, and that
@@ -92,7 +93,10 @@ pub fn end_time(p: &Params, opts: &RunOptions) -> Result<f64, SimError> {
         Some(t) => t,
         None => {
             let t = planned_time(p, opts.min_cycles);
-            if !(t <= T_END_MAX) {
+            if !matches!(
+                t.partial_cmp(&T_END_MAX),
+                Some(Ordering::Less | Ordering::Equal)
+            ) {
                 return Err(SimError::Budget(format!(
                     "the automatic simulated time is {t:.3e} s ({} stick-slip cycles of \
                      2 (F_s - F_c)/(k_d v_d) = {:.3e} s at k_d = {} N/m, v_d = {} m/s), over the \
@@ -106,7 +110,7 @@ pub fn end_time(p: &Params, opts: &RunOptions) -> Result<f64, SimError> {
             t
         }
     };
-    if p.two_stage() && !(p.t_on < t_end) {
+    if p.two_stage() && p.t_on.partial_cmp(&t_end) != Some(Ordering::Less) {
         return Err(SimError::SwitchOnAfterEnd {
             t_on: p.t_on,
             t_end,
@@ -115,7 +119,10 @@ pub fn end_time(p: &Params, opts: &RunOptions) -> Result<f64, SimError> {
     if p.vibrates() {
         let vibrated = t_end - if p.two_stage() { p.t_on } else { 0.0 };
         let periods = p.f * vibrated;
-        if !(periods <= PERIODS_MAX) {
+        if !matches!(
+            periods.partial_cmp(&PERIODS_MAX),
+            Some(Ordering::Less | Ordering::Equal)
+        ) {
             return Err(SimError::Budget(format!(
                 "{periods:.3e} forcing periods (f = {} Hz over {vibrated:.3e} s of vibration) \
                  are over the budget of {PERIODS_MAX:.0e} periods; lower f or t_end",

@@ -339,7 +339,9 @@ pub fn next_points(spec: &SweepSpec, plan: &Plan, res: &Results, p: usize) -> Ve
         let w = weight(g, at_g(a), at_g(b), at_g(p));
         (lay.plane_lines(a), lay.plane_lines(b), w)
     });
-    let col_guides: Vec<Option<(Vec<usize>, Vec<usize>, f64)>> = (0..lines.len())
+    // Per line: the guide lines on either side of it and its weight between them.
+    type Guide = (Vec<usize>, Vec<usize>, f64);
+    let col_guides: Vec<Option<Guide>> = (0..lines.len())
         .map(|l| {
             if !rf.guided {
                 return None;
