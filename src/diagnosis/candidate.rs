@@ -263,6 +263,72 @@ pub(crate) struct Pair {
     pub vs_alone: Evidence,
 }
 
+/// Why a pair fitted on every recording is not named: `tried` (the two screened together),
+/// and the pair's evidence `r` `of` what it is against.
+fn not_named(tried: &str, r: &Ranked, of: &str) -> String {
+    format!(
+        "{tried} pass it and were fitted on every recording; together, {of}: ln odds {:.1} ± {:.1}, held-out gap {:.2} ({:.0} % below the base model's){}; not named",
+        r.evidence.ln_odds,
+        r.evidence.stderr,
+        r.gap_after,
+        100.0 * r.reduction,
+        r.rejected
+            .as_ref()
+            .map(|w| format!(", {w}"))
+            .unwrap_or_default()
+    )
+}
+
+/// One member's screened model `m` with the other's effect `k` added, at the other's
+/// screened values (of `other`) or at its neutral ones (where the screened values together
+/// overshoot). Not `scan::neutral_start`: the other's parameters without a neutral value (a
+/// ripple's wavelength, a load path's phase) keep where its screen put them.
+fn with_other(m: &Model, other: &Model, k: EffectKind, at_neutral: bool) -> Model {
+    let mut m = m.clone();
+    if let Some((_, v)) = other.effects.list.iter().find(|(e, _)| *e == k) {
+        let v: Vec<f64> = v
+            .iter()
+            .zip(k.info().params)
+            .map(|(&x, p)| {
+                at_neutral
+                    .then(|| super::model::neutral(k, p.name))
+                    .flatten()
+                    .unwrap_or(x)
+            })
+            .collect();
+        *m.effects.enable(k) = v;
+    }
+    m
+}
+
+/// Two screened candidates `(model, effect)` screened together on the screen's recordings
+/// `sub`, from four starts (each member's model with the other's effect, at its screened or
+/// its neutral values), stopping at the bar `bar`: the best of the four.
+fn joint_screen(
+    sub: &Target<'_>,
+    bar: f64,
+    (ma, ka): (&Model, EffectKind),
+    (mb, kb): (&Model, EffectKind),
+) -> FitResult {
+    let both_effects = [ka, kb];
+    let screen_opts = FitOptions {
+        max_iter: SCREEN_ITERATIONS,
+        rel_tol: SCREEN_REL_TOL,
+        final_jacobian: false,
+        reach: bar,
+    };
+    [
+        with_other(ma, mb, kb, false),
+        with_other(mb, ma, ka, false),
+        with_other(ma, mb, kb, true),
+        with_other(mb, ma, ka, true),
+    ]
+    .par_iter()
+    .map(|m| fit::fit(sub, m, &both_effects, screen_opts))
+    .min_by(|x, y| x.gap.total_cmp(&y.gap))
+    .expect("four starts")
+}
+
 /// Two effects whose screens each fell short of [`SCREEN_BAR`] can still explain the gap
 /// together: where each alone accounts for part of a misfit that needs both (a rig's actuator
 /// and its screw error, each moving the harmonics the other leaves), forward selection stops
@@ -310,43 +376,7 @@ pub(crate) fn try_pair(
     let sub = screen.recordings(all);
     let bar = (1.0 - SCREEN_BAR) * screen.gap;
     let both_effects = [a.effect, b.effect];
-    // One member's screened model with the other's effect added, at the other's screened
-    // values or at its neutral ones (where the screened values together overshoot). Not
-    // `scan::neutral_start`: the other's parameters without a neutral value (a ripple's
-    // wavelength, a load path's phase) keep where its screen put them.
-    let with_other = |m: &Model, other: &Model, k: EffectKind, at_neutral: bool| {
-        let mut m = m.clone();
-        if let Some((_, v)) = other.effects.list.iter().find(|(e, _)| *e == k) {
-            let v: Vec<f64> = v
-                .iter()
-                .zip(k.info().params)
-                .map(|(&x, p)| {
-                    at_neutral
-                        .then(|| super::model::neutral(k, p.name))
-                        .flatten()
-                        .unwrap_or(x)
-                })
-                .collect();
-            *m.effects.enable(k) = v;
-        }
-        m
-    };
-    let screen_opts = FitOptions {
-        max_iter: SCREEN_ITERATIONS,
-        rel_tol: SCREEN_REL_TOL,
-        final_jacobian: false,
-        reach: bar,
-    };
-    let joint = [
-        with_other(ma, mb, b.effect, false),
-        with_other(mb, ma, a.effect, false),
-        with_other(ma, mb, b.effect, true),
-        with_other(mb, ma, a.effect, true),
-    ]
-    .par_iter()
-    .map(|m| fit::fit(sub, m, &both_effects, screen_opts))
-    .min_by(|x, y| x.gap.total_cmp(&y.gap))
-    .expect("four starts");
+    let joint = joint_screen(sub, bar, (ma, a.effect), (mb, b.effect));
     let pct = |g: f64| 100.0 * (screen.gap - g) / screen.gap;
     let tried = format!(
         "no candidate passed its screen alone; the two best, {} ({:.2} %) and {} ({:.2} %), screened together",
@@ -404,19 +434,7 @@ pub(crate) fn try_pair(
         per_recording: &base_cv.per_recording,
         n: &base_cv.per_recording_n,
     };
-    let said = |r: &Ranked, of: &str| {
-        format!(
-            "{tried} pass it and were fitted on every recording; together, {of}: ln odds {:.1} ± {:.1}, held-out gap {:.2} ({:.0} % below the base model's){}; not named",
-            r.evidence.ln_odds,
-            r.evidence.stderr,
-            r.gap_after,
-            100.0 * r.reduction,
-            r.rejected
-                .as_ref()
-                .map(|w| format!(", {w}"))
-                .unwrap_or_default()
-        )
-    };
+    let said = |r: &Ranked, of: &str| not_named(&tried, r, of);
     let mut found = vec![];
     if vetted(
         &mut vs_base,

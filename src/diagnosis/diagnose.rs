@@ -106,7 +106,11 @@ pub use super::verdict::*;
 pub use super::vet::{FAMILIES, family_of, held_out_families};
 
 /// Diagnoses a campaign. A campaign none of whose recordings can be checked on held-out data
-/// (no kind of condition recorded at two drives) is refused: it names what is missing.
+/// (no kind of condition recorded at two drives) is refused: it names what is missing. The
+/// stages, in order: the base model calibrated and cross-validated ([`calibrate`]); the
+/// candidates, their forms and the decision, and two effects together where none passed
+/// alone ([`first_round`]); a second effect beside a named first one ([`second_round`]);
+/// where the gap lies; the detection limits ([`limits_of`]).
 pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, CampaignError> {
     let start = std::time::Instant::now();
     let (fold, k_folds, checked, not_checked) = folds(c);
@@ -121,86 +125,263 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
         });
     }
     let all = Target::new(c.recordings.iter().collect());
-    let mut steps = StepLog::new(&all);
-    let fo = FitOptions {
-        final_jacobian: true,
-        ..opts.fit
+    let cx = Ctx {
+        all: &all,
+        folds: Folds {
+            fold: &fold,
+            k: k_folds,
+            checked: &checked,
+        },
+        fo: FitOptions {
+            final_jacobian: true,
+            ..opts.fit
+        },
+        opts,
     };
-    let base = fit::fit(&all, &Model::default(), &[], fo);
-    steps.end("calibration", &all);
-    let folds = Folds {
-        fold: &fold,
-        k: k_folds,
-        checked: &checked,
+    let mut log = Log {
+        steps: StepLog::new(&all),
+        warnings: vec![],
+        disagreements: vec![],
     };
-    let base_cv = cross_validate(&all, &base, &Model::default(), &fold, k_folds, &checked);
-    steps.end("cross-validation", &all);
-    let gap_before = base_cv.gap;
-    let concentrated = concentrated(&base_cv);
+    let base = calibrate(&cx, &mut log);
+    let first = first_round(&cx, &base, &mut log);
+    let named = second_round(&cx, &base, &first, &mut log);
+    log.steps.end("second effect", &all);
+    // Where the gap lies: the base model over all recordings; the gap left by the named effects.
+    let top_model = first.ranking.first().map(|b| b.fit.model.clone());
+    let location = locate(
+        c,
+        &all,
+        &fold,
+        &checked,
+        &base.fit.model,
+        top_model.as_ref(),
+    );
+    let remaining = if named.effects.is_empty() {
+        String::new()
+    } else {
+        let m = if named.effects.len() > 1 {
+            &named.second[0].fit.model
+        } else {
+            &first.ranking[0].fit.model
+        };
+        locate(c, &all, &fold, &checked, m, None).summary
+    };
+    log.steps.end("location", &all);
+    log.warnings
+        .extend(log.disagreements.iter().map(|d| d.line()));
+    let limits = limits_of(&cx, &base, first.verdict, &named);
+    log.steps.end("limits", &all);
+    let First {
+        ranking,
+        verdict,
+        tie,
+        mut forms,
+        breadth,
+        evidence_best,
+        evidence_runner_up,
+        ..
+    } = first;
+    let Named {
+        effects,
+        second,
+        gap_after,
+        gap_after_spread,
+        partial,
+        forms: second_forms,
+        ..
+    } = named;
+    forms.extend(second_forms);
+    let share = base.share();
+    Ok(Diagnosis {
+        verdict,
+        disagreements: log.disagreements,
+        limits,
+        concentrated: base.concentrated,
+        systematic: systematic(&base.cv),
+        reduction_beyond_noise: (base.noise > 0.0 && verdict != Verdict::NoSignificantGap)
+            .then(|| share(gap_after)),
+        best_effect: effects.first().copied(),
+        partial,
+        effects,
+        gap_before: base.gap,
+        gap_before_spread: base.cv.spread,
+        gap_after,
+        gap_after_spread,
+        reduction: (base.gap - gap_after) / base.gap,
+        breadth,
+        evidence: evidence_best,
+        evidence_runner_up,
+        tie,
+        forms,
+        warnings: log.warnings,
+        bounds: all.bounds.clone(),
+        base_per_feature: base.cv.per_feature.iter().map(|p| p.0).collect(),
+        base: base.fit,
+        ranking,
+        second,
+        location,
+        remaining,
+        folds: k_folds,
+        held_out: c
+            .recordings
+            .iter()
+            .zip(&checked)
+            .filter(|(_, h)| **h)
+            .map(|(r, _)| r.name.clone())
+            .collect(),
+        not_checked,
+        wall_time: start.elapsed().as_secs_f64(),
+        work: all.work(),
+        steps: log.steps.steps,
+    })
+}
+
+/// What every stage of a diagnosis reads: the recordings, their folds, the fit options.
+#[derive(Clone, Copy)]
+struct Ctx<'a> {
+    all: &'a Target<'a>,
+    folds: Folds<'a>,
+    fo: FitOptions,
+    opts: &'a DiagnoseOptions,
+}
+
+/// What the stages of a diagnosis add to as they go: the steps' clock, the warnings, the
+/// disagreements between evidence and held-out gap.
+struct Log {
+    steps: StepLog,
+    warnings: Vec<String>,
+    disagreements: Vec<Disagreement>,
+}
+
+/// The base model calibrated on every recording and cross-validated, and what its gap asks.
+struct Base {
+    fit: FitResult,
+    cv: CrossValidated,
+    /// Its held-out gap.
+    gap: f64,
+    /// The feature in which it concentrates, where one does.
+    concentrated: Option<(Feature, f64, usize)>,
+    /// The verdict `no_significant_gap` stands before any candidate.
+    no_gap: bool,
+    /// Where only a concentrated feature makes the gap significant, shares are of the gap
+    /// beyond noise (1): a whole gap of 1.3 cannot fall by more than 23 % of itself.
+    noise: f64,
+}
+
+impl Base {
+    /// The share of the base model's gap a held-out gap `e1` removes (of the gap beyond noise,
+    /// where only a concentrated feature makes it significant).
+    fn share(&self) -> impl Fn(f64) -> f64 + Copy + use<> {
+        let (gap_before, noise) = (self.gap, self.noise);
+        move |e1: f64| (gap_before - e1) / (gap_before - noise).max(0.1 * gap_before)
+    }
+
+    /// Its side in a decision.
+    fn side(&self) -> Side<'_> {
+        Side {
+            name: "base",
+            per_recording: &self.cv.per_recording,
+            n: &self.cv.per_recording_n,
+        }
+    }
+}
+
+/// The base model calibrated and cross-validated.
+fn calibrate(cx: &Ctx<'_>, log: &mut Log) -> Base {
+    let all = cx.all;
+    let fit = fit::fit(all, &Model::default(), &[], cx.fo);
+    log.steps.end("calibration", all);
+    let f = cx.folds;
+    let cv = cross_validate(all, &fit, &Model::default(), f.fold, f.k, f.checked);
+    log.steps.end("cross-validation", all);
+    let gap = cv.gap;
+    let concentrated = concentrated(&cv);
     // The verdict `no_significant_gap` needs no candidate: fit them only on request.
     let no_gap = !matches!(
-        gap_before.partial_cmp(&SIGNIFICANT_GAP),
+        gap.partial_cmp(&SIGNIFICANT_GAP),
         Some(Ordering::Greater | Ordering::Equal)
     ) && concentrated.is_none();
-    let fitted: &[EffectKind] = if no_gap && !opts.rank_always {
-        &[]
-    } else {
-        &opts.candidates
-    };
-    // Where only a concentrated feature makes the gap significant, shares are of the gap
-    // beyond noise (1): a whole gap of 1.3 cannot fall by more than 23 % of itself.
-    let noise = if gap_before >= SIGNIFICANT_GAP {
+    let noise = if gap >= SIGNIFICANT_GAP {
         0.0
     } else {
         NOISE_GAP
     };
-    let share = |e1: f64| (gap_before - e1) / (gap_before - noise).max(0.1 * gap_before);
-    // Candidates in parallel (each fit's simulations too): they are independent and
-    // deterministic, so the ranking does not depend on the thread count.
-    let screen = (!fitted.is_empty()).then(|| Screen::of(&all, &base, fo));
+    Base {
+        fit,
+        cv,
+        gap,
+        concentrated,
+        no_gap,
+        noise,
+    }
+}
+
+/// Best evidence first (ties by the informative score, then the library's order).
+fn by_evidence(a: &Ranked, b: &Ranked) -> Ordering {
+    b.evidence
+        .ln_odds
+        .total_cmp(&a.evidence.ln_odds)
+        .then(a.score.total_cmp(&b.score))
+}
+
+/// The first round's outcome: the ranked candidates, the verdict they carry, and what a
+/// report and the second round take from them.
+struct First {
+    ranking: Vec<Ranked>,
+    verdict: Verdict,
+    tie: Vec<EffectKind>,
+    /// Two effects named together where none passed its screen alone.
+    pair: Option<Pair>,
+    forms: Vec<FormChoice>,
+    breadth: f64,
+    evidence_best: Option<Evidence>,
+    evidence_runner_up: Option<(EffectKind, Evidence)>,
+}
+
+/// The candidates beside the base model: screened, fitted and ranked in parallel (they are
+/// independent and deterministic, so the ranking does not depend on the thread count), their
+/// other forms, the decision with its fingerprints, and two effects together where none passed
+/// its screen alone.
+fn first_round(cx: &Ctx<'_>, base: &Base, log: &mut Log) -> First {
+    let (all, opts) = (cx.all, cx.opts);
+    let fitted: &[EffectKind] = if base.no_gap && !opts.rank_always {
+        &[]
+    } else {
+        &opts.candidates
+    };
+    let share = base.share();
+    let screen = (!fitted.is_empty()).then(|| Screen::of(all, &base.fit, cx.fo));
     let round = |cands: &[Try]| -> Vec<Ranked> {
         let Some(screen) = &screen else {
             return vec![];
         };
         let r = Round {
-            all: &all,
+            all,
             screen,
-            from: &base,
-            from_cv: &base_cv,
+            from: &base.fit,
+            from_cv: &base.cv,
             with: &[],
-            e0: gap_before,
-            folds,
-            opts: fo,
+            e0: base.gap,
+            folds: cx.folds,
+            opts: cx.fo,
         };
         cands.par_iter().map(|t| try_candidate(&r, t)).collect()
     };
     let defaults: Vec<Try> = fitted.iter().map(|&k| Try::default_form(k)).collect();
     let mut ranking = round(&defaults);
-    steps.end("candidates", &all);
-    // Best evidence first (ties by the informative score, then the library's order).
-    let by_evidence = |a: &Ranked, b: &Ranked| {
-        b.evidence
-            .ln_odds
-            .total_cmp(&a.evidence.ln_odds)
-            .then(a.score.total_cmp(&b.score))
-    };
+    log.steps.end("candidates", all);
     ranking.sort_by(by_evidence);
-    let mut warnings: Vec<String> = fit::base_at_bounds(&base)
+    log.warnings.extend(fit::base_at_bounds(&base.fit)
         .into_iter()
-        .map(|b| format!("the base calibration ends on a bound of its range ({b}): the base model has not found this rig's values, and every comparison with it is weaker for it"))
-        .collect();
+        .map(|b| format!("the base calibration ends on a bound of its range ({b}): the base model has not found this rig's values, and every comparison with it is weaker for it")));
     let mut tie: Vec<EffectKind> = vec![];
-    let mut disagreements = vec![];
-    let base_side = Side {
-        name: "base",
-        per_recording: &base_cv.per_recording,
-        n: &base_cv.per_recording_n,
-    };
+    let base_side = base.side();
     let decide_first = |ranking: &mut Vec<Ranked>, found: &mut Vec<_>| {
         vetted(
             ranking,
-            &all,
-            &base,
+            all,
+            &base.fit,
             base_side,
             share,
             MIN_PARTIAL,
@@ -208,9 +389,10 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
             found,
         )
     };
-    let decided = (!no_gap).then(|| {
-        let first_try = decide_first(&mut ranking, &mut disagreements);
-        steps.end("fingerprints", &all);
+    let (steps, disagreements) = (&mut log.steps, &mut log.disagreements);
+    let decided = (!base.no_gap).then(|| {
+        let first_try = decide_first(&mut ranking, disagreements);
+        steps.end("fingerprints", all);
         // How the effects scale: the other forms of the effects in reach, fitted as candidates
         // of their own, and of every effect with forms where the default forms name none
         // (or tie) (forms::other_forms); then the decision again over all.
@@ -220,16 +402,16 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
             .flatten()
             .map(|&j| ranking[j].effect)
             .collect();
-        let others = form_reach(&ranking, &base, &decided, other_forms(&ranking, !named));
+        let others = form_reach(&ranking, &base.fit, &decided, other_forms(&ranking, !named));
         if others.is_empty() {
             return first_try;
         }
         ranking.extend(round(&others));
-        steps.end("forms", &all);
+        steps.end("forms", all);
         charge_forms(&mut ranking);
         ranking.sort_by(by_evidence);
-        let decided = decide_first(&mut ranking, &mut disagreements);
-        steps.end("fingerprints", &all);
+        let decided = decide_first(&mut ranking, disagreements);
+        steps.end("fingerprints", all);
         decided
     });
     let mut verdict = match decided {
@@ -244,51 +426,15 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
         },
         Some(Some(_)) => Verdict::Effect,
     };
-    // Two effects together where none passed its screen alone (`try_pair`); its time counts
-    // in the step `second effect`.
+    // Two effects together where none passed its screen alone; its time counts in the step
+    // `second effect`.
     let mut pair = None;
     if verdict == Verdict::Unexplained
         && let Some(screen) = &screen
     {
-        let r = Round {
-            all: &all,
-            screen,
-            from: &base,
-            from_cv: &base_cv,
-            with: &[],
-            e0: gap_before,
-            folds,
-            opts: fo,
-        };
-        match try_pair(&r, &ranking, share, &mut disagreements) {
-            None => {}
-            Some(Err(why)) => warnings.push(why),
-            Some(Ok(p)) => {
-                for r in [&p.first, &p.alone] {
-                    if let Some(x) = ranking.iter_mut().find(|x| x.name == r.name) {
-                        *x = r.clone();
-                    }
-                }
-                ranking.sort_by(by_evidence);
-                // The first member heads the ranking, as a named first effect does.
-                if let Some(i) = ranking.iter().position(|x| x.name == p.first.name) {
-                    ranking[..=i].rotate_right(1);
-                }
-                warnings.push(format!(
-                    "{} and {} are named together: neither passed its screen alone, the pair explains {:.0} % of the gap (ln odds {:.1} ± {:.1} against {} alone, {:.1} ± {:.1} against {} alone)",
-                    p.first.name,
-                    p.both.name,
-                    100.0 * p.both.reduction,
-                    p.both.evidence.ln_odds,
-                    p.both.evidence.stderr,
-                    p.first.name,
-                    p.vs_alone.ln_odds,
-                    p.vs_alone.stderr,
-                    p.alone.name,
-                ));
-                verdict = Verdict::Effect;
-                pair = Some(p);
-            }
+        pair = pair_round(cx, base, screen, &mut ranking, log);
+        if pair.is_some() {
+            verdict = Verdict::Effect;
         }
     }
     let mut forms: Vec<FormChoice> = vec![];
@@ -296,7 +442,7 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
         forms.extend(form_choice(&ranking));
     }
     let breadth = ranking.first().map_or(0.0, |b| {
-        breadth_of(&base_cv.per_recording, &b.per_recording)
+        breadth_of(&base.cv.per_recording, &b.per_recording)
     });
     let evidence_best = ranking.first().map(|b| b.evidence);
     // The runner-up: the best candidate of another effect (another form of the leader's is in
@@ -311,16 +457,102 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
         Some(p) => (Some(p.vs_base), Some((p.alone.effect, p.vs_alone))),
         None => (evidence_best, evidence_runner_up),
     };
-    // Forward selection: a second effect with the first, where a clear gap remains.
+    First {
+        ranking,
+        verdict,
+        tie,
+        pair,
+        forms,
+        breadth,
+        evidence_best,
+        evidence_runner_up,
+    }
+}
+
+/// Two effects fitted together where none passed its screen alone ([`try_pair`]), named
+/// together where the pair passes; `ranking` then holds each fitted alone, the first member at
+/// its head.
+fn pair_round(
+    cx: &Ctx<'_>,
+    base: &Base,
+    screen: &Screen<'_>,
+    ranking: &mut [Ranked],
+    log: &mut Log,
+) -> Option<Pair> {
+    let (all, share) = (cx.all, base.share());
+    let mut pair = None;
+    let r = Round {
+        all,
+        screen,
+        from: &base.fit,
+        from_cv: &base.cv,
+        with: &[],
+        e0: base.gap,
+        folds: cx.folds,
+        opts: cx.fo,
+    };
+    match try_pair(&r, ranking, share, &mut log.disagreements) {
+        None => {}
+        Some(Err(why)) => log.warnings.push(why),
+        Some(Ok(p)) => {
+            for r in [&p.first, &p.alone] {
+                if let Some(x) = ranking.iter_mut().find(|x| x.name == r.name) {
+                    *x = r.clone();
+                }
+            }
+            ranking.sort_by(by_evidence);
+            // The first member heads the ranking, as a named first effect does.
+            if let Some(i) = ranking.iter().position(|x| x.name == p.first.name) {
+                ranking[..=i].rotate_right(1);
+            }
+            log.warnings.push(format!(
+                "{} and {} are named together: neither passed its screen alone, the pair explains {:.0} % of the gap (ln odds {:.1} ± {:.1} against {} alone, {:.1} ± {:.1} against {} alone)",
+                p.first.name,
+                p.both.name,
+                100.0 * p.both.reduction,
+                p.both.evidence.ln_odds,
+                p.both.evidence.stderr,
+                p.first.name,
+                p.vs_alone.ln_odds,
+                p.vs_alone.stderr,
+                p.alone.name,
+            ));
+            pair = Some(p);
+        }
+    }
+    pair
+}
+
+/// What the named effects leave: the effects in order, the second effects tried, their
+/// held-out gap, whether they explain only part of it, and the fit of the named effects (the
+/// first, or the first with a second), for the limits.
+struct Named {
+    effects: Vec<EffectKind>,
+    second: Vec<Ranked>,
+    gap_after: f64,
+    gap_after_spread: f64,
+    /// The named effects leave a significant gap (or the feature it concentrated in), or a
+    /// parameter ends on a bound of its plausible range.
+    partial: bool,
+    named_fit: Option<FitResult>,
+    /// The forms of the second effect named, where one is.
+    forms: Vec<FormChoice>,
+}
+
+/// Forward selection: a second effect with the first, where a clear gap remains; or the pair
+/// named together by the first round.
+fn second_round(cx: &Ctx<'_>, base: &Base, first_round: &First, log: &mut Log) -> Named {
+    let all = cx.all;
+    let (ranking, verdict, noise) = (&first_round.ranking, first_round.verdict, base.noise);
+    let (warnings, disagreements) = (&mut log.warnings, &mut log.disagreements);
     let mut second: Vec<Ranked> = vec![];
     let mut effects = vec![];
-    let (mut gap_after, mut gap_after_spread) = (gap_before, base_cv.spread);
-    // Partial: the named effects leave a significant gap (or the feature it concentrated in),
-    // or a parameter ends on a bound of its plausible range.
+    let mut forms = vec![];
+    let (mut gap_after, mut gap_after_spread) = (base.gap, base.cv.spread);
     let mut partial = false;
-    // The fit of the named effects (the first, or the first with a second), for the limits.
     let mut named_fit: Option<FitResult> = None;
-    if let Some(Pair { both, .. }) = pair {
+    if let Some(Pair { both, .. }) = &first_round.pair {
+        let both = both.clone();
         // Named together (`try_pair`): the pair's fit is the named one, its entry the second's.
         effects = vec![ranking[0].effect, both.effect];
         for b in &both.at_bound {
@@ -343,22 +575,7 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
         // The first effect's fit, polished further from its optimum (on its Jacobian there):
         // a second effect is credited only with what the first cannot reach by itself.
         let first = &ranking[0];
-        let polished = fit::refine(&all, &first.fit, fo);
-        let (first_fit, first_cv) = if polished.gap < first.fit.gap {
-            let cv = cross_validate(&all, &polished, &first.fit.model, &fold, k_folds, &checked);
-            (polished, cv)
-        } else {
-            let cv = CrossValidated {
-                gap: first.gap_after,
-                spread: first.gap_spread,
-                per_recording: first.per_recording.clone(),
-                per_recording_n: first.per_recording_n.clone(),
-                held: vec![],
-                per_feature: vec![],
-                per_feature_bias: vec![],
-            };
-            (first.fit.clone(), cv)
-        };
+        let (first_fit, first_cv) = polished(cx, first);
         effects.push(first.effect);
         gap_after = first_cv.gap.min(first.gap_after);
         gap_after_spread = if first_cv.gap < first.gap_after {
@@ -398,70 +615,8 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
             ));
         }
         if first_settled && first_cv.gap >= SIGNIFICANT_GAP {
-            let second_screen = Screen::of(&all, &first_fit, fo);
-            let round = |cands: &[Try]| -> Vec<Ranked> {
-                let r = Round {
-                    all: &all,
-                    screen: &second_screen,
-                    from: &first_fit,
-                    from_cv: &first_cv,
-                    with: &[first.effect],
-                    e0: first_cv.gap,
-                    folds,
-                    opts: fo,
-                };
-                cands.par_iter().map(|t| try_candidate(&r, t)).collect()
-            };
-            let defaults: Vec<Try> = opts
-                .candidates
-                .iter()
-                .filter(|&&k| k != first.effect)
-                .map(|&k| Try::default_form(k))
-                .collect();
-            let first_share = |e2: f64| (first_cv.gap - e2) / first_cv.gap;
-            second = round(&defaults);
-            let qualifies = second
-                .iter()
-                .any(|r| r.evidence.clear() && first_share(r.gap_after) >= MIN_SECOND);
-            let others = form_reach(&second, &first_fit, &[], other_forms(&second, !qualifies));
-            second.extend(round(&others));
-            charge_forms(&mut second);
-            second.sort_by(by_evidence);
-            let first_side = Side {
-                name: first.effect.name(),
-                per_recording: &first_cv.per_recording,
-                n: &first_cv.per_recording_n,
-            };
-            let mut found = vec![];
-            let decided = vetted(
-                &mut second,
-                &all,
-                &first_fit,
-                first_side,
-                first_share,
-                MIN_SECOND,
-                true,
-                &mut found,
-            );
-            // A second effect's disagreements are named as extensions of the first.
-            disagreements.extend(found.into_iter().map(|mut d| {
-                for n in [&mut d.by_evidence, &mut d.by_gap] {
-                    if *n != first.name {
-                        *n = format!("{} + {n}", first.name);
-                    }
-                }
-                d
-            }));
-            // Forms of one effect tied: that effect.
-            let decided = match decided {
-                Some(t) if t.len() > 1 => {
-                    match forms_of_one(&mut second, &t, first_share, MIN_SECOND) {
-                        None => Some(vec![0]),
-                        Some(_) => Some(t),
-                    }
-                }
-                d => d,
-            };
+            let decided;
+            (second, decided) = second_candidates(cx, first, &first_fit, &first_cv, disagreements);
             match decided {
                 Some(t) if t.len() == 1 => {
                     let s2 = &second[0];
@@ -502,81 +657,137 @@ pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, Campa
             || gap_after >= SIGNIFICANT_GAP
             || (noise > 0.0 && named_concentrated);
     }
-    steps.end("second effect", &all);
-    // Where the gap lies: the base model over all recordings; the gap left by the named effects.
-    let top_model = ranking.first().map(|b| b.fit.model.clone());
-    let location = locate(c, &all, &fold, &checked, &base.model, top_model.as_ref());
-    let remaining = if effects.is_empty() {
-        String::new()
+    Named {
+        effects,
+        second,
+        gap_after,
+        gap_after_spread,
+        partial,
+        named_fit,
+        forms,
+    }
+}
+
+/// The first effect's fit, polished further from its optimum (on its Jacobian there), and its
+/// cross-validation: a second effect is credited only with what the first cannot reach by
+/// itself. Where polishing gains nothing, the fit and its held-out results as ranked.
+fn polished(cx: &Ctx<'_>, first: &Ranked) -> (FitResult, CrossValidated) {
+    let (all, f) = (cx.all, cx.folds);
+    let polished = fit::refine(all, &first.fit, cx.fo);
+    if polished.gap < first.fit.gap {
+        let cv = cross_validate(all, &polished, &first.fit.model, f.fold, f.k, f.checked);
+        (polished, cv)
     } else {
-        let m = if effects.len() > 1 {
-            &second[0].fit.model
-        } else {
-            &ranking[0].fit.model
+        let cv = CrossValidated {
+            gap: first.gap_after,
+            spread: first.gap_spread,
+            per_recording: first.per_recording.clone(),
+            per_recording_n: first.per_recording_n.clone(),
+            held: vec![],
+            per_feature: vec![],
+            per_feature_bias: vec![],
         };
-        locate(c, &all, &fold, &checked, m, None).summary
+        (first.fit.clone(), cv)
+    }
+}
+
+/// The candidates beside a settled first effect `first` (its fit `first_fit`, cross-validated
+/// as `first_cv`): screened, fitted and ranked as a second effect, their forms, and the
+/// decision over them (indices into the ranking returned; forms of one effect tied are that
+/// effect). Their disagreements are named as extensions of the first.
+fn second_candidates(
+    cx: &Ctx<'_>,
+    first: &Ranked,
+    first_fit: &FitResult,
+    first_cv: &CrossValidated,
+    disagreements: &mut Vec<Disagreement>,
+) -> (Vec<Ranked>, Option<Vec<usize>>) {
+    let (all, opts, fo, folds) = (cx.all, cx.opts, cx.fo, cx.folds);
+    let second_screen = Screen::of(all, first_fit, fo);
+    let round = |cands: &[Try]| -> Vec<Ranked> {
+        let r = Round {
+            all,
+            screen: &second_screen,
+            from: first_fit,
+            from_cv: first_cv,
+            with: &[first.effect],
+            e0: first_cv.gap,
+            folds,
+            opts: fo,
+        };
+        cands.par_iter().map(|t| try_candidate(&r, t)).collect()
     };
-    steps.end("location", &all);
-    warnings.extend(disagreements.iter().map(|d| d.line()));
-    // What the campaign could not have seen, where the model in hand leaves no gap.
-    let limits = match (verdict, &named_fit) {
+    let defaults: Vec<Try> = opts
+        .candidates
+        .iter()
+        .filter(|&&k| k != first.effect)
+        .map(|&k| Try::default_form(k))
+        .collect();
+    let first_share = |e2: f64| (first_cv.gap - e2) / first_cv.gap;
+    let mut second = round(&defaults);
+    let qualifies = second
+        .iter()
+        .any(|r| r.evidence.clear() && first_share(r.gap_after) >= MIN_SECOND);
+    let others = form_reach(&second, first_fit, &[], other_forms(&second, !qualifies));
+    second.extend(round(&others));
+    charge_forms(&mut second);
+    second.sort_by(by_evidence);
+    let first_side = Side {
+        name: first.effect.name(),
+        per_recording: &first_cv.per_recording,
+        n: &first_cv.per_recording_n,
+    };
+    let mut found = vec![];
+    let decided = vetted(
+        &mut second,
+        all,
+        first_fit,
+        first_side,
+        first_share,
+        MIN_SECOND,
+        true,
+        &mut found,
+    );
+    // A second effect's disagreements are named as extensions of the first.
+    disagreements.extend(found.into_iter().map(|mut d| {
+        for n in [&mut d.by_evidence, &mut d.by_gap] {
+            if *n != first.name {
+                *n = format!("{} + {n}", first.name);
+            }
+        }
+        d
+    }));
+    // Forms of one effect tied: that effect.
+    let decided = match decided {
+        Some(t) if t.len() > 1 => match forms_of_one(&mut second, &t, first_share, MIN_SECOND) {
+            None => Some(vec![0]),
+            Some(_) => Some(t),
+        },
+        d => d,
+    };
+    (second, decided)
+}
+
+/// What the campaign could not have seen, where the model in hand leaves no gap.
+fn limits_of(cx: &Ctx<'_>, base: &Base, verdict: Verdict, named: &Named) -> Limits {
+    let (all, opts, f) = (cx.all, cx.opts, cx.folds);
+    let (fold, k_folds, checked, partial) = (f.fold, f.k, f.checked, named.partial);
+    let (base, base_cv) = (&base.fit, &base.cv);
+    match (verdict, &named.named_fit) {
         _ if !opts.limits => Limits::none("not asked for"),
         (Verdict::NoSignificantGap, _) => {
-            limits::limits(&all, &base, &base_cv, &fold, k_folds, limits::Test::Gap)
+            limits::limits(all, base, base_cv, fold, k_folds, limits::Test::Gap)
         }
         (Verdict::Effect, Some(m)) if !partial => {
-            let cv = cross_validate(&all, m, &m.model, &fold, k_folds, &checked);
-            limits::limits(&all, m, &cv, &fold, k_folds, limits::Test::Second)
+            let cv = cross_validate(all, m, &m.model, fold, k_folds, checked);
+            limits::limits(all, m, &cv, fold, k_folds, limits::Test::Second)
         }
         _ => Limits::none(format!(
             "the campaign shows a gap the models in hand do not explain in full ({}{}): detection limits say what a campaign without a gap could not have seen; what this one leaves open is for recordings planned to decide it",
             verdict.name(),
             if partial { ", partial" } else { "" }
         )),
-    };
-    steps.end("limits", &all);
-    Ok(Diagnosis {
-        verdict,
-        disagreements,
-        limits,
-        concentrated,
-        systematic: systematic(&base_cv),
-        reduction_beyond_noise: (noise > 0.0 && verdict != Verdict::NoSignificantGap)
-            .then(|| share(gap_after)),
-        best_effect: effects.first().copied(),
-        partial,
-        effects,
-        gap_before,
-        gap_before_spread: base_cv.spread,
-        gap_after,
-        gap_after_spread,
-        reduction: (gap_before - gap_after) / gap_before,
-        breadth,
-        evidence: evidence_best,
-        evidence_runner_up,
-        tie,
-        forms,
-        warnings,
-        bounds: all.bounds.clone(),
-        base_per_feature: base_cv.per_feature.iter().map(|p| p.0).collect(),
-        base,
-        ranking,
-        second,
-        location,
-        remaining,
-        folds: k_folds,
-        held_out: c
-            .recordings
-            .iter()
-            .zip(&checked)
-            .filter(|(_, h)| **h)
-            .map(|(r, _)| r.name.clone())
-            .collect(),
-        not_checked,
-        wall_time: start.elapsed().as_secs_f64(),
-        work: all.work(),
-        steps: steps.steps,
-    })
+    }
 }
 
 /// Where the gap of `base` lies, over all recordings.

@@ -78,7 +78,7 @@ use super::fit::{
     self, FitResult, Model, Target, difference, fill_r, sigma, trace_features, zscore,
 };
 use super::folds::{CrossValidated, concentrated, summarise};
-use super::model::{coords, neutral};
+use super::model::{Coord, coords, neutral};
 use super::target::{Fidelity, simulate_many};
 use crate::model::EffectKind;
 use crate::model::effects::form_param;
@@ -813,7 +813,8 @@ fn value_at(weak: f64, strong: f64, log: bool, u: f64) -> f64 {
 
 /// The detection limits of every effect not already in `against` (fitted on every recording
 /// of `all`, with its Jacobian, and cross-validated as `cv` over `fold`, `k_folds`), by the
-/// module's procedure, for `test`.
+/// module's procedure, for `test`: the noise draws and the refit of a signature
+/// ([`PowerTest`]), then each effect's scan ([`scan_limit`]), in parallel.
 pub(crate) fn limits(
     all: &Target,
     against: &FitResult,
@@ -823,7 +824,6 @@ pub(crate) fn limits(
     test: Test,
 ) -> Limits {
     let rows = all.row_recordings();
-    let feats: Vec<Feature> = all.row_features();
     let name = if against.effects.is_empty() {
         "base".to_string()
     } else {
@@ -843,29 +843,133 @@ pub(crate) fn limits(
         ));
     }
     let before = all.work().simulations;
-    let n = all.recs.len();
-    // The fold's refit of a signature: held-out rows of `d − L d`... as the cross-validation.
-    let keeps: Vec<(usize, Vec<bool>)> = (0..k_folds)
-        .filter(|&k| (0..rows.len()).any(|r| fold[rows[r]] == k && !cv.held[r].is_nan()))
-        .map(|k| (k, rows.iter().map(|&r| fold[r] != k).collect()))
+    let pt = PowerTest::new(all, against, cv, (fold, k_folds), test);
+    let pipe = Pipeline::new(all, &against.model);
+    let effects: Vec<Limit> = SCANS
+        .par_iter()
+        .filter(|s| !against.effects.contains(&s.kind))
+        .map(|s| scan_limit(s, all, against, &pipe, &pt))
         .collect();
-    // The fitted coordinates' bounds, in the order of the Jacobian's columns.
-    let cs = coords(&all.bounds, &against.effects, &against.model.effects);
-    let unabsorbed = |d: &[f64]| -> Vec<f64> {
+    Limits {
+        against: name,
+        test: test.name(),
+        power: POWER,
+        draws: DRAWS,
+        effects,
+        simulations: all.work().simulations - before,
+        not_computed: None,
+    }
+}
+
+/// The test a limit repeats over noise draws: the campaign's held-out residuals with random
+/// signs per recording (the part the conditions share kept), a phase row's noise in its two
+/// quadratures, each signature refitted by the fold's base parameters as the cross-validation
+/// refits them.
+struct PowerTest<'a> {
+    against: &'a FitResult,
+    cv: &'a CrossValidated,
+    fold: &'a [usize],
+    k_folds: usize,
+    test: Test,
+    rows: Vec<usize>,
+    feats: Vec<Feature>,
+    /// Recordings.
+    n: usize,
+    /// Per fold with held-out rows: the rows its refit keeps.
+    keeps: Vec<(usize, Vec<bool>)>,
+    /// The fitted coordinates' bounds, in the order of the Jacobian's columns.
+    cs: Vec<Coord>,
+    /// The part of each held-out residual the campaign's conditions share (step 3), kept with
+    /// its sign on every draw.
+    shared: Vec<f64>,
+    /// The random signs, one per recording per draw, the same at every strength.
+    signs: Vec<Vec<f64>>,
+    /// The noise of each row's harmonic in its two quadratures, per draw, the same at every
+    /// strength (used on the rows that are a phase: `PhaseRow`).
+    quadratures: Vec<Vec<(f64, f64)>>,
+}
+
+impl<'a> PowerTest<'a> {
+    fn new(
+        all: &Target,
+        against: &'a FitResult,
+        cv: &'a CrossValidated,
+        (fold, k_folds): (&'a [usize], usize),
+        test: Test,
+    ) -> Self {
+        let rows = all.row_recordings();
+        let feats: Vec<Feature> = all.row_features();
+        let n = all.recs.len();
+        // The fold's refit of a signature: held-out rows of `d − L d`... as the cross-validation.
+        let keeps: Vec<(usize, Vec<bool>)> = (0..k_folds)
+            .filter(|&k| (0..rows.len()).any(|r| fold[rows[r]] == k && !cv.held[r].is_nan()))
+            .map(|k| (k, rows.iter().map(|&r| fold[r] != k).collect()))
+            .collect();
+        let cs = coords(&all.bounds, &against.effects, &against.model.effects);
+        // The part of each held-out residual the campaign's conditions share (step 3), kept with
+        // its sign on every draw.
+        let shared = shared_misfit(&feats, &all.row_frequencies(), &cv.held);
+        // The random signs, one per recording per draw, the same at every strength.
+        let signs: Vec<Vec<f64>> = {
+            let mut rng = StdRng::seed_from_u64(SEED);
+            (0..DRAWS)
+                .map(|_| {
+                    (0..n)
+                        .map(|_| if rng.random::<bool>() { 1.0 } else { -1.0 })
+                        .collect()
+                })
+                .collect()
+        };
+        // The noise of each row's harmonic in its two quadratures, per draw, the same at every
+        // strength (used on the rows that are a phase: `PhaseRow`).
+        let quadratures: Vec<Vec<(f64, f64)>> = {
+            let mut rng = StdRng::seed_from_u64(SEED ^ 0x9ad);
+            let g = Normal::new(0.0, 1.0).expect("unit normal");
+            (0..DRAWS)
+                .map(|_| {
+                    (0..rows.len())
+                        .map(|_| (g.sample(&mut rng), g.sample(&mut rng)))
+                        .collect()
+                })
+                .collect()
+        };
+        PowerTest {
+            against,
+            cv,
+            fold,
+            k_folds,
+            test,
+            rows,
+            feats,
+            n,
+            keeps,
+            cs,
+            shared,
+            signs,
+            quadratures,
+        }
+    }
+
+    /// A signature `d` on the held-out rows after each fold's refit of the base parameters
+    /// (inside their plausible ranges); rows the effect leaves unmeasured stay so.
+    fn unabsorbed(&self, d: &[f64]) -> Vec<f64> {
+        let (against, cv, fold, rows, cs) =
+            (self.against, self.cv, self.fold, &self.rows, &self.cs);
+        let keeps = self.keeps.as_slice();
         let mut out = vec![f64::NAN; d.len()];
         // Rows the effect leaves unmeasured take no part in the refit, and stay unmeasured.
         let solve: Vec<f64> = d
             .iter()
             .map(|v| if v.is_nan() { 0.0 } else { *v })
             .collect();
-        for (k, keep) in &keeps {
+        for (k, keep) in keeps {
             let keep: Vec<bool> = keep.iter().zip(d).map(|(k, v)| *k && !v.is_nan()).collect();
             let Some(delta) = fit::refit_delta(&against.jacobian, &solve, &keep, 0) else {
                 continue;
             };
             // Inside the plausible ranges, as the fold's refit: a signature the base parameters
             // could only absorb by leaving their range (a damping below 0) stays unabsorbed.
-            let to = fit::step_within(&cs, &against.theta, &delta, 1.0);
+            let to = fit::step_within(cs, &against.theta, &delta, 1.0);
             let step: Vec<f64> = to.iter().zip(&against.theta).map(|(a, b)| a - b).collect();
             for r in 0..d.len() {
                 if fold[rows[r]] == *k && !cv.held[r].is_nan() {
@@ -877,44 +981,22 @@ pub(crate) fn limits(
             }
         }
         out
-    };
-    // The part of each held-out residual the campaign's conditions share (step 3), kept with
-    // its sign on every draw.
-    let shared = shared_misfit(&feats, &all.row_frequencies(), &cv.held);
-    // The random signs, one per recording per draw, the same at every strength.
-    let signs: Vec<Vec<f64>> = {
-        let mut rng = StdRng::seed_from_u64(SEED);
-        (0..DRAWS)
-            .map(|_| {
-                (0..n)
-                    .map(|_| if rng.random::<bool>() { 1.0 } else { -1.0 })
-                    .collect()
-            })
-            .collect()
-    };
-    // The noise of each row's harmonic in its two quadratures, per draw, the same at every
-    // strength (used on the rows that are a phase: `PhaseRow`).
-    let quadratures: Vec<Vec<(f64, f64)>> = {
-        let mut rng = StdRng::seed_from_u64(SEED ^ 0x9ad);
-        let g = Normal::new(0.0, 1.0).expect("unit normal");
-        (0..DRAWS)
-            .map(|_| {
-                (0..rows.len())
-                    .map(|_| (g.sample(&mut rng), g.sample(&mut rng)))
-                    .collect()
-            })
-            .collect()
-    };
-    // The power of a signature (held-out rows, after the fold refits), the campaign's own
-    // held-out residuals rescaled by its `scale` (the alternative's noise against the
-    // campaign's, row by row; NaN: the row is not measured under the alternative). On each
-    // draw a phase row's signature is the one at that draw's measured amplitude, refitted.
-    let power_of = |sig: &Signature| -> f64 {
+    }
+
+    /// The power of a signature (held-out rows, after the fold refits), the campaign's own
+    /// held-out residuals rescaled by its `scale` (the alternative's noise against the
+    /// campaign's, row by row; NaN: the row is not measured under the alternative). On each
+    /// draw a phase row's signature is the one at that draw's measured amplitude, refitted.
+    fn power_of(&self, sig: &Signature) -> f64 {
+        let (rows, feats, n, cv) = (&self.rows, &self.feats, self.n, self.cv);
+        let (signs, quadratures, shared) = (&self.signs, self.quadratures.as_slice(), &self.shared);
+        let (fold, k_folds, test) = (self.fold, self.k_folds, self.test);
+        let unabsorbed = |d: &[f64]| self.unabsorbed(d);
         // Without phase rows the signature is the same on every draw: refitted once.
         let fixed = sig.phases.is_empty().then(|| unabsorbed(&sig.d));
         let fired = signs
             .par_iter()
-            .zip(&quadratures)
+            .zip(quadratures)
             .filter(|(s, q)| {
                 let drawn;
                 let d = if let Some(fixed) = &fixed {
@@ -934,228 +1016,288 @@ pub(crate) fn limits(
                         sig.scale[i] * e + d[i]
                     })
                     .collect();
-                test.fires(&summarise(&rows, &feats, n, r, fold, k_folds))
+                test.fires(&summarise(rows, feats, n, r, fold, k_folds))
             })
             .count();
         fired as f64 / DRAWS as f64
-    };
-    let pipe = Pipeline::new(all, &against.model);
-    let effects: Vec<Limit> = SCANS
-        .par_iter()
-        .filter(|s| !against.effects.contains(&s.kind))
-        .map(|s| {
-            let info = s.kind.info();
-            let p = info
-                .params
-                .iter()
-                .find(|p| p.name == s.param)
-                .expect("a scan's parameter is the effect's");
-            let (lo, hi) = all.bounds.range(s.kind, s.param);
-            let (lo, hi) = (lo.max(p.min), hi.min(p.max));
-            let neutral = neutral(s.kind, s.param).unwrap_or(if s.stronger_below { hi } else { lo });
-            let weak = s.weak.unwrap_or(neutral).clamp(lo, hi);
-            let weak = if s.log && weak <= 0.0 { hi * 1e-4 } else { weak };
-            let strong = s.strong.unwrap_or(if s.stronger_below { lo } else { hi });
-            let mut model = against.model.clone();
-            for &(q, v) in s.fixed {
-                // The form's values are inside the library's bounds by construction.
-                let _ = model.effects.set(s.kind, q, v);
-            }
-            let (vmin, vmax) = (lo.min(hi), lo.max(hi));
-            // An effect that acts through the vibration leaves a recording without any (its
-            // amplitude 0) as the model in hand has it: not simulated again.
-            let alone: Vec<bool> = all
-                .recs
-                .iter()
-                .map(|r| s.kind.vibration_only() && r.params.u0 == 0.0)
-                .collect();
-            // The power at `u` of the scan, and the share of rows whose runs failed there.
-            let power_at = |u: f64| -> (f64, f64) {
-                let mut m = model.clone();
-                let v = value_at(weak, strong, s.log, u).clamp(vmin, vmax);
-                if m.effects.set(s.kind, s.param, v).is_err() {
-                    return (0.0, 1.0);
-                }
-                let Some(sig) = pipe.signature(&m, &alone) else {
-                    return (0.0, 1.0);
-                };
-                (power_of(&sig), sig.failed)
-            };
-            let form = s
-                .fixed
-                .iter()
-                .map(|(q, v)| format!("{q} = {v}"))
-                .collect::<Vec<_>>()
-                .join(", ");
-            // Every rung of the ladder (a stronger effect can hide its own trace: a load cell
-            // slow enough drowns the ripple whose phase it shifts), then the bracket below the
-            // first rung that fires halved.
-            let mut rungs: Vec<(f64, f64)> = vec![];
-            let mut reached = 1.0;
-            let ladder = if s.stronger_below && s.log && weak > 0.0 && strong > 0.0 {
-                let octaves = (weak / strong).ln() / RESONANCE_STEP.ln();
-                LADDER.max(octaves.ceil() as usize)
-            } else {
-                LADDER
-            };
-            for k in 1..=ladder {
-                let u = k as f64 / ladder as f64;
-                let (pw, failed) = power_at(u);
-                if failed > MAX_FAILED {
-                    // Runs fail from here on: the scan ends where they still ran.
-                    reached = rungs.last().map_or(0.0, |r| r.0);
-                    break;
-                }
-                rungs.push((u, pw));
-            }
-            let first = rungs.iter().position(|r| r.1 >= POWER);
-            // Stronger rungs than the first that fires on which the test does not fire.
-            let holes: Vec<f64> = first.map_or(vec![], |j| {
-                rungs[j..]
-                    .iter()
-                    .filter(|r| r.1 < POWER)
-                    .map(|r| value_at(weak, strong, s.log, r.0).clamp(vmin, vmax))
-                    .collect()
-            });
-            // Where the detected band ends on the strong side: the bracket between the last
-            // rung that fires before the first hole and that hole, halved as the limit's.
-            let band_end = first.and_then(|j| {
-                let h = (j..rungs.len()).find(|&i| rungs[i].1 < POWER)?;
-                let (mut a, mut b) = (rungs[h - 1].0, rungs[h].0);
-                for _ in 0..BISECTIONS {
-                    let mid = 0.5 * (a + b);
-                    let (pm, failed) = power_at(mid);
-                    if pm >= POWER && failed <= MAX_FAILED {
-                        a = mid;
-                    } else {
-                        b = mid;
-                    }
-                }
-                Some(value_at(weak, strong, s.log, a).clamp(vmin, vmax))
-            });
-            let (limit, power, everywhere) = match first {
-                None => (None, rungs.last().map_or(0.0, |r| r.1), false),
-                Some(j) => {
-                    let (mut b, mut pb) = rungs[j];
-                    let mut a = if j == 0 { 0.0 } else { rungs[j - 1].0 };
-                    for _ in 0..BISECTIONS {
-                        let mid = 0.5 * (a + b);
-                        let (pm, failed) = power_at(mid);
-                        if pm >= POWER && failed <= MAX_FAILED {
-                            (b, pb) = (mid, pm);
-                        } else {
-                            a = mid;
-                        }
-                    }
-                    // Detected down to the weak end: the limit lies below the scan.
-                    let everywhere = a == 0.0 && power_at(0.0).0 >= POWER;
-                    (Some(value_at(weak, strong, s.log, b).clamp(vmin, vmax)), pb, everywhere)
-                }
-            };
-            let strong = value_at(weak, strong, s.log, reached).clamp(vmin, vmax);
-            let (stronger, weaker) = if s.stronger_below {
-                ("below", "and above")
-            } else {
-                ("above", "and below")
-            };
-            // The form's other parameters in the statement (its name is in the label).
-            let shown: Vec<String> = s
-                .fixed
-                .iter()
-                .filter(|(q, _)| *q != form_param(s.kind))
-                .map(|(q, v)| format!("{q} = {v}"))
-                .collect();
-            let with = if shown.is_empty() {
-                String::new()
-            } else {
-                format!(" ({})", shown.join(", "))
-            };
-            let hidden = || {
-                format!(
-                    "(not detected at {} {}: the effect attenuates its own trace into the noise)",
-                    holes.iter().map(|h| fmt(*h)).collect::<Vec<_>>().join(", "),
-                    p.unit
-                )
-            };
-            let statement = match (limit, band_end) {
-                (Some(_), Some(e)) if everywhere => format!(
-                    "{}{with} would have shown from the weakest strength scanned, {} = {}, to {} {}; a weaker one, and one {stronger} {} {}, cannot be excluded",
-                    s.label,
-                    s.param,
-                    fmt(weak),
-                    fmt(e),
-                    p.unit,
-                    fmt(e),
-                    hidden(),
-                ),
-                _ if everywhere => format!(
-                    "{}{with} would have shown at every strength scanned, down to {} = {} {}: only a weaker one cannot be excluded",
-                    s.label,
-                    s.param,
-                    fmt(weak),
-                    p.unit,
-                ),
-                (Some(l), Some(e)) => format!(
-                    "{}{with} with {} from {} to {} {} would have shown; {} {weaker}, and {stronger} {} {}, cannot be excluded",
-                    s.label,
-                    s.param,
-                    fmt(l),
-                    fmt(e),
-                    p.unit,
-                    fmt(l),
-                    fmt(e),
-                    hidden(),
-                ),
-                (Some(l), None) => format!(
-                    "{}{with} with {} {stronger} {} {} would have shown; {} {weaker} cannot be excluded",
-                    s.label,
-                    s.param,
-                    fmt(l),
-                    p.unit,
-                    fmt(l),
-                ),
-                (None, _) => format!(
-                    "{}{with} would not have shown anywhere in {} ({} from {} to {} {}, power {:.0} % at the strong end): it cannot be excluded",
-                    s.label,
-                    if reached < 1.0 {
-                        "the range in which its runs succeed"
-                    } else {
-                        "its plausible range"
-                    },
-                    s.param,
-                    fmt(weak),
-                    fmt(strong),
-                    p.unit,
-                    100.0 * power
-                ),
-            };
-            Limit {
-                effect: info.name,
-                holes,
-                band_end,
-                param: s.param,
-                unit: p.unit,
-                label: s.label,
-                form,
-                form_name: s.form_name(),
-                stronger,
-                limit,
-                power,
-                weak_end: weak,
-                strong_end: strong,
-                statement,
-            }
-        })
-        .collect();
-    Limits {
-        against: name,
-        test: test.name(),
-        power: POWER,
-        draws: DRAWS,
-        effects,
-        simulations: all.work().simulations - before,
-        not_computed: None,
     }
+}
+
+/// One effect's scan: the power along a ladder of strengths from its weak end to its strong
+/// end, the limit bisected below the first rung that fires (and the detected band's end
+/// where a stronger rung does not), and its statement.
+fn scan_limit(
+    s: &Scan,
+    all: &Target,
+    against: &FitResult,
+    pipe: &Pipeline<'_, '_>,
+    pt: &PowerTest<'_>,
+) -> Limit {
+    let power_of = |sig: &Signature| pt.power_of(sig);
+    let info = s.kind.info();
+    let p = info
+        .params
+        .iter()
+        .find(|p| p.name == s.param)
+        .expect("a scan's parameter is the effect's");
+    let (lo, hi) = all.bounds.range(s.kind, s.param);
+    let (lo, hi) = (lo.max(p.min), hi.min(p.max));
+    let neutral = neutral(s.kind, s.param).unwrap_or(if s.stronger_below { hi } else { lo });
+    let weak = s.weak.unwrap_or(neutral).clamp(lo, hi);
+    let weak = if s.log && weak <= 0.0 {
+        hi * 1e-4
+    } else {
+        weak
+    };
+    let strong = s.strong.unwrap_or(if s.stronger_below { lo } else { hi });
+    let mut model = against.model.clone();
+    for &(q, v) in s.fixed {
+        // The form's values are inside the library's bounds by construction.
+        let _ = model.effects.set(s.kind, q, v);
+    }
+    let (vmin, vmax) = (lo.min(hi), lo.max(hi));
+    // An effect that acts through the vibration leaves a recording without any (its
+    // amplitude 0) as the model in hand has it: not simulated again.
+    let alone: Vec<bool> = all
+        .recs
+        .iter()
+        .map(|r| s.kind.vibration_only() && r.params.u0 == 0.0)
+        .collect();
+    // The power at `u` of the scan, and the share of rows whose runs failed there.
+    let power_at = |u: f64| -> (f64, f64) {
+        let mut m = model.clone();
+        let v = value_at(weak, strong, s.log, u).clamp(vmin, vmax);
+        if m.effects.set(s.kind, s.param, v).is_err() {
+            return (0.0, 1.0);
+        }
+        let Some(sig) = pipe.signature(&m, &alone) else {
+            return (0.0, 1.0);
+        };
+        (power_of(&sig), sig.failed)
+    };
+    let form = s
+        .fixed
+        .iter()
+        .map(|(q, v)| format!("{q} = {v}"))
+        .collect::<Vec<_>>()
+        .join(", ");
+    // Every rung of the ladder (a stronger effect can hide its own trace: a load cell
+    // slow enough drowns the ripple whose phase it shifts), then the bracket below the
+    // first rung that fires halved.
+    let (rungs, reached) = rungs(s, weak, strong, &power_at);
+    let first = rungs.iter().position(|r| r.1 >= POWER);
+    // Stronger rungs than the first that fires on which the test does not fire.
+    let holes: Vec<f64> = first.map_or(vec![], |j| {
+        rungs[j..]
+            .iter()
+            .filter(|r| r.1 < POWER)
+            .map(|r| value_at(weak, strong, s.log, r.0).clamp(vmin, vmax))
+            .collect()
+    });
+    // Where the detected band ends on the strong side: the bracket between the last
+    // rung that fires before the first hole and that hole, halved as the limit's.
+    let band_end = first.and_then(|j| {
+        let h = (j..rungs.len()).find(|&i| rungs[i].1 < POWER)?;
+        let (mut a, mut b) = (rungs[h - 1].0, rungs[h].0);
+        for _ in 0..BISECTIONS {
+            let mid = 0.5 * (a + b);
+            let (pm, failed) = power_at(mid);
+            if pm >= POWER && failed <= MAX_FAILED {
+                a = mid;
+            } else {
+                b = mid;
+            }
+        }
+        Some(value_at(weak, strong, s.log, a).clamp(vmin, vmax))
+    });
+    let (limit, power, everywhere) = match first {
+        None => (None, rungs.last().map_or(0.0, |r| r.1), false),
+        Some(j) => {
+            let (mut b, mut pb) = rungs[j];
+            let mut a = if j == 0 { 0.0 } else { rungs[j - 1].0 };
+            for _ in 0..BISECTIONS {
+                let mid = 0.5 * (a + b);
+                let (pm, failed) = power_at(mid);
+                if pm >= POWER && failed <= MAX_FAILED {
+                    (b, pb) = (mid, pm);
+                } else {
+                    a = mid;
+                }
+            }
+            // Detected down to the weak end: the limit lies below the scan.
+            let everywhere = a == 0.0 && power_at(0.0).0 >= POWER;
+            (
+                Some(value_at(weak, strong, s.log, b).clamp(vmin, vmax)),
+                pb,
+                everywhere,
+            )
+        }
+    };
+    let strong = value_at(weak, strong, s.log, reached).clamp(vmin, vmax);
+    let found = Found {
+        weak,
+        strong,
+        limit,
+        band_end,
+        everywhere,
+        holes: &holes,
+        power,
+        reached,
+    };
+    let (stronger, statement) = statement(s, p.unit, &found);
+    Limit {
+        effect: info.name,
+        holes,
+        band_end,
+        param: s.param,
+        unit: p.unit,
+        label: s.label,
+        form,
+        form_name: s.form_name(),
+        stronger,
+        limit,
+        power,
+        weak_end: weak,
+        strong_end: strong,
+        statement,
+    }
+}
+
+/// The power at every rung of a scan's ladder (`(u, power)`, `u` from its weak end, 0, to
+/// its strong end, 1; a resonance's ladder steps at most [`RESONANCE_STEP`] in frequency), and
+/// the share of the scan reached: the ladder ends where the runs fail.
+fn rungs(
+    s: &Scan,
+    weak: f64,
+    strong: f64,
+    power_at: &impl Fn(f64) -> (f64, f64),
+) -> (Vec<(f64, f64)>, f64) {
+    let mut rungs: Vec<(f64, f64)> = vec![];
+    let mut reached = 1.0;
+    let ladder = if s.stronger_below && s.log && weak > 0.0 && strong > 0.0 {
+        let octaves = (weak / strong).ln() / RESONANCE_STEP.ln();
+        LADDER.max(octaves.ceil() as usize)
+    } else {
+        LADDER
+    };
+    for k in 1..=ladder {
+        let u = k as f64 / ladder as f64;
+        let (pw, failed) = power_at(u);
+        if failed > MAX_FAILED {
+            // Runs fail from here on: the scan ends where they still ran.
+            reached = rungs.last().map_or(0.0, |r| r.0);
+            break;
+        }
+        rungs.push((u, pw));
+    }
+    (rungs, reached)
+}
+
+/// What a scan found, for its statement.
+struct Found<'a> {
+    weak: f64,
+    /// The strong end the runs reached.
+    strong: f64,
+    limit: Option<f64>,
+    band_end: Option<f64>,
+    /// Detected down to the weak end.
+    everywhere: bool,
+    holes: &'a [f64],
+    power: f64,
+    /// The share of the scan the runs reached.
+    reached: f64,
+}
+
+/// A limit's sentence, and which side of its parameter is stronger (`below`, `above`).
+fn statement(s: &Scan, unit: &str, f: &Found<'_>) -> (&'static str, String) {
+    let Found {
+        weak,
+        strong,
+        limit,
+        band_end,
+        everywhere,
+        holes,
+        power,
+        reached,
+    } = *f;
+    let p_unit = unit;
+    let (stronger, weaker) = if s.stronger_below {
+        ("below", "and above")
+    } else {
+        ("above", "and below")
+    };
+    // The form's other parameters in the statement (its name is in the label).
+    let shown: Vec<String> = s
+        .fixed
+        .iter()
+        .filter(|(q, _)| *q != form_param(s.kind))
+        .map(|(q, v)| format!("{q} = {v}"))
+        .collect();
+    let with = if shown.is_empty() {
+        String::new()
+    } else {
+        format!(" ({})", shown.join(", "))
+    };
+    let hidden = || {
+        format!(
+            "(not detected at {} {}: the effect attenuates its own trace into the noise)",
+            holes.iter().map(|h| fmt(*h)).collect::<Vec<_>>().join(", "),
+            p_unit
+        )
+    };
+    let statement = match (limit, band_end) {
+        (Some(_), Some(e)) if everywhere => format!(
+            "{}{with} would have shown from the weakest strength scanned, {} = {}, to {} {}; a weaker one, and one {stronger} {} {}, cannot be excluded",
+            s.label,
+            s.param,
+            fmt(weak),
+            fmt(e),
+            p_unit,
+            fmt(e),
+            hidden(),
+        ),
+        _ if everywhere => format!(
+            "{}{with} would have shown at every strength scanned, down to {} = {} {}: only a weaker one cannot be excluded",
+            s.label,
+            s.param,
+            fmt(weak),
+            p_unit,
+        ),
+        (Some(l), Some(e)) => format!(
+            "{}{with} with {} from {} to {} {} would have shown; {} {weaker}, and {stronger} {} {}, cannot be excluded",
+            s.label,
+            s.param,
+            fmt(l),
+            fmt(e),
+            p_unit,
+            fmt(l),
+            fmt(e),
+            hidden(),
+        ),
+        (Some(l), None) => format!(
+            "{}{with} with {} {stronger} {} {} would have shown; {} {weaker} cannot be excluded",
+            s.label,
+            s.param,
+            fmt(l),
+            p_unit,
+            fmt(l),
+        ),
+        (None, _) => format!(
+            "{}{with} would not have shown anywhere in {} ({} from {} to {} {}, power {:.0} % at the strong end): it cannot be excluded",
+            s.label,
+            if reached < 1.0 {
+                "the range in which its runs succeed"
+            } else {
+                "its plausible range"
+            },
+            s.param,
+            fmt(weak),
+            fmt(strong),
+            p_unit,
+            100.0 * power
+        ),
+    };
+    (stronger, statement)
 }
 
 /// The part of each held-out residual that recordings at the same vibration frequency share,

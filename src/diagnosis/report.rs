@@ -35,6 +35,20 @@ fn est_line(e: &Estimate) -> String {
 /// The readable summary.
 pub fn summary(c: &Campaign, d: &Diagnosis) -> String {
     let mut s = String::new();
+    summary_head(c, d, &mut s);
+    summary_candidates(d, &mut s);
+    summary_verdict(d, &mut s);
+    for w in &d.warnings {
+        let _ = writeln!(s, "WARNING: {w}");
+    }
+    s += &limits_table(&d.limits);
+    let _ = writeln!(s, "{}", steps_line(d));
+    let _ = writeln!(s, "{}", work_line(d));
+    s
+}
+
+/// The summary's head: the campaign, its folds and the base calibration.
+fn summary_head(c: &Campaign, d: &Diagnosis, s: &mut String) {
     let _ = writeln!(
         s,
         "campaign {}: {} recordings, cross-validated over {} folds of condition groups ({} recordings checked on held-out data)",
@@ -72,6 +86,11 @@ pub fn summary(c: &Campaign, d: &Diagnosis) -> String {
     for e in &d.base.estimates {
         let _ = writeln!(s, "  {}", est_line(e));
     }
+}
+
+/// The summary's candidates: where the gap lies, every candidate and second effect tried, the
+/// plausible ranges.
+fn summary_candidates(d: &Diagnosis, s: &mut String) {
     let _ = writeln!(s, "where: {}", d.location.summary);
     let _ = writeln!(
         s,
@@ -155,6 +174,11 @@ pub fn summary(c: &Campaign, d: &Diagnosis) -> String {
             b.reason
         );
     }
+}
+
+/// The summary's verdict: the named effects with their forms and parameters, and each
+/// candidate's fingerprints.
+fn summary_verdict(d: &Diagnosis, s: &mut String) {
     // The named effects, each with its form where it has forms.
     let names: Vec<String> = d
         .effects
@@ -296,13 +320,6 @@ pub fn summary(c: &Campaign, d: &Diagnosis) -> String {
             );
         }
     }
-    for w in &d.warnings {
-        let _ = writeln!(s, "WARNING: {w}");
-    }
-    s += &limits_table(&d.limits);
-    let _ = writeln!(s, "{}", steps_line(d));
-    let _ = writeln!(s, "{}", work_line(d));
-    s
 }
 
 /// The summary's last line: the wall time, the simulations by fidelity with their CPU time,
@@ -513,40 +530,7 @@ pub fn write_h5(
                 &tmp,
             )?;
             write_estimates(&eg, &r.fit.estimates, &tmp)?;
-            // Each fingerprint family checked: share carried, its error, the prediction's
-            // strength; what it showed and any rejection as attributes.
-            for c in &r.fingerprints {
-                let fg = eg
-                    .create_group(&format!("fingerprint_{}", c.family))
-                    .map_err(h5err(&tmp))?;
-                fg.set_attr_string("seen", c.seen.name())
-                    .map_err(h5err(&tmp))?;
-                fg.set_attr_string("what", c.what).map_err(h5err(&tmp))?;
-                write_vec(
-                    &fg,
-                    "share",
-                    &[c.share],
-                    "1",
-                    "share of the predicted departure the data carry",
-                    &tmp,
-                )?;
-                write_vec(
-                    &fg,
-                    "share_se",
-                    &[c.share_se],
-                    "1",
-                    "its standard error",
-                    &tmp,
-                )?;
-                write_vec(
-                    &fg,
-                    "strength",
-                    &[c.strength],
-                    "1",
-                    "predicted departure, standard errors in quadrature",
-                    &tmp,
-                )?;
-            }
+            write_fingerprints(&eg, &r.fingerprints, &tmp)?;
             if let Some(why) = &r.rejected {
                 eg.set_attr_string("rejected", why).map_err(h5err(&tmp))?;
             }
@@ -565,6 +549,48 @@ pub fn write_h5(
         f.close().map_err(h5err(&tmp))?;
     }
     crate::output::replace(&tmp, path).map_err(output::ioerr(path))
+}
+
+/// Each fingerprint family checked, a group under `eg`: share carried, its error, the
+/// prediction's strength; what it showed as attributes.
+fn write_fingerprints(
+    eg: &rust_hdf5::H5Group,
+    checks: &[super::fingerprint::Check],
+    tmp: &Path,
+) -> Result<(), OutputError> {
+    for c in checks {
+        let fg = eg
+            .create_group(&format!("fingerprint_{}", c.family))
+            .map_err(h5err(tmp))?;
+        fg.set_attr_string("seen", c.seen.name())
+            .map_err(h5err(tmp))?;
+        fg.set_attr_string("what", c.what).map_err(h5err(tmp))?;
+        write_vec(
+            &fg,
+            "share",
+            &[c.share],
+            "1",
+            "share of the predicted departure the data carry",
+            tmp,
+        )?;
+        write_vec(
+            &fg,
+            "share_se",
+            &[c.share_se],
+            "1",
+            "its standard error",
+            tmp,
+        )?;
+        write_vec(
+            &fg,
+            "strength",
+            &[c.strength],
+            "1",
+            "predicted departure, standard errors in quadrature",
+            tmp,
+        )?;
+    }
+    Ok(())
 }
 
 /// One dataset `[value, standard uncertainty]` per fitted parameter, with its unit.
