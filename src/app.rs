@@ -1222,35 +1222,10 @@ pub fn case_json(c: &CaseResult, o: &RunOptions) -> serde_json::Value {
     v
 }
 
-/// A readable summary of a case.
-pub fn case_summary(c: &CaseResult, o: &RunOptions) -> String {
+/// The lines of [`case_summary`] for `r` and `dF`, with what their standard errors can say.
+fn measures_lines(c: &CaseResult, s: &mut String) {
     use std::fmt::Write as _;
-    let p = &c.params;
     let m = &c.run.measures;
-    let mut s = String::new();
-    let _ = writeln!(
-        s,
-        "case      k_d = {} N/m, v_d = {} mm/s, f = {} Hz, u0 = {:.4e} m (v_a = {:.4} mm/s, v_a/v_d = {:.3})",
-        p.k_d,
-        p.v_d * 1e3,
-        p.f,
-        p.u0,
-        p.v_a() * 1e3,
-        p.v_a() / p.v_d
-    );
-    if p.two_stage() {
-        let _ = writeln!(
-            s,
-            "          two stages: resting substrate until t_on = {} s, vibrating after",
-            p.t_on
-        );
-    }
-    let _ = writeln!(
-        s,
-        "          F_s = {} N, F_c = {} N, v_s = {} m/s, k_t = {:e} N/m, h_t = {} N s/m, h_d = {} N s/m, m = {:.4} kg",
-        p.f_s, p.f_c, p.v_s, p.k_t, p.h_t, p.h_d, p.m
-    );
-    let _ = writeln!(s, "status    {}", c.status().name());
     let ref_slides = c.reference.as_ref().is_some_and(|r| r.measures.cycles == 0);
     // One cycle of a run with vibration: dF's spread, and so r's error, unknown
     // (`Measures::varying_cycles`); a failed run's NaN measures are not that.
@@ -1296,6 +1271,38 @@ pub fn case_summary(c: &CaseResult, o: &RunOptions) -> String {
             m.d_f, m.d_f_stderr, m.cycles
         );
     }
+}
+
+/// A readable summary of a case.
+pub fn case_summary(c: &CaseResult, o: &RunOptions) -> String {
+    use std::fmt::Write as _;
+    let p = &c.params;
+    let m = &c.run.measures;
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "case      k_d = {} N/m, v_d = {} mm/s, f = {} Hz, u0 = {:.4e} m (v_a = {:.4} mm/s, v_a/v_d = {:.3})",
+        p.k_d,
+        p.v_d * 1e3,
+        p.f,
+        p.u0,
+        p.v_a() * 1e3,
+        p.v_a() / p.v_d
+    );
+    if p.two_stage() {
+        let _ = writeln!(
+            s,
+            "          two stages: resting substrate until t_on = {} s, vibrating after",
+            p.t_on
+        );
+    }
+    let _ = writeln!(
+        s,
+        "          F_s = {} N, F_c = {} N, v_s = {} m/s, k_t = {:e} N/m, h_t = {} N s/m, h_d = {} N s/m, m = {:.4} kg",
+        p.f_s, p.f_c, p.v_s, p.k_t, p.h_t, p.h_d, p.m
+    );
+    let _ = writeln!(s, "status    {}", c.status().name());
+    measures_lines(c, &mut s);
     let _ = writeln!(s, "mean F_d  {:.4} N", m.mean_force);
     let _ = writeln!(
         s,

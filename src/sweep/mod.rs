@@ -208,6 +208,41 @@ struct Executor<'a> {
 }
 
 impl Executor<'_> {
+    /// The rounds of a sweep: the first (the whole grid, or the coarse grid of a refinement),
+    /// the refinement's, and the full-model checks of the averaged points, each of the points
+    /// `owned`.
+    fn rounds(&mut self, owned: &[bool], results: &mut Results) -> Result<(), SweepError> {
+        let (spec, plan, opts) = (self.spec, self.plan, self.opts);
+        let mine = |i: &usize| owned[*i];
+        // The tasks of the first round: the whole grid, or the coarse grid of a refinement (the
+        // shard's part of either).
+        let first = tasks_of(plan, &first_points(spec, |i| owned[i]));
+        let todo: Vec<Task> = first.iter().copied().filter(|t| !results.has(*t)).collect();
+        let mut progress = Progress::new(
+            first.len() as u64,
+            (first.len() - todo.len()) as u64,
+            opts.progress,
+            opts.tally.clone(),
+        );
+        self.round(&todo, results, &mut progress)?;
+        if spec.refine.is_some() && !self.interrupted {
+            self.refine(results, &mut progress, &mine)?;
+        }
+        // The full-model checks of the averaged points (check): after the grid, as they depend
+        // on its results.
+        if !self.interrupted && !crate::interrupt::requested() {
+            let todo: Vec<Task> = check::points(spec, plan, results, owned)
+                .into_iter()
+                .map(Task::Check)
+                .filter(|t| !results.has(*t))
+                .collect();
+            progress.grow(todo.len() as u64);
+            self.round(&todo, results, &mut progress)?;
+        }
+        progress.finish();
+        Ok(())
+    }
+
     /// Runs `todo` (references before the points that need them: the runs are independent, so
     /// any order gives the same numbers).
     fn round(
@@ -441,13 +476,7 @@ impl Executor<'_> {
             };
             // The planes each plane's finished columns guide (`[refine] guide_planes`): a plane
             // waiting for them is asked again whenever one of its guides lands a round.
-            let mut guided_by: Vec<Vec<usize>> = vec![vec![]; planes];
-            for p in 0..planes {
-                if let Some((a, b)) = refine::plane_guides(spec, p) {
-                    guided_by[a].push(p);
-                    guided_by[b].push(p);
-                }
-            }
+            let guided_by = guided_by(spec, planes);
             for p in 0..planes {
                 ask(p, results, &mut pending, &mut asked_by, progress);
             }
@@ -490,6 +519,19 @@ impl Executor<'_> {
     }
 }
 
+/// For each of the `planes` planes of a refinement, the planes its finished columns guide
+/// (`[refine] guide_planes`).
+fn guided_by(spec: &SweepSpec, planes: usize) -> Vec<Vec<usize>> {
+    let mut guided_by: Vec<Vec<usize>> = vec![vec![]; planes];
+    for p in 0..planes {
+        if let Some((a, b)) = refine::plane_guides(spec, p) {
+            guided_by[a].push(p);
+            guided_by[b].push(p);
+        }
+    }
+    guided_by
+}
+
 /// Runs a whole sweep to `opts.out`, or one shard of it to the shard's file (see the module
 /// docs and [`shard`]). The sweep owns the tables of the averaged law its runs share.
 pub fn run(spec: &SweepSpec, opts: &SweepOptions) -> Result<SweepOutcome, SweepError> {
@@ -497,7 +539,9 @@ pub fn run(spec: &SweepSpec, opts: &SweepOptions) -> Result<SweepOutcome, SweepE
 }
 
 /// [`run`] with the averaged law's tables of `store` (the tables it builds are left there):
-/// the estimate's sample runs find the tables it timed apart.
+/// the estimate's sample runs find the tables it timed apart. The stages: the points this
+/// invocation answers for; a shard's earlier record judged; the journal opened (or resumed);
+/// the rounds (the grid, the refinement, the averaged points' checks); the complete file.
 pub fn run_with(
     spec: &SweepSpec,
     opts: &SweepOptions,
@@ -508,132 +552,27 @@ pub fn run_with(
     spec.run.validate().map_err(sim::SimError::from)?;
     let plan = Plan::new(spec);
     let target = opts.target();
-    // The grid points this invocation answers for (all, or the shard's).
-    let owned: Vec<bool> = match opts.shard {
-        None => vec![true; plan.points.len()],
-        Some(sh) => {
-            shard::check(spec, sh.count).map_err(SweepError::State)?;
-            shard::owners(spec, sh.count)
-                .into_iter()
-                .map(|o| o == sh.index)
-                .collect()
-        }
-    };
-    let mine = |i: &usize| owned[*i];
+    let owned = owned_points(spec, &plan, opts)?;
     let mut results = Results::new(&plan);
     crate::output::ensure_parent(&target)?;
     // One writer per output, from here to the end (module `lock`).
     let _lock = lock::acquire(&target).map_err(SweepError::State)?;
-    let jpath = journal::path_for(&target);
-    let fp = journal::fingerprint(&spec.text);
-    // A shard's record decides whether it is done: a whole record over a damaged file, or a
-    // record that lacks runs, goes back to being the shard's journal, and `--resume` rebuilds
-    // the file and makes only the runs it lacks.
-    let runs_file = shard::runs_path(&target);
-    if let Some(sh) = opts.shard
-        && !opts.overwrite
-        && runs_file.exists()
-        && !jpath.exists()
-    {
-        let judged = shards::judge(spec, &plan, sh, &target, &fp)
-            .map_err(|e| SweepError::State(format!("shard {sh}: {e}")))?;
-        let whole = judged == shards::ShardState::Complete;
-        if !(whole && is_complete(&target)) {
-            if !opts.resume {
-                return Err(SweepError::State(format!(
-                    "shard {sh} has a record {} that {}; continue it with --resume (only what is \
-                     lacking is made) or start afresh with --overwrite",
-                    runs_file.display(),
-                    match judged {
-                        shards::ShardState::Broken { missing, .. } => {
-                            format!("lacks {missing} runs")
-                        }
-                        _ => "is whole beside a damaged or unfinished file".to_string(),
-                    }
-                )));
-            }
-            std::fs::rename(&runs_file, &jpath)
-                .map_err(|e| SweepError::State(format!("{}: {e}", runs_file.display())))?;
-        }
-    }
-    if let Some(sh) = opts.shard
-        && shard_complete(&target)
-        && !opts.overwrite
-    {
-        // A shard is idempotent: a job array may run a finished task again.
-        let points = owned.iter().filter(|&&o| o).count();
-        return Ok(SweepOutcome {
-            points,
-            runs_made: 0,
-            runs_resumed: journal::read(&shard::runs_path(&target), &fp)
-                .map_err(|e| SweepError::State(format!("shard {sh}: {e}")))?
-                .0
-                .len(),
-            journal_dropped: 0,
-            tables_loaded: 0,
-            failed: 0,
-            wall_time: start.elapsed().as_secs_f64(),
-            out: target,
-            check: check::Summary::default(),
-        });
-    }
-    let mut resumed = 0;
-    let mut journal_dropped = 0;
-    let mut kept_tables = std::collections::HashSet::new();
-    let mut journal = if jpath.exists() && !opts.overwrite {
-        if !opts.resume {
-            return Err(SweepError::State(format!(
-                "{} holds an unfinished sweep; continue it with --resume or discard it with --overwrite",
-                jpath.display()
-            )));
-        }
-        let (records, dropped) = journal::read(&jpath, &fp).map_err(SweepError::State)?;
-        journal_dropped = dropped;
-        // The averaged law's tables kept by the interrupted sweep: loaded, not built again.
-        for (key, table) in journal::read_tables(&jpath) {
-            kept_tables.insert(key.clone());
-            store.preload(key, table);
-        }
-        resumed = results.absorb(&plan, records);
-        Journal::append(&jpath)
-            .map_err(|e| SweepError::State(format!("{}: {e}", jpath.display())))?
-    } else {
-        if opts.resume && is_complete(&target) && opts.shard.is_none() {
-            // Complete, but of which sweep: a user who resumes into another sweep's result must
-            // not read that their own sweep is done.
-            let held = rust_hdf5::H5File::open(&target).ok().map(|f| {
-                (
-                    f.attr_string("sweep_name").unwrap_or_default(),
-                    f.attr_string("sweep_file").unwrap_or_default(),
-                )
-            });
-            return Err(SweepError::State(match held {
-                Some((name, text)) if text != spec.text => format!(
-                    "{} holds the complete result of another sweep ('{name}', from another \
-                     sweep file), not of '{}': there is nothing of this sweep to resume. \
-                     Write this sweep to another file with -o",
-                    target.display(),
-                    spec.name
-                ),
-                _ => format!(
-                    "{} is already complete; nothing to resume",
-                    target.display()
-                ),
-            }));
-        }
-        // A file without its journal is no checkpoint of this sweep: --resume must not replace
-        // it (with nothing there, there is nothing to lose, and the sweep starts).
-        if opts.resume && !opts.overwrite && target.exists() {
-            return Err(SweepError::State(format!(
-                "{} is not an interrupted sweep's checkpoint (no journal {} beside it); nothing to resume. \
-                 Run without --resume to start afresh, which replaces it",
-                target.display(),
-                jpath.display()
-            )));
-        }
-        Journal::create(&jpath, &fp)
-            .map_err(|e| SweepError::State(format!("{}: {e}", jpath.display())))?
+    let files = Files {
+        jpath: journal::path_for(&target),
+        fp: journal::fingerprint(&spec.text),
+        target,
     };
+    reopen_shard_record(spec, &plan, opts, &files)?;
+    if let Some(done) = finished_shard(opts, &owned, &files, start)? {
+        return Ok(done);
+    }
+    let Opened {
+        mut journal,
+        resumed,
+        journal_dropped,
+        kept_tables,
+    } = open_journal(spec, opts, &files, store, &plan, &mut results)?;
+    let Files { target, jpath, .. } = files;
     if opts.overwrite {
         let _ = std::fs::remove_file(shard::runs_path(&target));
     }
@@ -680,32 +619,7 @@ pub fn run_with(
         store,
     };
     let tables_loaded_n = exec.tables.len();
-    // The tasks of the first round: the whole grid, or the coarse grid of a refinement (the
-    // shard's part of either).
-    let first = tasks_of(&plan, &first_points(spec, |i| owned[i]));
-    let todo: Vec<Task> = first.iter().copied().filter(|t| !results.has(*t)).collect();
-    let mut progress = Progress::new(
-        first.len() as u64,
-        (first.len() - todo.len()) as u64,
-        opts.progress,
-        opts.tally.clone(),
-    );
-    exec.round(&todo, &mut results, &mut progress)?;
-    if spec.refine.is_some() && !exec.interrupted {
-        exec.refine(&mut results, &mut progress, &mine)?;
-    }
-    // The full-model checks of the averaged points (check): after the grid, as they depend
-    // on its results.
-    if !exec.interrupted && !crate::interrupt::requested() {
-        let todo: Vec<Task> = check::points(spec, &plan, &results, &owned)
-            .into_iter()
-            .map(Task::Check)
-            .filter(|t| !results.has(*t))
-            .collect();
-        progress.grow(todo.len() as u64);
-        exec.round(&todo, &mut results, &mut progress)?;
-    }
-    progress.finish();
+    exec.rounds(&owned, &mut results)?;
     let runs_made = exec.made;
     let interrupted = exec.interrupted || crate::interrupt::requested();
     let _ = journal.sync();
@@ -758,5 +672,192 @@ pub fn run_with(
         failed,
         wall_time: start.elapsed().as_secs_f64(),
         out: target,
+    })
+}
+
+/// A sweep's files: its output, the journal beside it, and the sweep file's fingerprint that
+/// the journal carries.
+struct Files {
+    target: PathBuf,
+    jpath: PathBuf,
+    fp: String,
+}
+
+/// The journal a sweep appends to, and what resuming it brought back.
+struct Opened {
+    journal: Journal,
+    /// Runs taken from the journal.
+    resumed: usize,
+    /// Journal lines dropped (a torn last line).
+    journal_dropped: usize,
+    /// The averaged law's tables the journal kept.
+    kept_tables: std::collections::HashSet<Vec<u64>>,
+}
+
+/// The grid points this invocation answers for (all, or the shard's).
+fn owned_points(
+    spec: &SweepSpec,
+    plan: &Plan,
+    opts: &SweepOptions,
+) -> Result<Vec<bool>, SweepError> {
+    Ok(match opts.shard {
+        None => vec![true; plan.points.len()],
+        Some(sh) => {
+            shard::check(spec, sh.count).map_err(SweepError::State)?;
+            shard::owners(spec, sh.count)
+                .into_iter()
+                .map(|o| o == sh.index)
+                .collect()
+        }
+    })
+}
+
+/// A shard's record decides whether it is done: a whole record over a damaged file, or a
+/// record that lacks runs, goes back to being the shard's journal, and `--resume` rebuilds the
+/// file and makes only the runs it lacks.
+fn reopen_shard_record(
+    spec: &SweepSpec,
+    plan: &Plan,
+    opts: &SweepOptions,
+    files: &Files,
+) -> Result<(), SweepError> {
+    let (target, jpath, fp) = (&files.target, &files.jpath, &files.fp);
+    let runs_file = shard::runs_path(target);
+    if let Some(sh) = opts.shard
+        && !opts.overwrite
+        && runs_file.exists()
+        && !jpath.exists()
+    {
+        let judged = shards::judge(spec, plan, sh, target, fp)
+            .map_err(|e| SweepError::State(format!("shard {sh}: {e}")))?;
+        let whole = judged == shards::ShardState::Complete;
+        if !(whole && is_complete(target)) {
+            if !opts.resume {
+                return Err(SweepError::State(format!(
+                    "shard {sh} has a record {} that {}; continue it with --resume (only what is \
+                     lacking is made) or start afresh with --overwrite",
+                    runs_file.display(),
+                    match judged {
+                        shards::ShardState::Broken { missing, .. } => {
+                            format!("lacks {missing} runs")
+                        }
+                        _ => "is whole beside a damaged or unfinished file".to_string(),
+                    }
+                )));
+            }
+            std::fs::rename(&runs_file, jpath)
+                .map_err(|e| SweepError::State(format!("{}: {e}", runs_file.display())))?;
+        }
+    }
+    Ok(())
+}
+
+/// A shard already complete: its outcome, made again from its record (a job array may run a
+/// finished task again: a shard is idempotent).
+fn finished_shard(
+    opts: &SweepOptions,
+    owned: &[bool],
+    files: &Files,
+    start: Instant,
+) -> Result<Option<SweepOutcome>, SweepError> {
+    let (target, fp) = (&files.target, &files.fp);
+    if let Some(sh) = opts.shard
+        && shard_complete(target)
+        && !opts.overwrite
+    {
+        // A shard is idempotent: a job array may run a finished task again.
+        let points = owned.iter().filter(|&&o| o).count();
+        return Ok(Some(SweepOutcome {
+            points,
+            runs_made: 0,
+            runs_resumed: journal::read(&shard::runs_path(target), fp)
+                .map_err(|e| SweepError::State(format!("shard {sh}: {e}")))?
+                .0
+                .len(),
+            journal_dropped: 0,
+            tables_loaded: 0,
+            failed: 0,
+            wall_time: start.elapsed().as_secs_f64(),
+            out: target.clone(),
+            check: check::Summary::default(),
+        }));
+    }
+    Ok(None)
+}
+
+/// The journal: resumed (its runs into `results`, its tables into `store`) where an
+/// interrupted sweep left one and `--resume` asks for it, else created; refused where it would
+/// lose or misreport a result.
+fn open_journal(
+    spec: &SweepSpec,
+    opts: &SweepOptions,
+    files: &Files,
+    store: &TableStore,
+    plan: &Plan,
+    results: &mut Results,
+) -> Result<Opened, SweepError> {
+    let (target, jpath, fp) = (&files.target, &files.jpath, &files.fp);
+    let mut resumed = 0;
+    let mut journal_dropped = 0;
+    let mut kept_tables = std::collections::HashSet::new();
+    let journal = if jpath.exists() && !opts.overwrite {
+        if !opts.resume {
+            return Err(SweepError::State(format!(
+                "{} holds an unfinished sweep; continue it with --resume or discard it with --overwrite",
+                jpath.display()
+            )));
+        }
+        let (records, dropped) = journal::read(jpath, fp).map_err(SweepError::State)?;
+        journal_dropped = dropped;
+        // The averaged law's tables kept by the interrupted sweep: loaded, not built again.
+        for (key, table) in journal::read_tables(jpath) {
+            kept_tables.insert(key.clone());
+            store.preload(key, table);
+        }
+        resumed = results.absorb(plan, records);
+        Journal::append(jpath)
+            .map_err(|e| SweepError::State(format!("{}: {e}", jpath.display())))?
+    } else {
+        if opts.resume && is_complete(target) && opts.shard.is_none() {
+            // Complete, but of which sweep: a user who resumes into another sweep's result must
+            // not read that their own sweep is done.
+            let held = rust_hdf5::H5File::open(target).ok().map(|f| {
+                (
+                    f.attr_string("sweep_name").unwrap_or_default(),
+                    f.attr_string("sweep_file").unwrap_or_default(),
+                )
+            });
+            return Err(SweepError::State(match held {
+                Some((name, text)) if text != spec.text => format!(
+                    "{} holds the complete result of another sweep ('{name}', from another \
+                     sweep file), not of '{}': there is nothing of this sweep to resume. \
+                     Write this sweep to another file with -o",
+                    target.display(),
+                    spec.name
+                ),
+                _ => format!(
+                    "{} is already complete; nothing to resume",
+                    target.display()
+                ),
+            }));
+        }
+        // A file without its journal is no checkpoint of this sweep: --resume must not replace
+        // it (with nothing there, there is nothing to lose, and the sweep starts).
+        if opts.resume && !opts.overwrite && target.exists() {
+            return Err(SweepError::State(format!(
+                "{} is not an interrupted sweep's checkpoint (no journal {} beside it); nothing to resume. \
+                 Run without --resume to start afresh, which replaces it",
+                target.display(),
+                jpath.display()
+            )));
+        }
+        Journal::create(jpath, fp)
+            .map_err(|e| SweepError::State(format!("{}: {e}", jpath.display())))?
+    };
+    Ok(Opened {
+        journal,
+        resumed,
+        journal_dropped,
+        kept_tables,
     })
 }

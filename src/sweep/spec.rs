@@ -370,45 +370,7 @@ impl SweepSpec {
                     ));
                 }
                 ("name" | "description", _) => return Err(doc.err("", k, "expected a string")),
-                ("fixed", toml::Value::Table(t)) => {
-                    // Parameters now; v_a / va_ratio are resolved per point, after the axes.
-                    let mut plain = toml::Table::new();
-                    spec.fixed_keys = t.keys().cloned().collect();
-                    for (fk, fv) in t {
-                        if fk == "v_a" || fk == "va_ratio" {
-                            let x = doc.number("fixed", fk, fv)?;
-                            if !(x.is_finite() && x >= 0.0) {
-                                return Err(doc.err(
-                                    "fixed",
-                                    fk,
-                                    format!("{fk} = {x} is not allowed: must be finite and >= 0"),
-                                ));
-                            }
-                            if spec.fixed_amplitude.is_some() || t.contains_key("u0") {
-                                return Err(doc.err(
-                                    "fixed",
-                                    fk,
-                                    "give one of u0, v_a and va_ratio",
-                                ));
-                            }
-                            spec.fixed_amplitude = Some((fk.clone(), x));
-                        } else {
-                            plain.insert(fk.clone(), fv.clone());
-                        }
-                    }
-                    // Relations (F_s >= F_c, f > 0 with u0 > 0) are checked per point, after the axes.
-                    let rest = config::set_params(doc, "fixed", &plain, &mut spec.fixed)?;
-                    if let Some(bad) = rest.first() {
-                        return Err(doc.err(
-                            "fixed",
-                            bad,
-                            format!(
-                                "unknown parameter; allowed: {}, v_a, va_ratio",
-                                params::names().join(", ")
-                            ),
-                        ));
-                    }
-                }
+                ("fixed", toml::Value::Table(t)) => spec.parse_fixed(doc, t)?,
                 ("axis", toml::Value::Array(arr)) => {
                     for a in arr {
                         match a {
@@ -473,120 +435,104 @@ impl SweepSpec {
         Ok(spec)
     }
 
-    /// Reads `[refine]` and makes its axis dense (see [`Refine`]).
-    fn parse_refine(&mut self, doc: &Doc, t: &toml::Table) -> Result<(), ConfigError> {
-        let sec = "refine";
-        let mut measure = "r".to_string();
-        let mut level = 0.05;
-        let mut along: Option<String> = None;
-        let mut across: Option<String> = None;
-        let mut resolution: Option<f64> = None;
-        let mut tolerance = 0.0;
-        let mut guided = true;
-        let mut guide_planes: Option<String> = None;
-        for (k, v) in t {
-            match k.as_str() {
-                "measure" => {
-                    let m = v
-                        .as_str()
-                        .ok_or_else(|| doc.err(sec, k, "expected the name of a measure"))?;
-                    if !MEASURES.contains(&m) || m == "cycles" {
-                        return Err(doc.err(
-                            sec,
-                            k,
-                            format!(
-                                "unknown measure `{m}`; allowed: {}",
-                                MEASURES[..MEASURES.len() - 1].join(", ")
-                            ),
-                        ));
-                    }
-                    measure = m.to_string();
-                }
-                "level" => {
-                    level = doc.number(sec, k, v)?;
-                    if !level.is_finite() {
-                        return Err(doc.err(sec, k, format!("level = {level}: must be finite")));
-                    }
-                }
-                "along" | "across" => {
-                    let name = v
-                        .as_str()
-                        .ok_or_else(|| doc.err(sec, k, "expected the name of an axis"))?;
-                    if k == "along" {
-                        along = Some(name.to_string());
-                    } else {
-                        across = Some(name.to_string());
-                    }
-                }
-                "resolution" => {
-                    let r = doc.number(sec, k, v)?;
-                    if !(r.is_finite() && r > 0.0) {
-                        return Err(doc.err(
-                            sec,
-                            k,
-                            format!("resolution = {r} is not allowed: must be finite and > 0"),
-                        ));
-                    }
-                    resolution = Some(r);
-                }
-                "tolerance" => {
-                    tolerance = doc.number(sec, k, v)?;
-                    if !(tolerance.is_finite() && tolerance >= 0.0) {
-                        return Err(doc.err(
-                            sec,
-                            k,
-                            format!(
-                                "tolerance = {tolerance} is not allowed: must be finite and >= 0"
-                            ),
-                        ));
-                    }
-                }
-                "guided" => {
-                    guided = v.as_bool().ok_or_else(|| {
-                        doc.err(
-                            sec,
-                            k,
-                            format!("guided = {v} is not allowed: must be true or false"),
-                        )
-                    })?;
-                }
-                "guide_planes" => {
-                    let name = v
-                        .as_str()
-                        .ok_or_else(|| doc.err(sec, k, "expected the name of a dimension"))?;
-                    guide_planes = Some(name.to_string());
-                }
-                _ => {
+    /// Reads `[fixed]`: the parameters now; `v_a` / `va_ratio` are resolved per point, after
+    /// the axes.
+    fn parse_fixed(&mut self, doc: &Doc, t: &toml::Table) -> Result<(), ConfigError> {
+        // Parameters now; v_a / va_ratio are resolved per point, after the axes.
+        let mut plain = toml::Table::new();
+        self.fixed_keys = t.keys().cloned().collect();
+        for (fk, fv) in t {
+            if fk == "v_a" || fk == "va_ratio" {
+                let x = doc.number("fixed", fk, fv)?;
+                if !(x.is_finite() && x >= 0.0) {
                     return Err(doc.err(
-                        sec,
-                        k,
-                        "unknown key; allowed: measure, level, along, across, resolution, tolerance, guided, guide_planes",
+                        "fixed",
+                        fk,
+                        format!("{fk} = {x} is not allowed: must be finite and >= 0"),
                     ));
                 }
+                if self.fixed_amplitude.is_some() || t.contains_key("u0") {
+                    return Err(doc.err("fixed", fk, "give one of u0, v_a and va_ratio"));
+                }
+                self.fixed_amplitude = Some((fk.clone(), x));
+            } else {
+                plain.insert(fk.clone(), fv.clone());
             }
         }
-        // A level the measure never crosses refines nothing: r, dF, their errors and the period
-        // are never negative and a stick fraction lies within 0 to 1; the boundary of such a
-        // measure lies strictly inside its range.
-        let range = match measure.as_str() {
-            "stick_fraction" => Some((0.0, 1.0, "0 < level < 1")),
-            "r" | "r_stderr" | "dF" | "dF_stderr" | "period" => {
-                Some((0.0, f64::INFINITY, "level > 0"))
-            }
-            _ => None,
-        };
-        if let Some((lo, hi, rule)) = range
-            && !(level > lo && level < hi)
-        {
+        // Relations (F_s >= F_c, f > 0 with u0 > 0) are checked per point, after the axes.
+        let rest = config::set_params(doc, "fixed", &plain, &mut self.fixed)?;
+        if let Some(bad) = rest.first() {
             return Err(doc.err(
-                sec,
-                "level",
+                "fixed",
+                bad,
                 format!(
-                    "level = {level}: {measure} never crosses it, so nothing would be refined; \
-                     allowed: {rule}"
+                    "unknown parameter; allowed: {}, v_a, va_ratio",
+                    params::names().join(", ")
                 ),
             ));
         }
+        Ok(())
+    }
+
+    /// The dimension a key names, or an error naming the key and the dimensions there are.
+    fn dim_named(&self, doc: &Doc, sec: &str, key: &str, name: &str) -> Result<usize, ConfigError> {
+        self.dims
+            .iter()
+            .position(|d| d.name == name)
+            .ok_or_else(|| {
+                let names: Vec<&str> = self.dims.iter().map(|d| d.name.as_str()).collect();
+                doc.err(
+                    sec,
+                    key,
+                    format!(
+                        "`{name}` is not a dimension of this sweep; dimensions: {}",
+                        names.join(", ")
+                    ),
+                )
+            })
+    }
+
+    /// The dimension `guide_planes = name` names, checked against the refined plane's sides
+    /// `(along, across)` and `guided`.
+    fn guide_plane(
+        &self,
+        doc: &Doc,
+        name: &str,
+        (d_along, across): (usize, Option<usize>),
+        guided: bool,
+    ) -> Result<usize, ConfigError> {
+        let sec = "refine";
+        let d = self.dim_named(doc, sec, "guide_planes", name)?;
+        if d == d_along || Some(d) == across {
+            return Err(doc.err(sec, "guide_planes", format!("guide_planes = `{name}` is a side of the refined plane (along or across); give another dimension")));
+        }
+        if !guided {
+            return Err(doc.err(
+                sec,
+                "guide_planes",
+                format!("guide_planes = `{name}` needs guided = true"),
+            ));
+        }
+        let len = self.dims[d].len;
+        if len < 3 {
+            return Err(doc.err(sec, "guide_planes", format!("guide_planes = `{name}` has {len} values; planes are guided between its first and last, so it needs at least 3")));
+        }
+        Ok(d)
+    }
+
+    /// Reads `[refine]` and makes its axis dense (see [`Refine`]).
+    fn parse_refine(&mut self, doc: &Doc, t: &toml::Table) -> Result<(), ConfigError> {
+        let sec = "refine";
+        let RefineKeys {
+            measure,
+            level,
+            along,
+            across,
+            resolution,
+            tolerance,
+            guided,
+            guide_planes,
+        } = refine_keys(doc, t)?;
         let along = along.ok_or_else(|| {
             doc.err(
                 sec,
@@ -641,22 +587,7 @@ impl SweepSpec {
                 format!("axis `{along}` has {n} value; refinement needs at least 2"),
             ));
         }
-        // The dimension a key names, or an error naming the key and the dimensions there are.
-        let dim_named = |key: &str, name: &str| {
-            self.dims
-                .iter()
-                .position(|d| d.name == name)
-                .ok_or_else(|| {
-                    doc.err(
-                        sec,
-                        key,
-                        format!(
-                            "`{name}` is not a dimension of this sweep; dimensions: {}",
-                            names()
-                        ),
-                    )
-                })
-        };
+        let dim_named = |key: &str, name: &str| self.dim_named(doc, sec, key, name);
         let across = match across {
             Some(name) => {
                 let d = dim_named("across", &name)?;
@@ -676,39 +607,9 @@ impl SweepSpec {
         };
         let guide_planes = match guide_planes {
             None => None,
-            Some(name) => {
-                let d = dim_named("guide_planes", &name)?;
-                if d == d_along || Some(d) == across {
-                    return Err(doc.err(sec, "guide_planes", format!("guide_planes = `{name}` is a side of the refined plane (along or across); give another dimension")));
-                }
-                if !guided {
-                    return Err(doc.err(
-                        sec,
-                        "guide_planes",
-                        format!("guide_planes = `{name}` needs guided = true"),
-                    ));
-                }
-                let len = self.dims[d].len;
-                if len < 3 {
-                    return Err(doc.err(sec, "guide_planes", format!("guide_planes = `{name}` has {len} values; planes are guided between its first and last, so it needs at least 3")));
-                }
-                Some(d)
-            }
+            Some(name) => Some(self.guide_plane(doc, &name, (d_along, across), guided)?),
         };
-        // The coarse step against the resolution, in the axis's own spacing.
-        let (step, fine) = if log {
-            (
-                (stop / start).ln().abs() / (n - 1) as f64,
-                resolution.ln_1p(),
-            )
-        } else {
-            ((stop - start).abs() / (n - 1) as f64, resolution)
-        };
-        let levels = (step / fine).log2().ceil().max(0.0);
-        if levels > MAX_REFINE_LEVELS as f64 {
-            return Err(doc.err(sec, "resolution", format!("resolution = {resolution} needs {levels} halvings of the coarse step; at most {MAX_REFINE_LEVELS} are allowed: coarsen the resolution or add values to the axis")));
-        }
-        let levels = levels as u32;
+        let levels = refine_levels(doc, (start, stop, n, log), resolution)?;
         let dense = (n - 1) * (1 << levels) + 1;
         let others: usize = self
             .dims
@@ -1015,41 +916,44 @@ impl SweepSpec {
     }
 }
 
+/// The line of `key` in the `i`-th `[[axis]]` table of `doc` (that table's header where the
+/// key is not written; 0 where there is no such table).
+fn axis_key_line(doc: &Doc, i: usize, key: &str) -> usize {
+    let mut seen = 0;
+    let mut line = 0;
+    let mut inside = false;
+    for (n, l) in doc.text.lines().enumerate() {
+        let l = l.trim();
+        if l.starts_with("[[axis]]") {
+            inside = seen == i;
+            seen += 1;
+            if inside {
+                line = n + 1;
+            }
+            continue;
+        }
+        if l.starts_with('[') {
+            inside = false;
+        }
+        if inside
+            && l.split_once('=')
+                .map(|(k, _)| k.trim() == key)
+                .unwrap_or(false)
+        {
+            line = n + 1;
+            break;
+        }
+    }
+    line
+}
+
 fn parse_axis(doc: &Doc, i: usize, t: &toml::Table, max_runs: usize) -> Result<Axis, ConfigError> {
     let sec = format!("axis[{i}]");
-    let here = |key: &str, msg: String| {
-        // Lines: find the i-th "[[axis]]" header, then the key below it.
-        let mut seen = 0;
-        let mut line = 0;
-        let mut inside = false;
-        for (n, l) in doc.text.lines().enumerate() {
-            let l = l.trim();
-            if l.starts_with("[[axis]]") {
-                inside = seen == i;
-                seen += 1;
-                if inside {
-                    line = n + 1;
-                }
-                continue;
-            }
-            if l.starts_with('[') {
-                inside = false;
-            }
-            if inside
-                && l.split_once('=')
-                    .map(|(k, _)| k.trim() == key)
-                    .unwrap_or(false)
-            {
-                line = n + 1;
-                break;
-            }
-        }
-        ConfigError {
-            file: doc.file.clone(),
-            line,
-            key: format!("{sec}.{key}"),
-            msg,
-        }
+    let here = |key: &str, msg: String| ConfigError {
+        file: doc.file.clone(),
+        line: axis_key_line(doc, i, key),
+        key: format!("{sec}.{key}"),
+        msg,
     };
     let name = t
         .get("name")
@@ -1183,6 +1087,165 @@ fn parse_axis(doc: &Doc, i: usize, t: &toml::Table, max_runs: usize) -> Result<A
         values,
         zip,
         range,
+    })
+}
+
+/// The halvings of a refined axis's coarse step (`start` to `stop` over `n` values, `log` or
+/// linear) that reach `resolution` (relative on a log axis), at most [`MAX_REFINE_LEVELS`].
+fn refine_levels(
+    doc: &Doc,
+    (start, stop, n, log): (f64, f64, usize, bool),
+    resolution: f64,
+) -> Result<u32, ConfigError> {
+    let sec = "refine";
+    // The coarse step against the resolution, in the axis's own spacing.
+    let (step, fine) = if log {
+        (
+            (stop / start).ln().abs() / (n - 1) as f64,
+            resolution.ln_1p(),
+        )
+    } else {
+        ((stop - start).abs() / (n - 1) as f64, resolution)
+    };
+    let levels = (step / fine).log2().ceil().max(0.0);
+    if levels > MAX_REFINE_LEVELS as f64 {
+        return Err(doc.err(sec, "resolution", format!("resolution = {resolution} needs {levels} halvings of the coarse step; at most {MAX_REFINE_LEVELS} are allowed: coarsen the resolution or add values to the axis")));
+    }
+    Ok(levels as u32)
+}
+
+/// The keys of a `[refine]` table, each checked alone (their relations to the axes are
+/// [`SweepSpec::parse_refine`]'s).
+struct RefineKeys {
+    measure: String,
+    level: f64,
+    along: Option<String>,
+    across: Option<String>,
+    resolution: Option<f64>,
+    tolerance: f64,
+    guided: bool,
+    guide_planes: Option<String>,
+}
+
+/// Reads the keys of `[refine]`; unset: `measure` r, `level` 0.05, `tolerance` 0, `guided`.
+fn refine_keys(doc: &Doc, t: &toml::Table) -> Result<RefineKeys, ConfigError> {
+    let sec = "refine";
+    let mut measure = "r".to_string();
+    let mut level = 0.05;
+    let mut along: Option<String> = None;
+    let mut across: Option<String> = None;
+    let mut resolution: Option<f64> = None;
+    let mut tolerance = 0.0;
+    let mut guided = true;
+    let mut guide_planes: Option<String> = None;
+    for (k, v) in t {
+        match k.as_str() {
+            "measure" => {
+                let m = v
+                    .as_str()
+                    .ok_or_else(|| doc.err(sec, k, "expected the name of a measure"))?;
+                if !MEASURES.contains(&m) || m == "cycles" {
+                    return Err(doc.err(
+                        sec,
+                        k,
+                        format!(
+                            "unknown measure `{m}`; allowed: {}",
+                            MEASURES[..MEASURES.len() - 1].join(", ")
+                        ),
+                    ));
+                }
+                measure = m.to_string();
+            }
+            "level" => {
+                level = doc.number(sec, k, v)?;
+                if !level.is_finite() {
+                    return Err(doc.err(sec, k, format!("level = {level}: must be finite")));
+                }
+            }
+            "along" | "across" => {
+                let name = v
+                    .as_str()
+                    .ok_or_else(|| doc.err(sec, k, "expected the name of an axis"))?;
+                if k == "along" {
+                    along = Some(name.to_string());
+                } else {
+                    across = Some(name.to_string());
+                }
+            }
+            "resolution" => {
+                let r = doc.number(sec, k, v)?;
+                if !(r.is_finite() && r > 0.0) {
+                    return Err(doc.err(
+                        sec,
+                        k,
+                        format!("resolution = {r} is not allowed: must be finite and > 0"),
+                    ));
+                }
+                resolution = Some(r);
+            }
+            "tolerance" => {
+                tolerance = doc.number(sec, k, v)?;
+                if !(tolerance.is_finite() && tolerance >= 0.0) {
+                    return Err(doc.err(
+                        sec,
+                        k,
+                        format!("tolerance = {tolerance} is not allowed: must be finite and >= 0"),
+                    ));
+                }
+            }
+            "guided" => {
+                guided = v.as_bool().ok_or_else(|| {
+                    doc.err(
+                        sec,
+                        k,
+                        format!("guided = {v} is not allowed: must be true or false"),
+                    )
+                })?;
+            }
+            "guide_planes" => {
+                let name = v
+                    .as_str()
+                    .ok_or_else(|| doc.err(sec, k, "expected the name of a dimension"))?;
+                guide_planes = Some(name.to_string());
+            }
+            _ => {
+                return Err(doc.err(
+                    sec,
+                    k,
+                    "unknown key; allowed: measure, level, along, across, resolution, tolerance, guided, guide_planes",
+                ));
+            }
+        }
+    }
+    // A level the measure never crosses refines nothing: r, dF, their errors and the period
+    // are never negative and a stick fraction lies within 0 to 1; the boundary of such a
+    // measure lies strictly inside its range.
+    let range = match measure.as_str() {
+        "stick_fraction" => Some((0.0, 1.0, "0 < level < 1")),
+        "r" | "r_stderr" | "dF" | "dF_stderr" | "period" => Some((0.0, f64::INFINITY, "level > 0")),
+        _ => None,
+    };
+    if let Some((lo, hi, rule)) = range
+        && !(level > lo && level < hi)
+    {
+        return Err(doc.err(
+            sec,
+            "level",
+            format!(
+                "level = {level}: {measure} never crosses it, so nothing would be refined; \
+                 allowed: {rule}"
+            ),
+        ));
+    }
+    Ok(RefineKeys {
+        measure,
+        level,
+        along,
+        across,
+        resolution,
+        tolerance,
+        guided,
+        guide_planes,
     })
 }
 
