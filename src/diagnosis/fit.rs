@@ -200,9 +200,7 @@ pub fn prepare(target: &Target, start: &Model, effects: &[EffectKind]) -> Start 
 
 /// [`fit`] from a start [`prepare`]d on the same recordings `target`.
 pub fn fit_from(target: &Target, s: Start, opts: FitOptions) -> FitResult {
-    levenberg_marquardt(
-        target, s.model, &s.effects, s.cs, s.theta, s.at, None, 1, opts,
-    )
+    levenberg_marquardt(target, s, None, 1, opts)
 }
 
 /// [`fit_from`] the start `s` of a model that extends another by effects, with a bar
@@ -243,17 +241,7 @@ pub fn fit_extending(target: &Target, s: Start, known: &Mat<f64>, opts: FitOptio
         // Out of reach: the iterations stop at their first check, on this Jacobian.
         (borrowed, false, 1 + p - k0)
     };
-    levenberg_marquardt(
-        target,
-        s.model,
-        &s.effects,
-        s.cs,
-        s.theta,
-        s.at,
-        Some((jac, fresh)),
-        evaluations,
-        opts,
-    )
+    levenberg_marquardt(target, s, Some((jac, fresh)), evaluations, opts)
 }
 
 /// Continues the fit `fr` on the same recordings from its optimum: more Levenberg–Marquardt
@@ -272,34 +260,35 @@ pub fn refine(target: &Target, fr: &FitResult, opts: FitOptions) -> FitResult {
     }
     let cs = coords(&target.bounds, &fr.effects, &fr.model.effects);
     let cost = fr.z.iter().map(|v| v * v).sum();
-    levenberg_marquardt(
-        target,
-        fr.model.clone(),
-        &fr.effects,
+    let start = Start {
+        model: fr.model.clone(),
+        effects: fr.effects.clone(),
         cs,
-        fr.theta.clone(),
-        (cost, fr.z.clone()),
-        fr.jacobian_fresh.then(|| (fr.jacobian.clone(), true)),
-        0,
-        opts,
-    )
+        theta: fr.theta.clone(),
+        at: (cost, fr.z.clone()),
+    };
+    let jac0 = fr.jacobian_fresh.then(|| (fr.jacobian.clone(), true));
+    levenberg_marquardt(target, start, jac0, 0, opts)
 }
 
-/// The iterations of [`fit`] from `theta` (cost and residuals `at`, already evaluated and
+/// The iterations of [`fit`] from the start `s` (its cost and residuals already evaluated and
 /// counted in `evaluations`), on the first Jacobian `jac0` where given (with whether it is a
 /// fresh finite-difference Jacobian there), else on a new one.
-#[allow(clippy::too_many_arguments)]
 fn levenberg_marquardt(
     target: &Target,
-    model: Model,
-    effects: &[EffectKind],
-    cs: Vec<Coord>,
-    mut theta: Vec<f64>,
-    at: (f64, Vec<f64>),
+    s: Start,
     jac0: Option<(Mat<f64>, bool)>,
     mut evaluations: usize,
     opts: FitOptions,
 ) -> FitResult {
+    let Start {
+        model,
+        effects,
+        cs,
+        mut theta,
+        at,
+    } = s;
+    let effects = effects.as_slice();
     let p = cs.len();
     let (mut cost, mut z) = at;
     let build = |th: &[f64]| build_model(&model, &cs, th);

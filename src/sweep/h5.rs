@@ -48,172 +48,243 @@ fn status_code(r: Option<&sim::RunResult>) -> f64 {
     r.map(|r| r.status.code() as f64).unwrap_or(-1.0)
 }
 
+/// What one grid point gives its columns: its run and its reference (none where not run), its
+/// reduction with its standard error, and its parameters.
+struct At<'a> {
+    own: Option<&'a sim::RunResult>,
+    reference: Option<&'a sim::RunResult>,
+    r: f64,
+    r_stderr: f64,
+    point: &'a crate::model::Params,
+}
+
+impl At<'_> {
+    /// A measure of the run (NaN where not run).
+    fn measure(&self, f: fn(&crate::measures::Measures) -> f64) -> f64 {
+        self.own.map(|r| f(&r.measures)).unwrap_or(f64::NAN)
+    }
+
+    /// A counter of the run's statistics (NaN where not run).
+    fn stat(&self, f: fn(&crate::ode::Stats) -> u64) -> f64 {
+        self.own.map(|r| f(&r.stats) as f64).unwrap_or(f64::NAN)
+    }
+
+    /// The point's status: its run's, or its reference's where that failed (a point fails when
+    /// its run or its reference fails); −1 where not run.
+    fn status(&self) -> f64 {
+        match (self.own, self.reference) {
+            (Some(a), Some(b)) if b.status != crate::ode::Status::Success => {
+                b.status.code().max(a.status.code()) as f64
+            }
+            _ => status_code(self.own),
+        }
+    }
+}
+
+/// One array of the sweep file: its dataset's name, unit and description, and how a grid
+/// point's value is read. A measure a sweep file can leave out ([`super::spec::MEASURES`]) is
+/// written where the sweep asks for it; every other column always.
+struct Column {
+    name: &'static str,
+    unit: &'static str,
+    doc: &'static str,
+    read: fn(&At<'_>) -> f64,
+}
+
+/// The sweep file's arrays, in the order they are written.
+const COLUMNS: &[Column] = &[
+    Column {
+        name: "r",
+        unit: "1",
+        doc: "reduction coefficient dF/dF_reference (Eq. 5.1)",
+        read: |a| a.r,
+    },
+    Column {
+        name: "r_stderr",
+        unit: "1",
+        doc: "standard error of r (NaN where a run with vibration holds one cycle)",
+        read: |a| a.r_stderr,
+    },
+    Column {
+        name: "dF",
+        unit: "N",
+        doc: "stick-slip amplitude: mean drop of the smoothed drive force per cycle",
+        read: |a| a.measure(|m| m.d_f),
+    },
+    Column {
+        name: "dF_stderr",
+        unit: "N",
+        doc: "standard error of dF over the cycles (NaN where a run with vibration holds one)",
+        read: |a| a.measure(|m| m.d_f_stderr),
+    },
+    Column {
+        name: "dF_reference",
+        unit: "N",
+        doc: "dF of the run without vibration",
+        read: |a| a.reference.map(|r| r.measures.d_f).unwrap_or(f64::NAN),
+    },
+    Column {
+        name: "mean_force",
+        unit: "N",
+        doc: "mean drive force over the steady window",
+        read: |a| a.measure(|m| m.mean_force),
+    },
+    Column {
+        name: "stick_fraction",
+        unit: "1",
+        doc: "share of the steady window spent sticking",
+        read: |a| a.measure(|m| m.stick_fraction),
+    },
+    Column {
+        name: "period",
+        unit: "s",
+        doc: "mean stick-slip period",
+        read: |a| a.measure(|m| m.period),
+    },
+    Column {
+        name: "peak_force",
+        unit: "N",
+        doc: "mean peak of the smoothed drive force",
+        read: |a| a.measure(|m| m.peak_force),
+    },
+    Column {
+        name: "trough_force",
+        unit: "N",
+        doc: "mean trough of the smoothed drive force",
+        read: |a| a.measure(|m| m.trough_force),
+    },
+    Column {
+        name: "cycles",
+        unit: "1",
+        doc: "stick-slip cycles counted in the steady window",
+        read: |a| a.measure(|m| m.cycles as f64),
+    },
+    Column {
+        name: "status",
+        unit: "1",
+        doc: "run status",
+        read: |a| a.status(),
+    },
+    Column {
+        name: "steps",
+        unit: "1",
+        doc: "accepted steps",
+        read: |a| a.stat(|s| s.steps),
+    },
+    Column {
+        name: "rejected",
+        unit: "1",
+        doc: "rejected steps",
+        read: |a| a.stat(|s| s.rejected),
+    },
+    Column {
+        name: "rhs_evals",
+        unit: "1",
+        doc: "right-hand-side evaluations",
+        read: |a| a.stat(|s| s.rhs_evals),
+    },
+    Column {
+        name: "jac_evals",
+        unit: "1",
+        doc: "Jacobian evaluations",
+        read: |a| a.stat(|s| s.jac_evals),
+    },
+    Column {
+        name: "lu_decomps",
+        unit: "1",
+        doc: "LU factorisations",
+        read: |a| a.stat(|s| s.lu_decomps),
+    },
+    Column {
+        name: "newton_iters",
+        unit: "1",
+        doc: "Newton iterations of the implicit methods",
+        read: |a| a.stat(|s| s.newton_iters),
+    },
+    Column {
+        name: "skipped_periods",
+        unit: "1",
+        doc: "vibration periods jumped by envelope following",
+        read: |a| a.stat(|s| s.skipped_periods),
+    },
+    Column {
+        name: "wall_time",
+        unit: "s",
+        doc: "wall time of the run",
+        read: |a| a.own.map(|r| r.wall_time).unwrap_or(f64::NAN),
+    },
+    Column {
+        name: "t_end",
+        unit: "s",
+        doc: "simulated time of the run (shorter than planned where it stopped early)",
+        read: |a| a.own.map(|r| r.t_end).unwrap_or(f64::NAN),
+    },
+    Column {
+        name: "tier",
+        unit: "1",
+        doc: "model that served the run: 0 full (every period integrated), 1 averaged (the vibration averaged out), 2 hybrid (averaged, with full windows in the law's zones)",
+        read: |a| a.own.map(|r| f64::from(r.tier.code())).unwrap_or(-1.0),
+    },
+    Column {
+        name: "tier_reason",
+        unit: "1",
+        doc: "why: 0 asked, 1 no_vibration, 2 two_stage, 3 effects, 4 separation, 5 no_law, 6 valid, 7 asked_averaged, 8 check (a full run replaced a disagreeing averaged one), 9 left_law (the averaged run left the valid law: full), 10 below_resonance, 11 unshared (no other point shares its table: full), 12 small_amplitude (v_a < 0.1 v_d: full), 13 asked_hybrid, 14 zones (under auto, the averaged run passed the law's zones: hybrid), 15 partial_law (the law's continuation stopped short: full), 16 near_zone (under auto, v_d in or within 25 % of a zone of the law: full)",
+        read: |a| {
+            a.own
+                .map(|r| f64::from(r.tier_reason.code()))
+                .unwrap_or(-1.0)
+        },
+    },
+    Column {
+        name: "u0_grid",
+        unit: "m",
+        doc: "vibration amplitude u0 of the point",
+        read: |a| a.point.u0,
+    },
+    Column {
+        name: "v_a_grid",
+        unit: "m/s",
+        doc: "vibration velocity amplitude v_a = 2 pi f u0 of the point",
+        read: |a| a.point.v_a(),
+    },
+    Column {
+        name: "computed",
+        unit: "1",
+        doc: "1 where the point was run (a [refine] sweep runs only the points near the level; the others hold NaN)",
+        read: |a| f64::from(u8::from(a.own.is_some())),
+    },
+];
+
 /// Builds the result arrays from the results so far (NaN where not run).
 fn grids(spec: &SweepSpec, plan: &Plan, res: &Results) -> Vec<Grid> {
     let shape = IxDyn(&spec.shape());
     let n = plan.points.len();
-    let mut cols: Vec<(&'static str, &'static str, &'static str, Vec<f64>)> = vec![
-        (
-            "r",
-            "1",
-            "reduction coefficient dF/dF_reference (Eq. 5.1)",
-            vec![],
-        ),
-        (
-            "r_stderr",
-            "1",
-            "standard error of r (NaN where a run with vibration holds one cycle)",
-            vec![],
-        ),
-        (
-            "dF",
-            "N",
-            "stick-slip amplitude: mean drop of the smoothed drive force per cycle",
-            vec![],
-        ),
-        (
-            "dF_stderr",
-            "N",
-            "standard error of dF over the cycles (NaN where a run with vibration holds one)",
-            vec![],
-        ),
-        (
-            "dF_reference",
-            "N",
-            "dF of the run without vibration",
-            vec![],
-        ),
-        (
-            "mean_force",
-            "N",
-            "mean drive force over the steady window",
-            vec![],
-        ),
-        (
-            "stick_fraction",
-            "1",
-            "share of the steady window spent sticking",
-            vec![],
-        ),
-        ("period", "s", "mean stick-slip period", vec![]),
-        (
-            "peak_force",
-            "N",
-            "mean peak of the smoothed drive force",
-            vec![],
-        ),
-        (
-            "trough_force",
-            "N",
-            "mean trough of the smoothed drive force",
-            vec![],
-        ),
-        (
-            "cycles",
-            "1",
-            "stick-slip cycles counted in the steady window",
-            vec![],
-        ),
-        ("status", "1", "run status", vec![]),
-        ("steps", "1", "accepted steps", vec![]),
-        ("rejected", "1", "rejected steps", vec![]),
-        ("rhs_evals", "1", "right-hand-side evaluations", vec![]),
-        ("jac_evals", "1", "Jacobian evaluations", vec![]),
-        ("lu_decomps", "1", "LU factorisations", vec![]),
-        ("wall_time", "s", "wall time of the run", vec![]),
-        (
-            "t_end",
-            "s",
-            "simulated time of the run (shorter than planned where it stopped early)",
-            vec![],
-        ),
-        (
-            "tier",
-            "1",
-            "model that served the run: 0 full (every period integrated), 1 averaged (the vibration averaged out), 2 hybrid (averaged, with full windows in the law's zones)",
-            vec![],
-        ),
-        (
-            "tier_reason",
-            "1",
-            "why: 0 asked, 1 no_vibration, 2 two_stage, 3 effects, 4 separation, 5 no_law, 6 valid, 7 asked_averaged, 8 check (a full run replaced a disagreeing averaged one), 9 left_law (the averaged run left the valid law: full), 10 below_resonance, 11 unshared (no other point shares its table: full), 12 small_amplitude (v_a < 0.1 v_d: full), 13 asked_hybrid, 14 zones (under auto, the averaged run passed the law's zones: hybrid), 15 partial_law (the law's continuation stopped short: full), 16 near_zone (under auto, v_d in or within 25 % of a zone of the law: full)",
-            vec![],
-        ),
-        (
-            "u0_grid",
-            "m",
-            "vibration amplitude u0 of the point",
-            vec![],
-        ),
-        (
-            "v_a_grid",
-            "m/s",
-            "vibration velocity amplitude v_a = 2 pi f u0 of the point",
-            vec![],
-        ),
-        (
-            "computed",
-            "1",
-            "1 where the point was run (a [refine] sweep runs only the points near the level; the others hold NaN)",
-            vec![],
-        ),
-    ];
-    for c in cols.iter_mut() {
-        c.3.reserve(n);
-    }
-    for i in 0..n {
-        let (own, rf) = res.point(plan, i);
-        let m = own.map(|r| r.measures);
-        let (r, r_se) = res.reduction(plan, i);
-        let g = |f: fn(&crate::measures::Measures) -> f64| m.as_ref().map(f).unwrap_or(f64::NAN);
-        let st = own.map(|r| r.stats);
-        let sv = |f: fn(&crate::ode::Stats) -> u64| st.map(|s| f(&s) as f64).unwrap_or(f64::NAN);
-        let p = &plan.points[i];
-        let vals = [
-            r,
-            r_se,
-            g(|m| m.d_f),
-            g(|m| m.d_f_stderr),
-            rf.map(|r| r.measures.d_f).unwrap_or(f64::NAN),
-            g(|m| m.mean_force),
-            g(|m| m.stick_fraction),
-            g(|m| m.period),
-            g(|m| m.peak_force),
-            g(|m| m.trough_force),
-            g(|m| m.cycles as f64),
-            // A point fails when its run or its reference fails.
-            match (own, rf) {
-                (Some(a), Some(b)) if b.status != crate::ode::Status::Success => {
-                    b.status.code().max(a.status.code()) as f64
-                }
-                _ => status_code(own),
-            },
-            sv(|s| s.steps),
-            sv(|s| s.rejected),
-            sv(|s| s.rhs_evals),
-            sv(|s| s.jac_evals),
-            sv(|s| s.lu_decomps),
-            own.map(|r| r.wall_time).unwrap_or(f64::NAN),
-            own.map(|r| r.t_end).unwrap_or(f64::NAN),
-            own.map(|r| f64::from(r.tier.code())).unwrap_or(-1.0),
-            own.map(|r| f64::from(r.tier_reason.code())).unwrap_or(-1.0),
-            p.u0,
-            p.v_a(),
-            f64::from(u8::from(own.is_some())),
-        ];
-        for (c, v) in cols.iter_mut().zip(vals) {
-            c.3.push(v);
-        }
-    }
     let keep = |name: &str| {
         !super::spec::MEASURES.contains(&name) || spec.measures.iter().any(|m| m == name)
     };
-    cols.into_iter()
-        .filter(|c| keep(c.0))
-        .map(|(name, unit, doc, v)| Grid {
-            name,
-            unit,
-            doc,
+    let columns: Vec<&Column> = COLUMNS.iter().filter(|c| keep(c.name)).collect();
+    let mut data: Vec<Vec<f64>> = vec![Vec::with_capacity(n); columns.len()];
+    for i in 0..n {
+        let (own, reference) = res.point(plan, i);
+        let (r, r_stderr) = res.reduction(plan, i);
+        let at = At {
+            own,
+            reference,
+            r,
+            r_stderr,
+            point: &plan.points[i],
+        };
+        for (c, v) in columns.iter().zip(data.iter_mut()) {
+            v.push((c.read)(&at));
+        }
+    }
+    columns
+        .into_iter()
+        .zip(data)
+        .map(|(c, v)| Grid {
+            name: c.name,
+            unit: c.unit,
+            doc: c.doc,
             data: ArrayD::from_shape_vec(shape.clone(), v).expect("shape matches the grid"),
         })
         .collect()
