@@ -28,6 +28,7 @@ pub mod nullable;
 pub mod record;
 pub mod report;
 pub mod scan;
+pub mod scans;
 pub mod screen;
 pub mod target;
 pub mod verdict;

@@ -2,7 +2,7 @@
 //! vocabulary, with a `plan` table the loader ignores), `plan.json`, `plan.png` (and `.svg`):
 //! the design space with the existing and the planned recordings), and the terminal summary.
 
-use super::{Plan, Planned};
+use super::types::{Plan, Planned};
 use crate::campaign::Campaign;
 use crate::model::Params;
 use crate::plot::{Figure, PlotError, render};

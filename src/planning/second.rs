@@ -12,7 +12,8 @@
 //! not run twice), else screened beside the base model the same way; kept where they lower its
 //! gap by [`crate::diagnosis::evidence::UNCHANGED`] at least.
 
-use super::{Rival, Role, per_recording};
+use super::rivals::{Rival, Role};
+use super::simulate::per_recording;
 use crate::diagnosis::evidence::evidence;
 use crate::diagnosis::fit::{self, FitOptions, FitResult, Target, gap};
 use crate::diagnosis::record::{RankedRecord, Screen};

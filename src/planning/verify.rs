@@ -5,7 +5,8 @@
 //! as the diagnosis computes it ([`evidence`]: one scale per recording, the jackknife over
 //! recordings) on the planned recordings and on what the refit changed on the existing ones.
 
-use super::{Plan, blank, noisy, per_recording};
+use super::simulate::{blank, noisy, per_recording};
+use super::types::Plan;
 use crate::campaign::Recording;
 use crate::diagnosis::evidence::{LN_PRIOR_ODDS, evidence};
 use crate::diagnosis::fit::{FitOptions, Target, fit};
