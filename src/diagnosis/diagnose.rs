@@ -107,10 +107,10 @@ pub use super::vet::{FAMILIES, family_of, held_out_families};
 
 /// Diagnoses a campaign. A campaign none of whose recordings can be checked on held-out data
 /// (no kind of condition recorded at two drives) is refused: it names what is missing. The
-/// stages, in order: the base model calibrated and cross-validated ([`calibrate`]); the
+/// stages, in order: the base model calibrated and cross-validated (`calibrate`); the
 /// candidates, their forms and the decision, and two effects together where none passed
-/// alone ([`first_round`]); a second effect beside a named first one ([`second_round`]);
-/// where the gap lies; the detection limits ([`limits_of`]).
+/// alone (`first_round`); a second effect beside a named first one (`second_round`);
+/// where the gap lies; the detection limits (`limits_of`).
 pub fn diagnose(c: &Campaign, opts: &DiagnoseOptions) -> Result<Diagnosis, CampaignError> {
     let start = std::time::Instant::now();
     let (fold, k_folds, checked, not_checked) = folds(c);

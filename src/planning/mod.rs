@@ -1,5 +1,5 @@
 //! Planning the next recordings: the recordings that best tell apart the explanations a
-//! diagnosis leaves standing ([`rivals`]), chosen one after another from the rig's design space
+//! diagnosis leaves standing ([`rivals()`]), chosen one after another from the rig's design space
 //! ([`space`]) by the discrimination criterion ([`criterion`]), then checked by simulation:
 //! each rival taken as the truth, the planned recordings simulated from it with the campaign's
 //! noise and every rival refitted ([`verify`]). [`report`] writes the plan (one conditions file
@@ -100,7 +100,7 @@ fn pair_scores(
 }
 
 /// Plans `opts.recordings` recordings for the campaign `c` whose diagnosis is `diag`, within
-/// `space`. `say` gets a line at each stage. The stages, in order: the rivals ([`rivals`], and
+/// `space`. `say` gets a line at each stage. The stages, in order: the rivals ([`rivals()`], and
 /// those the plan fits itself), the campaign's noise, the open pairs and the design space's
 /// candidates; then either a random draw ([`PlanOptions::random`]) or the rivals linearised,
 /// simulated on every candidate, screened, differenced on the finalists, the recordings chosen

@@ -1,5 +1,5 @@
-//! The explanations a diagnosis leaves standing ([`rivals`] of a [`DiagnosisRecord`]), why
-//! each stands ([`Role`]), and the pairs of them the choice aims at ([`open_pairs`]).
+//! The explanations a diagnosis leaves standing ([`rivals()`] of a [`DiagnosisRecord`]), why
+//! each stands ([`Role`]), and the pairs of them the choice aims at (`open_pairs`).
 
 use crate::diagnosis::evidence::evidence;
 use crate::diagnosis::fit::Model;
@@ -30,9 +30,9 @@ pub enum Role {
     BestThree,
     /// A second effect the diagnosis tried beside the first and did not name.
     SecondTried,
-    /// One of an unexplained gap's best three, fitted by the plan ([`second`]).
+    /// One of an unexplained gap's best three, fitted by the plan ([`super::second`]).
     BestThreeFittedByPlan,
-    /// A second effect beside the named one, fitted by the plan ([`second`]).
+    /// A second effect beside the named one, fitted by the plan ([`super::second`]).
     SecondFittedByPlan,
 }
 
@@ -95,7 +95,7 @@ fn entry_rival(e: &CandidateRecord, role: Role) -> Rival {
 /// `unexplained`, the three best candidates. At most [`MAX_RIVALS`], the best supported first.
 /// Candidates whose screen stopped short of the leader, or of the bar (their fit holds no
 /// effect of its own, [`CandidateRecord::holds_effect`]), are not rivals; where an unexplained gap
-/// leaves fewer than three, [`plan`] fits the others itself.
+/// leaves fewer than three, [`super::plan`] fits the others itself.
 pub fn rivals(diag: &DiagnosisRecord) -> Vec<Rival> {
     let verdict = diag.verdict;
     let mut out = vec![Rival {

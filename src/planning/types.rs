@@ -13,13 +13,13 @@ pub struct PlanOptions {
     /// discrimination before any refit); at least [`PlanOptions::recordings`]. Default 24;
     /// up to 200.
     pub finalists: usize,
-    /// Check the plan by simulation ([`verify`]): each rival as the truth, every rival refitted
+    /// Check the plan by simulation ([`super::verify`]): each rival as the truth, every rival refitted
     /// to the existing and the planned recordings. Default true.
     pub check: bool,
     /// Seed of the simulated noise. Default 1.
     pub seed: u64,
     /// Where the diagnosis names an effect only in part and tried nothing beside it, fit each
-    /// candidate beside it and keep those that lower its gap as rivals ([`second`]): minutes
+    /// candidate beside it and keep those that lower its gap as rivals ([`super::second`]): minutes
     /// more on a 30-recording campaign. Default false.
     pub second_effects: bool,
     /// Draw the recordings at random from the design space's candidates (seeded by
@@ -121,7 +121,7 @@ pub struct Outcome {
     pub now: f64,
     /// Expected after the planned recordings, by the criterion: `now + D_truth,other`.
     pub expected: f64,
-    /// Simulated ([`verify`]): `now` plus the ln odds of the planned recordings after every
+    /// Simulated ([`super::verify`]): `now` plus the ln odds of the planned recordings after every
     /// rival is refitted to recordings simulated from `truth` (None: not checked).
     pub simulated: Option<f64>,
     /// Its jackknife standard error over the planned recordings.
