@@ -420,11 +420,18 @@ def test_plan_returns_the_cli_plan_as_xarray(small_campaign: Path, tmp_path: Pat
     model = json.loads(json.dumps(d["calibration"]["model"]))
     model["effects"] = {"viscous": {"h_v": 60.0, "exponent": 1.0}}
     n = d["recordings"]
+    # A whole ranking entry: a diagnosis record refuses an entry missing any field.
+    estimate = {"value": 0.0, "stderr": None, "unit": ""}
     d["ranking"] = [{
         "effect": "viscous", "name": "viscous", "model": model, "fitted_effects": ["viscous"],
-        "evidence": {"ln_odds": 1.0, "clear": False}, "per_recording": [1.0] * n,
-        "per_recording_n": [10] * n, "params": {"F_s": {}, "F_c": {}, "v_s": {}, "h_d": {}, "viscous.h_v": {}},
-        "short_of_leader": None,
+        "evidence": {"ln_odds": 1.0, "log10_odds": 1.0 / np.log(10), "stderr": None,
+                     "recordings": n, "least_left_out": None, "clear": False},
+        "per_recording": [1.0] * n, "per_recording_n": [10] * n,
+        "params": {k: estimate for k in ("F_s", "F_c", "v_s", "h_d", "viscous.h_v")},
+        "form": None, "form_charge": 0.0, "at_bound": [], "gap_after": 1.0, "gap_spread": 0.0,
+        "reduction": 0.0, "score": 1.0, "fingerprints": [], "rejected": None,
+        "short_of_leader": None, "per_feature": {}, "stderr_from": "", "gap_calibration": 1.0,
+        "screen": None,
     }]
     d["verdict"], d["tie"], d["effects"] = "tie", ["viscous"], []
     rivals = tmp_path / "rivals.json"
