@@ -30,7 +30,7 @@ pub use batch::{GridAsk, GridResult, simulate_grids};
 
 use crate::config::{self, ConfigError, Doc};
 use crate::model::{Effects, Params, Rig, RigError};
-use crate::ode::{Method, Options, Solver, Status};
+use crate::ode::{Method, Options, Status};
 use std::collections::BTreeMap;
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -503,31 +503,7 @@ pub fn simulate_grid(
 }
 
 /// One solver per method, kept across runs by a worker.
-pub struct Solvers {
-    explicit: Solver,
-    implicit: Solver,
-    auto: Solver,
-}
-
-impl Default for Solvers {
-    fn default() -> Self {
-        Solvers {
-            explicit: Solver::new(Method::Dopri5),
-            implicit: Solver::new(Method::Rodas4),
-            auto: Solver::new(Method::Auto),
-        }
-    }
-}
-
-impl Solvers {
-    fn get(&mut self, m: Method) -> &mut Solver {
-        match m {
-            Method::Dopri5 => &mut self.explicit,
-            Method::Auto => &mut self.auto,
-            _ => &mut self.implicit,
-        }
-    }
-}
+pub use crate::ode::Solvers;
 
 /// Writes one recording (`NAME.csv` and `NAME.toml` with the conditions `v_d`, `k_d`, `f`,
 /// `u0`, `F_N`) into `dir`.

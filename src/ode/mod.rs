@@ -325,6 +325,26 @@ impl std::ops::AddAssign for Stats {
     }
 }
 
+/// One [`Solver`] per method, each made when first asked for and kept across runs: a worker's
+/// solvers where its runs ask for different methods.
+#[derive(Default)]
+pub struct Solvers {
+    list: Vec<Solver>,
+}
+
+impl Solvers {
+    /// The solver of method `m`.
+    pub fn get(&mut self, m: Method) -> &mut Solver {
+        match self.list.iter().position(|s| s.method() == m) {
+            Some(i) => &mut self.list[i],
+            None => {
+                self.list.push(Solver::new(m));
+                self.list.last_mut().expect("just pushed")
+            }
+        }
+    }
+}
+
 /// The outcome of one call to [`Solver::solve`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RunReport {

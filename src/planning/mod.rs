@@ -29,7 +29,7 @@ pub mod verify;
 
 use crate::campaign::{Campaign, Recording};
 use crate::diagnosis::features::FeatureSet;
-use crate::diagnosis::fit::{Model, Target};
+use crate::diagnosis::fit::{Model, StepLog, Target};
 use crate::diagnosis::linearised::{Linearised, linearise};
 use crate::diagnosis::record::DiagnosisRecord;
 use crate::diagnosis::verdict::Verdict;
@@ -44,39 +44,52 @@ use simulate::{features_of, simulate_on};
 use space::{Candidate, Space};
 pub use types::*;
 
-/// The clock of a plan's steps: each [`Steps::end`] records the time and the simulations
-/// since the last.
+/// A plan's steps as they end: the diagnosis's step clock ([`StepLog`]: each step's wall time
+/// and the simulations the target counted in it), and what each ran past the target's cache.
 struct Steps {
-    clock: std::time::Instant,
-    /// The target's simulation counter at the last step's end.
-    counted: usize,
-    list: Vec<PlanStep>,
+    log: StepLog,
+    /// Per step of `log`, the simulations run past the target's cache.
+    outside: Vec<usize>,
 }
 
 impl Steps {
     fn new(target: &Target) -> Self {
         Steps {
-            clock: std::time::Instant::now(),
-            counted: target.work().simulations,
-            list: vec![],
+            log: StepLog::new(target),
+            outside: vec![],
         }
     }
 
     /// Ends the step `step`: its wall time, and the simulations the target counted in it plus
     /// `outside` run past the target's cache.
     fn end(&mut self, step: &'static str, target: &Target, outside: usize) {
-        let now = target.work().simulations;
-        self.list.push(PlanStep {
-            step,
-            wall: self.clock.elapsed().as_secs_f64(),
-            simulations: now.saturating_sub(self.counted) + outside,
-        });
-        self.counted = now;
-        self.clock = std::time::Instant::now();
+        self.log.end(step, target);
+        let k = self
+            .log
+            .steps
+            .iter()
+            .position(|s| s.step == step)
+            .expect("the step just ended");
+        self.outside.resize(self.log.steps.len(), 0);
+        self.outside[k] += outside;
+    }
+
+    /// The steps in the order they ran.
+    fn list(&self) -> Vec<PlanStep> {
+        self.log
+            .steps
+            .iter()
+            .zip(&self.outside)
+            .map(|(s, o)| PlanStep {
+                step: s.step,
+                wall: s.wall,
+                simulations: s.work.simulations + o,
+            })
+            .collect()
     }
 
     fn total(&self) -> usize {
-        self.list.iter().map(|s| s.simulations).sum()
+        self.list().iter().map(|s| s.simulations).sum()
     }
 }
 
@@ -175,7 +188,7 @@ pub fn plan(
         p.work.end("check", &p.target, outside);
     }
     plan.simulations = p.work.total();
-    plan.steps = p.work.list;
+    plan.steps = p.work.list();
     plan.wall_time = p.start.elapsed().as_secs_f64();
     Ok(plan)
 }
@@ -775,7 +788,7 @@ impl<'a> Planning<'a> {
             noise,
             simulations: 0,
             wall_time: start.elapsed().as_secs_f64(),
-            steps: work.list,
+            steps: work.list(),
             warnings,
             random: true,
         }

@@ -52,11 +52,11 @@ fn lane_ready(rig: &Rig, opts: &RunOptions) -> bool {
         }
 }
 
-/// The solver of each method the runs ask for: the caller's for its own method, others made
-/// when first needed.
+/// The solver of each method the runs ask for: the caller's for its own method, the others'
+/// made when first needed ([`crate::ode::Solvers`]).
 struct Solvers<'a> {
     own: &'a mut Solver,
-    others: Vec<Solver>,
+    others: crate::ode::Solvers,
 }
 
 impl Solvers<'_> {
@@ -64,13 +64,7 @@ impl Solvers<'_> {
         if self.own.method() == m {
             return self.own;
         }
-        match self.others.iter().position(|s| s.method() == m) {
-            Some(i) => &mut self.others[i],
-            None => {
-                self.others.push(Solver::new(m));
-                self.others.last_mut().expect("just pushed")
-            }
-        }
+        self.others.get(m)
     }
 }
 
@@ -101,7 +95,7 @@ pub fn simulate_batch(
 ) {
     let solvers = RefCell::new(Solvers {
         own: solver,
-        others: Vec::new(),
+        others: crate::ode::Solvers::default(),
     });
     let done = RefCell::new(done);
     let lanes: RefCell<Vec<Option<InLane>>> = RefCell::new(Vec::new());
