@@ -374,7 +374,7 @@ pub(crate) fn try_pair(
     let (a, ga, ma) = *screened.first()?;
     let (b, gb, mb) = *screened.iter().find(|x| x.0.effect != a.effect)?;
     let sub = screen.recordings(all);
-    let bar = (1.0 - SCREEN_BAR) * screen.gap;
+    let bar = screen.bar();
     let both_effects = [a.effect, b.effect];
     let joint = joint_screen(sub, bar, (ma, a.effect), (mb, b.effect));
     let pct = |g: f64| 100.0 * (screen.gap - g) / screen.gap;

@@ -78,6 +78,12 @@ pub(crate) struct Screened {
 }
 
 impl<'a> Screen<'a> {
+    /// The gap a candidate's screen must reach to pass: [`SCREEN_BAR`] of the extended
+    /// model's gap on the screen's recordings removed.
+    pub fn bar(&self) -> f64 {
+        (1.0 - SCREEN_BAR) * self.gap
+    }
+
     /// The screen for candidates extending `from`, fitted on every recording of `all`.
     pub fn of(all: &Target<'a>, from: &FitResult, opts: FitOptions) -> Self {
         let fresh = |f: &FitResult| f.jacobian_fresh.then(|| f.jacobian.clone());
@@ -198,7 +204,7 @@ impl<'a> Screen<'a> {
             firsts.extend(f.into_iter().map(|f| (f, m.in_full)));
             checks += n;
         }
-        let bar = (1.0 - SCREEN_BAR) * self.gap;
+        let bar = self.bar();
         let opts = FitOptions {
             max_iter: opts.max_iter.min(SCREEN_ITERATIONS),
             rel_tol: SCREEN_REL_TOL,
