@@ -277,6 +277,20 @@ impl Base {
         move |e1: f64| (gap_before - e1) / (gap_before - noise).max(0.1 * gap_before)
     }
 
+    /// A round of candidates extending it, screened by `screen`.
+    fn round<'a>(&'a self, cx: &Ctx<'a>, screen: &'a Screen<'a>) -> Round<'a> {
+        Round {
+            all: cx.all,
+            screen,
+            from: &self.fit,
+            from_cv: &self.cv,
+            with: &[],
+            e0: self.gap,
+            folds: cx.folds,
+            opts: cx.fo,
+        }
+    }
+
     /// Its side in a decision.
     fn side(&self) -> Side<'_> {
         Side {
@@ -356,16 +370,7 @@ fn first_round(cx: &Ctx<'_>, base: &Base, log: &mut Log) -> First {
         let Some(screen) = &screen else {
             return vec![];
         };
-        let r = Round {
-            all,
-            screen,
-            from: &base.fit,
-            from_cv: &base.cv,
-            with: &[],
-            e0: base.gap,
-            folds: cx.folds,
-            opts: cx.fo,
-        };
+        let r = base.round(cx, screen);
         cands.par_iter().map(|t| try_candidate(&r, t)).collect()
     };
     let defaults: Vec<Try> = fitted.iter().map(|&k| Try::default_form(k)).collect();
@@ -479,18 +484,9 @@ fn pair_round(
     ranking: &mut [Ranked],
     log: &mut Log,
 ) -> Option<Pair> {
-    let (all, share) = (cx.all, base.share());
+    let share = base.share();
     let mut pair = None;
-    let r = Round {
-        all,
-        screen,
-        from: &base.fit,
-        from_cv: &base.cv,
-        with: &[],
-        e0: base.gap,
-        folds: cx.folds,
-        opts: cx.fo,
-    };
+    let r = base.round(cx, screen);
     match try_pair(&r, ranking, share, &mut log.disagreements) {
         None => {}
         Some(Err(why)) => log.warnings.push(why),

@@ -620,7 +620,7 @@ pub(crate) fn limits(
         ));
     }
     let before = all.work().simulations;
-    let pt = PowerTest::new(all, against, cv, (fold, k_folds), test);
+    let pt = PowerTest::new(all, rows, against, cv, (fold, k_folds), test);
     let pipe = Pipeline::new(all, &against.model);
     let effects: Vec<Limit> = SCANS
         .par_iter()
@@ -667,14 +667,15 @@ struct PowerTest<'a> {
 }
 
 impl<'a> PowerTest<'a> {
+    /// The test on the campaign `all` (its rows' recordings `rows`) against `against`.
     fn new(
         all: &Target,
+        rows: Vec<usize>,
         against: &'a FitResult,
         cv: &'a CrossValidated,
         (fold, k_folds): (&'a [usize], usize),
         test: Test,
     ) -> Self {
-        let rows = all.row_recordings();
         let feats: Vec<Feature> = all.row_features();
         let n = all.recs.len();
         // The fold's refit of a signature: held-out rows of `d − L d`... as the cross-validation.

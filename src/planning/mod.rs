@@ -89,7 +89,8 @@ impl Steps {
     }
 
     fn total(&self) -> usize {
-        self.list().iter().map(|s| s.simulations).sum()
+        let inside: usize = self.log.steps.iter().map(|s| s.work.simulations).sum();
+        inside + self.outside.iter().sum::<usize>()
     }
 }
 
