@@ -12,7 +12,7 @@
 use std::time::Instant;
 use stickslip::model::{Params, Rig};
 use stickslip::ode::batch::{Job, Path, WIDTH, solve_batch};
-use stickslip::ode::{Method, Options, OutputGrid, Solver};
+use stickslip::ode::{Method, Options, OutputGrid, Solver, Span};
 use stickslip::sim::{envelope_for, sampling};
 
 /// `n` values from `a` to `b`, logarithmic, by index.
@@ -121,11 +121,9 @@ fn run_scalar(pts: &[Params], t_end: f64, env: bool) -> (f64, Vec<Outcome>, u64,
         let mut j = job(i, p, t_end, env);
         let r = s.solve_envelope(
             &j.sys,
-            j.t0,
-            j.t1,
+            Span::new(j.t0, j.t1, j.grid),
             &mut j.y,
             &j.opts,
-            j.grid,
             j.envelope.as_ref(),
             &mut j.observe,
         );

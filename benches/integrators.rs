@@ -5,7 +5,7 @@
 use criterion::{Criterion, criterion_group, criterion_main};
 use std::hint::black_box;
 use stickslip::model::{Params, Rig};
-use stickslip::ode::{Method, OdeSystem, Options, OutputGrid, Solver};
+use stickslip::ode::{Method, OdeSystem, Options, OutputGrid, Solver, Span};
 
 fn rig(ratio: f64) -> Rig {
     let mut p = Params::default();
@@ -42,11 +42,9 @@ fn runs(c: &mut Criterion) {
                     let mut y = r.initial_state();
                     s.solve(
                         &r,
-                        0.0,
-                        t_end,
+                        Span::new(0.0, t_end, OutputGrid::NONE),
                         &mut y,
                         &Options::default(),
-                        OutputGrid::NONE,
                         |_, _| {},
                     )
                 })

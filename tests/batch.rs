@@ -7,7 +7,7 @@
 use std::cell::RefCell;
 use stickslip::model::{EffectKind, Effects, Params, Rig};
 use stickslip::ode::batch::{Job, Path, WIDTH, solve_batch_dim};
-use stickslip::ode::{Method, Options, OutputGrid, RunReport, Solver};
+use stickslip::ode::{Method, Options, OutputGrid, RunReport, Solver, Span};
 use stickslip::sim::{envelope_for, sampling};
 
 /// Each sample an observer saw: time and state, as bit patterns.
@@ -80,11 +80,9 @@ fn alone(p: &Params, t_end: f64, env: bool, fx: &Effects) -> Outcome {
     let mut j = job(0, p, t_end, env, fx, ());
     let report = Solver::new(Method::Dopri5).solve_envelope(
         &j.sys,
-        j.t0,
-        j.t1,
+        Span::new(j.t0, j.t1, j.grid),
         &mut j.y,
         &j.opts,
-        j.grid,
         j.envelope.as_ref(),
         |t, y| {
             seen.push((t.to_bits(), bits(y)));

@@ -2,7 +2,7 @@
 
 use rand::{RngExt, SeedableRng, rngs::StdRng};
 use stickslip::model::{Params, Rig, contact};
-use stickslip::ode::{Method, OdeSystem, Options, OutputGrid, Solver, Status};
+use stickslip::ode::{Method, OdeSystem, Options, OutputGrid, Solver, Span, Status};
 use stickslip::sim::{RunOptions, run_case};
 
 /// The run options of these tests: the defaults on the full model (the tests are about its
@@ -251,15 +251,13 @@ fn vibration_averaged_friction_follows_the_arcsine_law() {
         let mut y = [0.0];
         let rep = Solver::new(Method::Radau5).solve(
             &sys,
-            0.0,
-            t1,
+            Span::new(0.0, t1, grid),
             &mut y,
             &Options {
                 rtol: 1e-8,
                 atol: 1e-8,
                 ..Options::default()
             },
-            grid,
             |_, y| {
                 sum += p.k_t * y[0];
                 n += 1;

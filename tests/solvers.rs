@@ -6,7 +6,7 @@
 //!    (Mazzia & Magherini), whose reference values were computed with RADAU5 in quadruple
 //!    precision (rtol = atol = 1.1e-18).
 
-use stickslip::ode::{Method, OdeSystem, Options, OutputGrid, Solver, Status};
+use stickslip::ode::{Method, OdeSystem, Options, OutputGrid, Solver, Span, Status};
 
 /// `y' = y²`, `z' = cos(t) z`: exact `y = 1/(1 − t)`, `z = exp(sin t)` (nonlinear and
 /// non-autonomous, so Rosenbrock's ∂f/∂t is exercised).
@@ -201,7 +201,13 @@ fn fixed_step_error(method: Method, h: f64) -> f64 {
         h_max: h,
         ..Options::default()
     };
-    let rep = Solver::new(method).solve(&Forced, 0.0, t1, &mut y, &o, OutputGrid::NONE, |_, _| {});
+    let rep = Solver::new(method).solve(
+        &Forced,
+        Span::new(0.0, t1, OutputGrid::NONE),
+        &mut y,
+        &o,
+        |_, _| {},
+    );
     assert_eq!(rep.status, Status::Success);
     assert_eq!(
         rep.stats.rejected, 0,
@@ -247,11 +253,9 @@ fn error_within_tolerance_units_and_dense_output_agrees() {
             let grid = OutputGrid::linspace(0.0, 0.9, 91);
             let rep = Solver::new(method).solve(
                 &Exact,
-                0.0,
-                0.9,
+                Span::new(0.0, 0.9, grid),
                 &mut y,
                 &opts(rtol, atol),
-                grid,
                 |t, yt| {
                     worst = worst.max(tol_units(yt, &exact(t), rtol, atol));
                 },
@@ -288,11 +292,9 @@ fn tighter_tolerance_gives_smaller_error_on_van_der_pol() {
             let mut y = [2.0, 0.0];
             let rep = Solver::new(method).solve(
                 &VanDerPol(1e-6),
-                0.0,
-                2.0,
+                Span::new(0.0, 2.0, OutputGrid::NONE),
                 &mut y,
                 &opts(rtol, rtol),
-                OutputGrid::NONE,
                 |_, _| {},
             );
             assert_eq!(rep.status, Status::Success);
@@ -312,11 +314,21 @@ fn explicit_method_stalls_on_stiffness_but_implicit_does_not() {
     let sys = VanDerPol(1e-5);
     let o = opts(1e-6, 1e-6);
     let mut y = [2.0, 0.0];
-    let implicit =
-        Solver::new(Method::Radau5).solve(&sys, 0.0, 2.0, &mut y, &o, OutputGrid::NONE, |_, _| {});
+    let implicit = Solver::new(Method::Radau5).solve(
+        &sys,
+        Span::new(0.0, 2.0, OutputGrid::NONE),
+        &mut y,
+        &o,
+        |_, _| {},
+    );
     let mut y = [2.0, 0.0];
-    let explicit =
-        Solver::new(Method::Dopri5).solve(&sys, 0.0, 2.0, &mut y, &o, OutputGrid::NONE, |_, _| {});
+    let explicit = Solver::new(Method::Dopri5).solve(
+        &sys,
+        Span::new(0.0, 2.0, OutputGrid::NONE),
+        &mut y,
+        &o,
+        |_, _| {},
+    );
     assert_eq!(implicit.status, Status::Success);
     assert_eq!(explicit.status, Status::Success);
     assert!(
@@ -328,14 +340,12 @@ fn explicit_method_stalls_on_stiffness_but_implicit_does_not() {
     let mut y = [2.0, 0.0];
     let capped = Solver::new(Method::Dopri5).solve(
         &sys,
-        0.0,
-        2.0,
+        Span::new(0.0, 2.0, OutputGrid::NONE),
         &mut y,
         &Options {
             max_steps: 100,
             ..o
         },
-        OutputGrid::NONE,
         |_, _| {},
     );
     assert_eq!(capped.status, Status::MaxSteps);
@@ -351,11 +361,9 @@ fn auto_is_dopri5_step_for_step_without_stiffness() {
             let mut samples = vec![];
             let rep = Solver::new(method).solve(
                 &Exact,
-                0.0,
-                t1,
+                Span::new(0.0, t1, OutputGrid::linspace(0.0, t1, 10)),
                 &mut y,
                 &opts(rtol, rtol),
-                OutputGrid::linspace(0.0, t1, 10),
                 |_, yt| samples.push(yt.to_vec()),
             );
             (rep, y, samples)
@@ -378,7 +386,13 @@ fn auto_hands_stiff_stretches_to_the_implicit_method() {
     let o = opts(1e-6, 1e-6);
     let run = |method, o: &Options| {
         let mut y = [2.0, 0.0];
-        let rep = Solver::new(method).solve(&sys, 0.0, 2.0, &mut y, o, OutputGrid::NONE, |_, _| {});
+        let rep = Solver::new(method).solve(
+            &sys,
+            Span::new(0.0, 2.0, OutputGrid::NONE),
+            &mut y,
+            o,
+            |_, _| {},
+        );
         assert_eq!(rep.status, Status::Success, "{method}");
         (rep.stats, y)
     };
@@ -417,11 +431,9 @@ fn non_finite_state_is_reported() {
         let mut y = [1.0];
         let rep = Solver::new(method).solve(
             &Blowup,
-            0.0,
-            2.0,
+            Span::new(0.0, 2.0, OutputGrid::NONE),
             &mut y,
             &opts(1e-6, 1e-6),
-            OutputGrid::NONE,
             |_, _| {},
         );
         assert_ne!(rep.status, Status::Success, "{method}");
@@ -434,11 +446,9 @@ fn non_finite_state_is_reported() {
     let mut y = [f64::NAN];
     let rep = Solver::new(Method::Radau5).solve(
         &Blowup,
-        0.0,
-        1.0,
+        Span::new(0.0, 1.0, OutputGrid::NONE),
         &mut y,
         &opts(1e-6, 1e-6),
-        OutputGrid::NONE,
         |_, _| {},
     );
     assert_eq!(rep.status, Status::NonFinite);
@@ -456,11 +466,9 @@ fn robertson_matches_reference() {
         let mut y = [1.0, 0.0, 0.0];
         let rep = Solver::new(method).solve(
             &Robertson,
-            0.0,
-            ROBER_T,
+            Span::new(0.0, ROBER_T, OutputGrid::NONE),
             &mut y,
             &opts(rtol, 1e-10),
-            OutputGrid::NONE,
             |_, _| {},
         );
         assert_eq!(rep.status, Status::Success, "{method}");
@@ -497,11 +505,9 @@ fn van_der_pol_mu_1000_matches_reference() {
         let mut y = [2.0, 0.0];
         let rep = Solver::new(method).solve(
             &VanDerPol(1e-6),
-            0.0,
-            2.0,
+            Span::new(0.0, 2.0, OutputGrid::NONE),
             &mut y,
             &opts(rtol, rtol),
-            OutputGrid::NONE,
             |_, _| {},
         );
         assert_eq!(rep.status, Status::Success, "{method}");
@@ -524,11 +530,9 @@ fn hires_matches_reference() {
         let mut y = [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0057];
         let rep = Solver::new(method).solve(
             &Hires,
-            0.0,
-            HIRES_T,
+            Span::new(0.0, HIRES_T, OutputGrid::NONE),
             &mut y,
             &opts(1e-9, 1e-11),
-            OutputGrid::NONE,
             |_, _| {},
         );
         assert_eq!(rep.status, Status::Success, "{method}");
@@ -549,11 +553,9 @@ fn a_solver_is_reusable_and_gives_identical_runs() {
         let mut y = [2.0, 0.0];
         let rep = s.solve(
             &VanDerPol(1e-3),
-            0.0,
-            1.0,
+            Span::new(0.0, 1.0, OutputGrid::NONE),
             &mut y,
             &opts(1e-6, 1e-6),
-            OutputGrid::NONE,
             |_, _| {},
         );
         (y, rep.stats)
@@ -563,11 +565,9 @@ fn a_solver_is_reusable_and_gives_identical_runs() {
     let mut y3 = [1.0, 0.0, 0.0];
     s.solve(
         &Robertson,
-        0.0,
-        1.0,
+        Span::new(0.0, 1.0, OutputGrid::NONE),
         &mut y3,
         &opts(1e-6, 1e-6),
-        OutputGrid::NONE,
         |_, _| {},
     );
     let b = run(&mut s);
@@ -648,11 +648,9 @@ fn envelope_following_skips_periods_and_stays_on_the_closed_form() {
         let (mut worst, mut seen, mut last_t) = (0.0f64, 0u64, -1.0);
         let rep = Solver::new(method).solve_envelope(
             &Ramped,
-            0.0,
-            t1,
+            Span::new(0.0, t1, grid),
             &mut y,
             &o,
-            grid,
             Some(&env),
             |t, y| {
                 assert!(t > last_t, "output times must increase");
@@ -680,7 +678,8 @@ fn envelope_following_skips_periods_and_stays_on_the_closed_form() {
         );
         // Without envelope following: same problem, every period integrated, no skips.
         let mut y = ramped(0.0).to_vec();
-        let direct = Solver::new(method).solve(&Ramped, 0.0, t1, &mut y, &o, grid, |_, _| {});
+        let direct =
+            Solver::new(method).solve(&Ramped, Span::new(0.0, t1, grid), &mut y, &o, |_, _| {});
         assert_eq!(direct.stats.skipped_periods, 0);
         assert!(
             direct.stats.rhs_evals > 4 * rep.stats.rhs_evals,
@@ -741,11 +740,9 @@ fn envelope_integrates_a_response_it_cannot_follow_at_the_runs_own_tolerance() {
         let mut worst = 0.0f64;
         let rep = Solver::new(Method::Dopri5).solve_envelope(
             &Detuned,
-            0.0,
-            t1,
+            Span::new(0.0, t1, grid),
             &mut y,
             &opts(rtol, rtol),
-            grid,
             env,
             |t, y| {
                 worst = worst.max((y[0] - detuned(t)).abs());
@@ -881,11 +878,9 @@ fn block_diagonal_iteration_matrix_gives_the_sensitivities_to_tolerance() {
         let mut y = [2.0, 0.0, 0.0, 0.0];
         let rep = solver.solve(
             &VdpSensitivity { mu: m, blocks: 1 },
-            0.0,
-            t1,
+            Span::new(0.0, t1, OutputGrid::NONE),
             &mut y,
             &opts(1e-12, 1e-12),
-            OutputGrid::NONE,
             |_, _| {},
         );
         assert_eq!(rep.status, Status::Success);
@@ -899,11 +894,9 @@ fn block_diagonal_iteration_matrix_gives_the_sensitivities_to_tolerance() {
         let mut y = [2.0, 0.0, 0.0, 0.0];
         let rep = solver.solve(
             &VdpSensitivity { mu, blocks },
-            0.0,
-            t1,
+            Span::new(0.0, t1, OutputGrid::NONE),
             &mut y,
             &opts(1e-7, 1e-7),
-            OutputGrid::NONE,
             |_, _| {},
         );
         assert_eq!(rep.status, Status::Success, "blocks {blocks}");

@@ -3,7 +3,7 @@
 //! are in [the module above](crate::averaged)).
 
 use crate::model::{Params, contact};
-use crate::ode::{Method, OdeSystem, Options, OutputGrid, Solver, Status};
+use crate::ode::{Method, OdeSystem, Options, OutputGrid, Solver, Span, Status};
 
 /// The sensitivities' tolerance relative to the states' (the error control covers both): the
 /// slope and the multipliers need them to about 1e-3, the states the orbit to `rtol`. At 10 the
@@ -338,11 +338,9 @@ impl<'a> Shooter<'a> {
         };
         let rep = self.solver.solve(
             &sys,
-            0.0,
-            self.period,
+            Span::new(0.0, self.period, OutputGrid::NONE),
             &mut y,
             &opts,
-            OutputGrid::NONE,
             |_, _| {},
         );
         *rhs += rep.stats.rhs_evals;

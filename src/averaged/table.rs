@@ -3,7 +3,7 @@
 
 use crate::averaged::orbit::{AveragingError, AveragingOptions, Fast, FastBase, Orbit, Shooter};
 use crate::model::Params;
-use crate::ode::{Method, Options, OutputGrid, Solver, Status};
+use crate::ode::{Method, Options, OutputGrid, Solver, Span, Status};
 use std::cmp::Ordering;
 
 /// `F_eff(V)` tabulated on `0 ≤ V ≤ V_max` (odd in `V`: `F_eff(−V) = −F_eff(V)`), with the orbit
@@ -455,11 +455,9 @@ pub fn escape_force(p: &Params, table: &Table) -> Option<f64> {
     let mut escaped = None;
     let rep = Solver::new(Method::Radau5).solve_until(
         &sys,
-        0.0,
-        periods as f64 * period,
+        Span::new(0.0, periods as f64 * period, grid),
         &mut y,
         &opts,
-        grid,
         |t, y| {
             let v = (y[2] - last_w) / period;
             last_w = y[2];

@@ -113,55 +113,99 @@ fn variance(v: &[f64]) -> f64 {
     v.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / n
 }
 
+/// One recording under check: its scales, its failures so far and its flat channels.
+struct Checker<'a> {
+    r: &'a Recording,
+    /// The drive spring's load up to break-away, `min(k_d v_d T, F_s)` \[N\].
+    load: f64,
+    /// The force scale `S` \[N\] (module docs).
+    scale: f64,
+    /// The travel scale `X` \[m\] (module docs).
+    travel: f64,
+    /// The recorded channels: name, unit, samples.
+    channels: Vec<(&'static str, &'static str, &'a [f64])>,
+    /// The channels found flat, which later checks leave alone.
+    flat: Vec<&'static str>,
+    out: Vec<Implausible>,
+}
+
 /// The checks of one recording (module docs); empty when it is plausible.
 pub fn check(r: &Recording) -> Vec<Implausible> {
-    let p = &r.params;
-    let dur = r.t[r.t.len() - 1] - r.t[0];
-    let load = (p.k_d * p.v_d * dur).min(p.f_s);
-    let scale = load.max(2.0 * (p.f_s - p.f_c));
-    let travel = p.v_d * dur + 2.0 * p.u0;
-    let mut out = vec![];
-    let mut fail = |check, found: String, expected: String| {
-        out.push(Implausible {
-            recording: r.name.clone(),
+    let mut c = Checker::new(r);
+    c.flat_channels();
+    if !c.flat.contains(&"F_d") {
+        c.force_scale();
+        c.spikes();
+    }
+    c.travel_scale();
+    c.body_slope();
+    c.spring();
+    c.vibration_timing();
+    c.drive_slope();
+    c.out
+}
+
+impl<'a> Checker<'a> {
+    fn new(r: &'a Recording) -> Self {
+        let p = &r.params;
+        let dur = r.t[r.t.len() - 1] - r.t[0];
+        let load = (p.k_d * p.v_d * dur).min(p.f_s);
+        let channels: Vec<(&'static str, &'static str, &'a [f64])> = [
+            Some(("F_d", "N", r.f_d.as_slice())),
+            r.x_s.as_deref().map(|v| ("x_s", "m", v)),
+            r.x_d.as_deref().map(|v| ("x_d", "m", v)),
+        ]
+        .into_iter()
+        .flatten()
+        .collect();
+        Checker {
+            r,
+            load,
+            scale: load.max(2.0 * (p.f_s - p.f_c)),
+            travel: p.v_d * dur + 2.0 * p.u0,
+            channels,
+            flat: vec![],
+            out: vec![],
+        }
+    }
+
+    fn fail(&mut self, check: &'static str, found: String, expected: String) {
+        self.out.push(Implausible {
+            recording: self.r.name.clone(),
             check,
             found,
             expected,
         })
-    };
-    let channels: Vec<(&str, &str, &[f64])> = [
-        Some(("F_d", "N", r.f_d.as_slice())),
-        r.x_s.as_deref().map(|v| ("x_s", "m", v)),
-        r.x_d.as_deref().map(|v| ("x_d", "m", v)),
-    ]
-    .into_iter()
-    .flatten()
-    .collect();
-    let mut flat = vec![];
-    for (name, unit, v) in &channels {
-        let k = distinct(v);
-        if k < 3 {
-            flat.push(*name);
-            fail(
-                "flat channel",
-                format!(
-                    "{name} takes {} over its {} samples ({} {unit} first)",
-                    if k == 1 {
-                        "a single value".to_string()
-                    } else {
-                        format!("only {k} values")
-                    },
-                    v.len(),
-                    v[0]
-                ),
-                "a signal that varies, by its noise at least (a dead or disconnected channel records nothing)".into(),
-            );
+    }
+
+    fn flat_channels(&mut self) {
+        for (name, unit, v) in self.channels.clone() {
+            let k = distinct(v);
+            if k < 3 {
+                self.flat.push(name);
+                self.fail(
+                    "flat channel",
+                    format!(
+                        "{name} takes {} over its {} samples ({} {unit} first)",
+                        if k == 1 {
+                            "a single value".to_string()
+                        } else {
+                            format!("only {k} values")
+                        },
+                        v.len(),
+                        v[0]
+                    ),
+                    "a signal that varies, by its noise at least (a dead or disconnected channel records nothing)".into(),
+                );
+            }
         }
     }
-    if !flat.contains(&"F_d") {
+
+    fn force_scale(&mut self) {
+        let (r, p, load, scale) = (self.r, &self.r.params, self.load, self.scale);
         let peak = r.f_d.iter().fold(0.0f64, |m, x| m.max(x.abs()));
         if peak > SCALE_FACTOR * scale || peak < load / SCALE_FACTOR {
-            fail(
+            self.fail(
                 "force scale",
                 format!("max |F_d| = {peak:.4e} N"),
                 format!(
@@ -170,127 +214,153 @@ pub fn check(r: &Recording) -> Vec<Implausible> {
                 ),
             );
         }
+    }
+
+    fn spikes(&mut self) {
+        let r = self.r;
         let n = r.f_d.len();
-        if n >= 3 {
-            let r2: Vec<f64> = (1..n - 1)
-                .map(|i| r.f_d[i] - 0.5 * (r.f_d[i - 1] + r.f_d[i + 1]))
-                .collect();
-            let med = median(r2.clone());
-            let sigma = 1.4826 * median(r2.iter().map(|x| (x - med).abs()).collect());
-            let limit = (SPIKE_SIGMAS * sigma).max(0.05 * scale);
-            let spikes: Vec<usize> = (1..n - 1)
-                .filter(|&i| {
-                    let d = r2[i - 1].abs();
-                    d > limit && (r.f_d[i + 1] - r.f_d[i - 1]).abs() < 0.2 * d
-                })
-                .collect();
-            if let Some(&first) = spikes.first() {
-                fail(
-                    "spikes",
+        if n < 3 {
+            return;
+        }
+        let r2: Vec<f64> = (1..n - 1)
+            .map(|i| r.f_d[i] - 0.5 * (r.f_d[i - 1] + r.f_d[i + 1]))
+            .collect();
+        let med = median(r2.clone());
+        let sigma = 1.4826 * median(r2.iter().map(|x| (x - med).abs()).collect());
+        let limit = (SPIKE_SIGMAS * sigma).max(0.05 * self.scale);
+        let spikes: Vec<usize> = (1..n - 1)
+            .filter(|&i| {
+                let d = r2[i - 1].abs();
+                d > limit && (r.f_d[i + 1] - r.f_d[i - 1]).abs() < 0.2 * d
+            })
+            .collect();
+        if let Some(&first) = spikes.first() {
+            self.fail(
+                "spikes",
+                format!(
+                    "{} sample(s) of F_d standing alone, the first {:.4e} N at t = {} s (row {})",
+                    spikes.len(),
+                    r.f_d[first],
+                    r.t[first],
+                    first + 2
+                ),
+                format!(
+                    "no sample more than {limit:.3e} N off both its neighbours ({SPIKE_SIGMAS} times the channel's noise scale {sigma:.3e} N, or 5 % of the force scale)"
+                ),
+            );
+        }
+    }
+
+    fn travel_scale(&mut self) {
+        let travel = self.travel;
+        let channels = self.channels.clone();
+        for &(name, _, v) in &channels[1..] {
+            if self.flat.contains(&name) {
+                continue;
+            }
+            let span = range(v);
+            if span > SCALE_FACTOR * travel {
+                self.fail(
+                    "travel scale",
+                    format!("{name} spans {span:.4e} m"),
                     format!(
-                        "{} sample(s) of F_d standing alone, the first {:.4e} N at t = {} s (row {})",
-                        spikes.len(),
-                        r.f_d[first],
-                        r.t[first],
-                        first + 2
-                    ),
-                    format!(
-                        "no sample more than {limit:.3e} N off both its neighbours ({SPIKE_SIGMAS} times the channel's noise scale {sigma:.3e} N, or 5 % of the force scale)"
+                        "at most {SCALE_FACTOR} times the drive's travel v_d T + 2 u0 = {travel:.3e} m (a unit off?)"
                     ),
                 );
             }
         }
     }
-    for (name, _, v) in &channels[1..] {
-        if flat.contains(name) {
-            continue;
-        }
-        let span = range(v);
-        if span > SCALE_FACTOR * travel {
-            fail(
-                "travel scale",
-                format!("{name} spans {span:.4e} m"),
-                format!(
-                    "at most {SCALE_FACTOR} times the drive's travel v_d T + 2 u0 = {travel:.3e} m (a unit off?)"
-                ),
-            );
-        }
-    }
-    // Without x_d, the body's own mean velocity: over a recording of stick-slip it follows
-    // the drive, though a first loading from rest can hold it back (a wider factor).
-    if r.x_d.is_none()
-        && let Some(x_s) = &r.x_s
-        && !flat.contains(&"x_s")
-    {
-        let s = slope(&r.t, x_s);
-        if !(s / p.v_d <= BODY_SLOPE_FACTOR && p.v_d / s <= BODY_SLOPE_FACTOR) {
-            fail(
-                "drive slope",
-                format!(
-                    "x_s rises at {s:.4e} m/s, {:.3} times v_d (no x_d recorded)",
-                    s / p.v_d
-                ),
-                format!(
-                    "the conditions' v_d = {:e} m/s within a factor {BODY_SLOPE_FACTOR}: the body follows the drive on average (is v_d in the conditions file right?)",
-                    p.v_d
-                ),
-            );
+
+    /// Without x_d, the body's own mean velocity: over a recording of stick-slip it follows
+    /// the drive, though a first loading from rest can hold it back (a wider factor).
+    fn body_slope(&mut self) {
+        let (r, p) = (self.r, &self.r.params);
+        if r.x_d.is_none()
+            && let Some(x_s) = &r.x_s
+            && !self.flat.contains(&"x_s")
+        {
+            let s = slope(&r.t, x_s);
+            if !(s / p.v_d <= BODY_SLOPE_FACTOR && p.v_d / s <= BODY_SLOPE_FACTOR) {
+                self.fail(
+                    "drive slope",
+                    format!(
+                        "x_s rises at {s:.4e} m/s, {:.3} times v_d (no x_d recorded)",
+                        s / p.v_d
+                    ),
+                    format!(
+                        "the conditions' v_d = {:e} m/s within a factor {BODY_SLOPE_FACTOR}: the body follows the drive on average (is v_d in the conditions file right?)",
+                        p.v_d
+                    ),
+                );
+            }
         }
     }
-    // The drive force is the spring's: F_d = k_d (x_d - x_s) + h_d (v_d - v) (docs/model.md).
-    if let (Some(x_s), Some(x_d)) = (&r.x_s, &r.x_d)
-        && !flat.iter().any(|c| ["F_d", "x_s", "x_d"].contains(c))
-    {
-        let ext: Vec<f64> = x_d.iter().zip(x_s).map(|(d, s)| d - s).collect();
-        let k = slope(&ext, &r.f_d);
-        let r2 = k * k * variance(&ext) / variance(&r.f_d);
-        if r2 >= SPRING_R2 && !(k / p.k_d <= SPRING_FACTOR && p.k_d / k <= SPRING_FACTOR) {
-            fail(
-                "spring",
-                format!(
-                    "F_d follows x_d - x_s with a stiffness of {k:.4e} N/m, {:.3} times k_d (it explains {:.0} % of the force's variance)",
-                    k / p.k_d,
-                    100.0 * r2
-                ),
-                format!(
-                    "the conditions' k_d = {:e} N/m within a factor {SPRING_FACTOR}, as F_d = k_d (x_d - x_s) + h_d (v_d - v) (a force gain or k_d off?)",
-                    p.k_d
-                ),
-            );
+
+    /// The drive force is the spring's: F_d = k_d (x_d - x_s) + h_d (v_d - v) (docs/model.md).
+    fn spring(&mut self) {
+        let (r, p) = (self.r, &self.r.params);
+        if let (Some(x_s), Some(x_d)) = (&r.x_s, &r.x_d)
+            && !self.flat.iter().any(|c| ["F_d", "x_s", "x_d"].contains(c))
+        {
+            let ext: Vec<f64> = x_d.iter().zip(x_s).map(|(d, s)| d - s).collect();
+            let k = slope(&ext, &r.f_d);
+            let r2 = k * k * variance(&ext) / variance(&r.f_d);
+            if r2 >= SPRING_R2 && !(k / p.k_d <= SPRING_FACTOR && p.k_d / k <= SPRING_FACTOR) {
+                self.fail(
+                    "spring",
+                    format!(
+                        "F_d follows x_d - x_s with a stiffness of {k:.4e} N/m, {:.3} times k_d (it explains {:.0} % of the force's variance)",
+                        k / p.k_d,
+                        100.0 * r2
+                    ),
+                    format!(
+                        "the conditions' k_d = {:e} N/m within a factor {SPRING_FACTOR}, as F_d = k_d (x_d - x_s) + h_d (v_d - v) (a force gain or k_d off?)",
+                        p.k_d
+                    ),
+                );
+            }
         }
     }
-    if p.t_on > 0.0 {
+
+    fn vibration_timing(&mut self) {
+        let (r, p) = (self.r, &self.r.params);
+        if p.t_on <= 0.0 {
+            return;
+        }
         let end = r.t[r.t.len() - 1];
         if !p.vibrates() {
-            fail(
+            self.fail(
                 "vibration timing",
                 format!("t_on = {} s with no vibration (f = {} Hz, u0 = {} m)", p.t_on, p.f, p.u0),
                 "t_on only where the substrate vibrates (f > 0, u0 > 0): the time it is switched on".into(),
             );
         } else if p.t_on >= end {
-            fail(
+            self.fail(
                 "vibration timing",
                 format!("t_on = {} s, at or after the recording's end at t = {end} s", p.t_on),
                 "a switch-on within the recording (t_on before its last sample), or t_on = 0 for vibration throughout".into(),
             );
         }
     }
-    if let Some(x_d) = &r.x_d
-        && !flat.contains(&"x_d")
-    {
-        let s = slope(&r.t, x_d);
-        if !(s / p.v_d <= SLOPE_FACTOR && p.v_d / s <= SLOPE_FACTOR) {
-            fail(
-                "drive slope",
-                format!("x_d rises at {s:.4e} m/s, {:.3} times v_d", s / p.v_d),
-                format!(
-                    "the conditions' v_d = {:e} m/s within a factor {SLOPE_FACTOR} (is v_d in the conditions file right?)",
-                    p.v_d
-                ),
-            );
+
+    fn drive_slope(&mut self) {
+        let (r, p) = (self.r, &self.r.params);
+        if let Some(x_d) = &r.x_d
+            && !self.flat.contains(&"x_d")
+        {
+            let s = slope(&r.t, x_d);
+            if !(s / p.v_d <= SLOPE_FACTOR && p.v_d / s <= SLOPE_FACTOR) {
+                self.fail(
+                    "drive slope",
+                    format!("x_d rises at {s:.4e} m/s, {:.3} times v_d", s / p.v_d),
+                    format!(
+                        "the conditions' v_d = {:e} m/s within a factor {SLOPE_FACTOR} (is v_d in the conditions file right?)",
+                        p.v_d
+                    ),
+                );
+            }
         }
     }
-    out
 }
 
 /// The checks of every recording of a campaign.

@@ -30,7 +30,7 @@ pub use batch::{GridAsk, GridResult, simulate_grids};
 
 use crate::config::{self, ConfigError, Doc};
 use crate::model::{Effects, Params, Rig, RigError};
-use crate::ode::{Method, Options, Status};
+use crate::ode::{Method, Options, Span, Status};
 use std::collections::BTreeMap;
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -468,7 +468,6 @@ pub fn method_for(p: &Params) -> Method {
 
 /// Simulates the model with effects `fx` from rest at `t = 0` and samples it at `n` times
 /// `t0 + i dt`, as the stand's recorder would, at tolerance `tol` (`rtol = atol`).
-#[allow(clippy::too_many_arguments)]
 pub fn simulate_grid(
     p: &Params,
     fx: &Effects,
@@ -495,9 +494,17 @@ pub fn simulate_grid(
             observe(t, y);
             true
         };
-        crate::sim::integrate_stages(solver, &rig, p.t_on, t1, &mut y, &opts, grid, observe)
+        crate::sim::integrate_stages(
+            solver,
+            &rig,
+            p.t_on,
+            Span::new(0.0, t1, grid),
+            &mut y,
+            &opts,
+            observe,
+        )
     } else {
-        solver.solve(&rig, 0.0, t1, &mut y, &opts, grid, &mut observe)
+        solver.solve(&rig, Span::new(0.0, t1, grid), &mut y, &opts, &mut observe)
     };
     Ok(sampler.finish(rep.status))
 }

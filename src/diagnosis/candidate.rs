@@ -12,7 +12,7 @@ use super::forms::Try;
 use super::scan;
 use super::screen::*;
 use super::verdict::*;
-use super::vet::vetted;
+use super::vet::{Against, vetted};
 use crate::model::EffectKind;
 use rayon::prelude::*;
 use std::cmp::Ordering;
@@ -144,8 +144,7 @@ pub(crate) fn try_candidate(r: &Round<'_>, t: &Try) -> Ranked {
         &from.model,
         &start,
         &effects,
-        reach,
-        warm.is_some(),
+        Reach::of(reach, warm.is_some()),
         opts,
     );
     let sub = screen.recordings(all);
@@ -436,18 +435,14 @@ pub(crate) fn try_pair(
     };
     let said = |r: &Ranked, of: &str| not_named(&tried, r, of);
     let mut found = vec![];
-    if vetted(
-        &mut vs_base,
-        all,
-        base,
-        base_side,
-        &share,
-        MIN_PARTIAL,
-        false,
-        &mut found,
-    )
-    .is_none()
-    {
+    let vs = Against {
+        from: base,
+        side: base_side,
+        share: &share,
+        min_share: MIN_PARTIAL,
+        need_present: false,
+    };
+    if vetted(&mut vs_base, all, vs, &mut found).is_none() {
         return Some(Err(said(&vs_base[0], "against the base model")));
     }
     // The pair against the first alone (the second effect's entry, with its fingerprints
@@ -457,18 +452,14 @@ pub(crate) fn try_pair(
         let mut vs = [against(one, other)];
         let left = one.gap_after;
         let mut f2 = vec![];
-        if vetted(
-            &mut vs,
-            all,
-            &one.fit,
-            Side::of(one),
-            |e| (left - e) / left,
-            MIN_SECOND,
-            true,
-            &mut f2,
-        )
-        .is_none()
-        {
+        let second = Against {
+            from: &one.fit,
+            side: Side::of(one),
+            share: |e| (left - e) / left,
+            min_share: MIN_SECOND,
+            need_present: true,
+        };
+        if vetted(&mut vs, all, second, &mut f2).is_none() {
             return Some(Err(said(&vs[0], &format!("against {} alone", one.name))));
         }
         found.extend(f2);

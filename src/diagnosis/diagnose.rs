@@ -91,7 +91,7 @@ use super::folds::*;
 use super::forms::{Try, charge_forms, form_choice, form_reach, forms_of_one, other_forms};
 use super::limits::{self, Limits};
 use super::screen::Screen;
-use super::vet::{held_out_absent, vetted};
+use super::vet::{Against, held_out_absent, vetted};
 use crate::campaign::{Campaign, CampaignError};
 use crate::model::EffectKind;
 use rayon::prelude::*;
@@ -383,16 +383,14 @@ fn first_round(cx: &Ctx<'_>, base: &Base, log: &mut Log) -> First {
     let mut tie: Vec<EffectKind> = vec![];
     let base_side = base.side();
     let decide_first = |ranking: &mut Vec<Ranked>, found: &mut Vec<_>| {
-        vetted(
-            ranking,
-            all,
-            &base.fit,
-            base_side,
+        let against = Against {
+            from: &base.fit,
+            side: base_side,
             share,
-            MIN_PARTIAL,
-            false,
-            found,
-        )
+            min_share: MIN_PARTIAL,
+            need_present: false,
+        };
+        vetted(ranking, all, against, found)
     };
     let (steps, disagreements) = (&mut log.steps, &mut log.disagreements);
     let decided = (!base.no_gap).then(|| {
@@ -734,16 +732,14 @@ fn second_candidates(
         n: &first_cv.per_recording_n,
     };
     let mut found = vec![];
-    let decided = vetted(
-        &mut second,
-        all,
-        first_fit,
-        first_side,
-        first_share,
-        MIN_SECOND,
-        true,
-        &mut found,
-    );
+    let against = Against {
+        from: first_fit,
+        side: first_side,
+        share: first_share,
+        min_share: MIN_SECOND,
+        need_present: true,
+    };
+    let decided = vetted(&mut second, all, against, &mut found);
     // A second effect's disagreements are named as extensions of the first.
     disagreements.extend(found.into_iter().map(|mut d| {
         for n in [&mut d.by_evidence, &mut d.by_gap] {

@@ -77,6 +77,31 @@ pub(crate) struct Screened {
     pub checks: usize,
 }
 
+/// Where a screen's fits may stop short of their bar.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum Reach {
+    /// Where a fit cannot reach the bar ([`SCREEN_BAR`] below the extended model's gap).
+    Bar,
+    /// Where it cannot come within this many times the extended model's gap, where that is
+    /// lower than the bar: another form of a trailing effect ([`super::forms::form_reach`]).
+    Leader(f64),
+    /// Nowhere: the bar is checked at the end (another form of an effect whose default form
+    /// passed).
+    Full,
+}
+
+impl Reach {
+    /// The reach of a candidate with the leader's `reach` where it trails, screened in full
+    /// where `full`.
+    pub(crate) fn of(reach: Option<f64>, full: bool) -> Reach {
+        match (reach, full) {
+            (Some(r), _) => Reach::Leader(r),
+            (None, true) => Reach::Full,
+            (None, false) => Reach::Bar,
+        }
+    }
+}
+
 impl<'a> Screen<'a> {
     /// The gap a candidate's screen must reach to pass: [`SCREEN_BAR`] of the extended
     /// model's gap on the screen's recordings removed.
@@ -182,18 +207,14 @@ impl<'a> Screen<'a> {
     /// each of its scan's starts `scanned` ([`Screen::starts`]): fits of at most
     /// [`SCREEN_ITERATIONS`] iterations with the options `opts` (their reach set here), each
     /// stopped where it cannot reach its bar, [`SCREEN_BAR`] below the extended model's gap,
-    /// or `reach` times that gap where given and lower (another form of a
-    /// trailing effect, [`super::forms::form_reach`]); with `full_reach` (another form of an
-    /// effect whose default form passed) no stop before the bar is checked at the end.
-    #[allow(clippy::too_many_arguments)]
+    /// or as `reach` says.
     pub fn screen(
         &self,
         all: &Target,
         from: &Model,
         scanned: &[scan::ScanStart],
         effects: &[EffectKind],
-        reach: Option<f64>,
-        full_reach: bool,
+        reach: Reach,
         opts: FitOptions,
     ) -> Screened {
         let sub = self.recordings(all);
@@ -208,11 +229,11 @@ impl<'a> Screen<'a> {
         let opts = FitOptions {
             max_iter: opts.max_iter.min(SCREEN_ITERATIONS),
             rel_tol: SCREEN_REL_TOL,
-            reach: match (reach, full_reach) {
+            reach: match reach {
                 // Short of the leader's reach, it is not fitted further whatever its start.
-                (Some(r), _) => (r * self.gap).min(bar),
-                (None, true) => f64::INFINITY,
-                (None, false) => bar,
+                Reach::Leader(r) => (r * self.gap).min(bar),
+                Reach::Full => f64::INFINITY,
+                Reach::Bar => bar,
             },
             ..opts
         };

@@ -9,9 +9,21 @@ use super::fit::{self, FitResult, Target};
 use super::folds::*;
 use super::verdict::*;
 
+/// What candidates are vetted against: the model they extend (`from`), its side of the
+/// decision, the share of its gap a candidate removes (as a function of the candidate's gap)
+/// with the least share that names it, and whether a candidate's fingerprint must be present
+/// (a second effect beside a named one).
+pub(crate) struct Against<'a, F: Fn(f64) -> f64> {
+    pub from: &'a FitResult,
+    pub side: Side<'a>,
+    pub share: F,
+    pub min_share: f64,
+    pub need_present: bool,
+}
+
 /// [`decide`] (with its disagreements between evidence and gap in `disagreements`), with
 /// every candidate it would name or tie checked for its fingerprints against
-/// `from`, the model the candidates extend ([`fingerprint::check`]): one whose ringing is
+/// `against.from`, the model the candidates extend ([`fingerprint::check`]): one whose ringing is
 /// absent is rejected (with the reason) and the decision taken again without it. With
 /// `need_present` (a second effect beside a named one) a candidate whose ringing can test it is
 /// rejected too unless it is present ([`fingerprint::Check::decisive`]): beside a first effect whose form differs
@@ -19,17 +31,19 @@ use super::verdict::*;
 /// that shows its own physics in the trace is named (one that predicts nothing the ringing could
 /// show, a screw error's, stands on its features as a first effect does). The ranking is then
 /// reordered so that the candidates not rejected come first, in their order of evidence.
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn vetted(
+pub(crate) fn vetted<F: Fn(f64) -> f64>(
     ranked: &mut [Ranked],
     all: &Target,
-    from: &FitResult,
-    from_side: Side,
-    share: impl Fn(f64) -> f64,
-    min_share: f64,
-    need_present: bool,
+    against: Against<'_, F>,
     disagreements: &mut Vec<Disagreement>,
 ) -> Option<Vec<usize>> {
+    let Against {
+        from,
+        side: from_side,
+        share,
+        min_share,
+        need_present,
+    } = against;
     let recs = &all.recs;
     let names: Vec<String> = recs.iter().map(|r| r.name.clone()).collect();
     // The measured statistics and `from`'s, made once for every candidate checked here.

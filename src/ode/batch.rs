@@ -27,7 +27,7 @@
 use super::dopri5::{Control, Eval, Judged, Powers, Stages, dense_coefficients, dense_value};
 use super::lanes::{Lanes, Real};
 use super::{Drive, Envelope, Method, OdeSystem, Options, OutputGrid, RunReport, Shared};
-use super::{Solver, Stats, StepOutcome, Stepper};
+use super::{Solver, Span, Stats, StepOutcome, Stepper, Stepping};
 
 impl<S: Lanewise> Lanewise for &S {
     type Pack<const W: usize> = S::Pack<W>;
@@ -195,11 +195,9 @@ pub fn solve_batch<S, O, const N: usize>(
                         let s = scalar.get_or_insert_with(|| Solver::new(Method::Dopri5));
                         let r = s.solve_envelope(
                             &job.sys,
-                            job.t0,
-                            job.t1,
+                            Span::new(job.t0, job.t1, job.grid),
                             &mut job.y,
                             &job.opts,
-                            job.grid,
                             job.envelope.as_ref(),
                             |t, y| job.observe.observe(t, y),
                         );
@@ -254,11 +252,18 @@ pub fn solve_batch<S, O, const N: usize>(
                 observe,
                 ..
             } = job;
-            let env = envelope.as_ref().map(|e| (e, &*opts));
+            let st = Stepping {
+                opts: inner,
+                env: envelope.as_ref().map(|e| (e, &*opts)),
+            };
             let mut observe = |t: f64, y: &[f64]| observe.observe(t, y);
-            if let Some(r) =
-                drive.after(&mut view, sys, outcome, inner, env, &mut observe, shared, y)
-            {
+            let end = match outcome {
+                StepOutcome::Accepted => {
+                    drive.accepted(&mut view, sys, st, &mut observe, shared, y)
+                }
+                other => drive.unaccepted(&mut view, other, y),
+            };
+            if let Some(r) = end {
                 let l = slot.take().expect("a lane with a job");
                 done(l.job, r, Path::Lanes);
             }
@@ -292,11 +297,9 @@ impl<S: Lanewise, O: Observe> Lane<S, O> {
         match Drive::begin(
             &mut view,
             &job.sys,
-            job.t0,
-            job.t1,
+            Span::new(job.t0, job.t1, job.grid),
             &job.y,
             &inner,
-            job.grid,
             &mut |t, y| job.observe.observe(t, y),
             &mut shared,
         ) {

@@ -197,6 +197,24 @@ pub struct OutputGrid {
     pub count: u64,
 }
 
+/// The span of one integration and the times it reports at.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Span {
+    /// Start of the integration \[s\].
+    pub t0: f64,
+    /// End of the integration \[s\] (earlier where the observer stops it).
+    pub t1: f64,
+    /// The output times, by dense output ([`OutputGrid::NONE`] for none).
+    pub grid: OutputGrid,
+}
+
+impl Span {
+    /// From `t0` to `t1`, reporting at the times of `grid` inside.
+    pub fn new(t0: f64, t1: f64, grid: OutputGrid) -> Self {
+        Span { t0, t1, grid }
+    }
+}
+
 impl OutputGrid {
     /// No output at all.
     pub const NONE: OutputGrid = OutputGrid {
@@ -403,21 +421,30 @@ pub(crate) trait Stepper {
     fn dense(&self, t: f64, out: &mut [f64]);
 }
 
+/// What the initial step is chosen for: the method's order, the tolerances and the largest step.
+struct StepGuess<'a> {
+    order: f64,
+    atol: &'a [f64],
+    rtol: f64,
+    h_max: f64,
+}
+
 /// Chooses an initial step from the first two derivatives (Hairer, Nørsett & Wanner,
 /// *Solving ODEs I*, Sect. II.4, algorithm of the HINIT routine).
-// the step-size heuristic's inputs, one by one, as HINIT takes them
-#[allow(clippy::too_many_arguments)]
 fn initial_step<S: OdeSystem>(
     sys: &S,
     t0: f64,
     y0: &[f64],
-    order: f64,
-    atol: &[f64],
-    rtol: f64,
-    h_max: f64,
+    guess: &StepGuess<'_>,
     buf: &mut [Vec<f64>; 3],
     st: &mut Stats,
 ) -> f64 {
+    let StepGuess {
+        order,
+        atol,
+        rtol,
+        h_max,
+    } = *guess;
     let n = y0.len();
     let [f0, y1, f1] = buf;
     sys.rhs(t0, y0, f0);
@@ -548,24 +575,21 @@ impl Solver {
         self.shared = Shared::sized(n);
     }
 
-    /// Integrates `sys` from `(t0, y0)` to `t1 > t0`, calling `observe(t, y)` at every time of
-    /// `grid` inside `[t0, t1]` (by dense output). On return `y0` holds the state reached.
+    /// Integrates `sys` from `(span.t0, y0)` to `span.t1 > span.t0`, calling `observe(t, y)` at
+    /// every time of `span.grid` inside `[t0, t1]` (by dense output). On return `y0` holds the
+    /// state reached.
     ///
     /// Options must be valid ([`Options::validate`]); invalid options panic in debug builds
     /// only, so validate once before a batch.
-    // self, the system, the span, the state, options, outputs and the observer
-    #[allow(clippy::too_many_arguments)]
     pub fn solve<S: OdeSystem>(
         &mut self,
         sys: &S,
-        t0: f64,
-        t1: f64,
+        span: Span,
         y0: &mut [f64],
         opts: &Options,
-        grid: OutputGrid,
         mut observe: impl FnMut(f64, &[f64]),
     ) -> RunReport {
-        self.solve_until(sys, t0, t1, y0, opts, grid, |t, y| {
+        self.solve_until(sys, span, y0, opts, |t, y| {
             observe(t, y);
             true
         })
@@ -574,40 +598,33 @@ impl Solver {
     /// As [`Solver::solve`], but `observe` returns whether to go on: the run ends with
     /// [`Status::Success`] at the first output time where it returns `false` (`RunReport::t`
     /// tells where), and `y0` holds the state there.
-    // as `solve`
-    #[allow(clippy::too_many_arguments)]
     pub fn solve_until<S: OdeSystem>(
         &mut self,
         sys: &S,
-        t0: f64,
-        t1: f64,
+        span: Span,
         y0: &mut [f64],
         opts: &Options,
-        grid: OutputGrid,
         observe: impl FnMut(f64, &[f64]) -> bool,
     ) -> RunReport {
-        self.solve_envelope(sys, t0, t1, y0, opts, grid, None, observe)
+        self.solve_envelope(sys, span, y0, opts, None, observe)
     }
 
     /// As [`Solver::solve_until`], with [`Envelope`] following when `envelope` is given: whole
     /// forcing periods are skipped where the stroboscopic samples drift smoothly
-    /// ([`Stats::skipped_periods`] counts them). `grid` must start at `t0` with
+    /// ([`Stats::skipped_periods`] counts them). `span.grid` must start at `span.t0` with
     /// `envelope.period_samples` samples per period; `observe` sees every grid time, those
     /// inside a jump with the synthesised samples.
-    #[allow(clippy::too_many_arguments)]
     pub fn solve_envelope<S: OdeSystem>(
         &mut self,
         sys: &S,
-        t0: f64,
-        t1: f64,
+        span: Span,
         y0: &mut [f64],
         opts: &Options,
-        grid: OutputGrid,
         envelope: Option<&Envelope>,
         mut observe: impl FnMut(f64, &[f64]) -> bool,
     ) -> RunReport {
         debug_assert!(opts.validate().is_ok());
-        debug_assert!(envelope.is_none_or(|e| e.validate().is_ok() && grid.start == t0));
+        debug_assert!(envelope.is_none_or(|e| e.validate().is_ok() && span.grid.start == span.t0));
         let n = sys.dim();
         assert_eq!(y0.len(), n, "initial state has the wrong length");
         self.ensure(n);
@@ -616,35 +633,41 @@ impl Solver {
             a.switching = envelope.is_none();
         }
         let sh = &mut self.shared;
-        let env = envelope.map(|e| (e, opts));
-        let o = &inner;
+        let st = Stepping {
+            opts: &inner,
+            env: envelope.map(|e| (e, opts)),
+        };
+        let obs = &mut observe;
         match &mut self.ws {
-            Workspace::Radau5(m) => drive(m, sys, t0, t1, y0, o, grid, env, &mut observe, sh),
-            Workspace::Rodas4(m) => drive(m, sys, t0, t1, y0, o, grid, env, &mut observe, sh),
-            Workspace::Dopri5(m) => drive(m, sys, t0, t1, y0, o, grid, env, &mut observe, sh),
-            Workspace::Auto(m) => drive(m, sys, t0, t1, y0, o, grid, env, &mut observe, sh),
+            Workspace::Radau5(m) => drive(m, sys, span, y0, st, obs, sh),
+            Workspace::Rodas4(m) => drive(m, sys, span, y0, st, obs, sh),
+            Workspace::Dopri5(m) => drive(m, sys, span, y0, st, obs, sh),
+            Workspace::Auto(m) => drive(m, sys, span, y0, st, obs, sh),
             Workspace::Empty => unreachable!("ensure() sized the workspace"),
         }
     }
 }
 
+/// The options a driver integrates with: `opts`, and under envelope following the envelope with
+/// the run's own, looser options for the stretches it gives up on.
+#[derive(Clone, Copy)]
+pub(crate) struct Stepping<'a> {
+    pub(crate) opts: &'a Options,
+    pub(crate) env: Option<(&'a Envelope, &'a Options)>,
+}
+
 /// The driver shared by all methods: step control against the span, output by dense output,
-/// step limits and status. `opts` are the options to integrate with; under envelope following
-/// `env` also carries the run's own, looser options for the stretches it gives up on.
-#[allow(clippy::too_many_arguments)]
+/// step limits and status, with the options of `st`.
 fn drive<M: Stepper, S: OdeSystem>(
     m: &mut M,
     sys: &S,
-    t0: f64,
-    t1: f64,
+    span: Span,
     y0: &mut [f64],
-    opts: &Options,
-    grid: OutputGrid,
-    env: Option<(&Envelope, &Options)>,
+    st: Stepping<'_>,
     observe: &mut impl FnMut(f64, &[f64]) -> bool,
     sh: &mut Shared,
 ) -> RunReport {
-    let mut d = match Drive::begin(m, sys, t0, t1, y0, opts, grid, observe, sh) {
+    let mut d = match Drive::begin(m, sys, span, y0, st.opts, observe, sh) {
         Ok(d) => d,
         Err(r) => return r,
     };
@@ -653,7 +676,11 @@ fn drive<M: Stepper, S: OdeSystem>(
             return r;
         }
         let outcome = m.attempt(sys, &mut d.stats);
-        if let Some(r) = d.after(m, sys, outcome, opts, env, observe, sh, y0) {
+        let end = match outcome {
+            StepOutcome::Accepted => d.accepted(m, sys, st, observe, sh, y0),
+            other => d.unaccepted(m, other, y0),
+        };
+        if let Some(r) = end {
             return r;
         }
     }
@@ -678,18 +705,16 @@ pub(crate) struct Drive {
 impl Drive {
     /// Starts an integration of `sys` from `(t0, y0)` to `t1`: the outputs at `t0`, the first
     /// step and the method's start. `Err` with the report where the run ends before a step.
-    #[allow(clippy::too_many_arguments)]
     pub(crate) fn begin<M: Stepper, S: OdeSystem>(
         m: &mut M,
         sys: &S,
-        t0: f64,
-        t1: f64,
+        span: Span,
         y0: &[f64],
         opts: &Options,
-        grid: OutputGrid,
         observe: &mut impl FnMut(f64, &[f64]) -> bool,
         sh: &mut Shared,
     ) -> Result<Drive, RunReport> {
+        let Span { t0, t1, grid } = span;
         let Shared { atol, init, .. } = sh;
         m.set_tolerances(opts.rtol, atol);
         let mut stats = Stats::default();
@@ -723,17 +748,13 @@ impl Drive {
         let h = if opts.h0 > 0.0 {
             opts.h0.min(h_max)
         } else {
-            initial_step(
-                sys,
-                t0,
-                y0,
-                M::ORDER,
+            let guess = StepGuess {
+                order: M::ORDER,
                 atol,
-                opts.rtol.max(1e-12),
+                rtol: opts.rtol.max(1e-12),
                 h_max,
-                init,
-                &mut stats,
-            )
+            };
+            initial_step(sys, t0, y0, &guess, init, &mut stats)
         };
         m.start(sys, t0, y0, h, &mut stats);
         let g_last = if grid.count == 0 {
@@ -801,17 +822,31 @@ impl Drive {
         None
     }
 
-    /// After an attempt that started at `t`: the outputs the accepted step covers, envelope
-    /// jumps, and the end of the run where the state went non-finite, the method failed or the
-    /// observer had enough (`Some`, the final state in `y0`).
-    #[allow(clippy::too_many_arguments)]
-    pub(crate) fn after<M: Stepper, S: OdeSystem>(
+    /// After an attempt that was not accepted: the end of the run where the method failed
+    /// (`Some`, the final state in `y0`), else nothing (the method retries).
+    pub(crate) fn unaccepted<M: Stepper>(
+        &mut self,
+        m: &mut M,
+        outcome: StepOutcome,
+        y0: &mut [f64],
+    ) -> Option<RunReport> {
+        match outcome {
+            StepOutcome::Accepted | StepOutcome::Rejected => None,
+            StepOutcome::Failed(status) => {
+                let t = m.t();
+                Some(self.finish(status, t, y0, m.y(), m.h()))
+            }
+        }
+    }
+
+    /// After an accepted step: the outputs it covers, envelope jumps, and the end of the run
+    /// where the state went non-finite or the observer had enough (`Some`, the final state in
+    /// `y0`).
+    pub(crate) fn accepted<M: Stepper, S: OdeSystem>(
         &mut self,
         m: &mut M,
         sys: &S,
-        outcome: StepOutcome,
-        opts: &Options,
-        env: Option<(&Envelope, &Options)>,
+        st: Stepping<'_>,
         observe: &mut impl FnMut(f64, &[f64]) -> bool,
         sh: &mut Shared,
         y0: &mut [f64],
@@ -820,8 +855,9 @@ impl Drive {
             atol, out, strobe, ..
         } = sh;
         let (grid, t1) = (self.grid, self.t1);
-        match outcome {
-            StepOutcome::Accepted => {
+        let Stepping { opts, env } = st;
+        {
+            {
                 let t_new = m.t();
                 if m.y().iter().any(|v| !v.is_finite()) {
                     return Some(self.finish(Status::NonFinite, t_new, y0, m.y(), m.h()));
@@ -877,11 +913,6 @@ impl Drive {
                     break;
                 }
                 None
-            }
-            StepOutcome::Rejected => None,
-            StepOutcome::Failed(status) => {
-                let t = m.t();
-                Some(self.finish(status, t, y0, m.y(), m.h()))
             }
         }
     }

@@ -210,6 +210,270 @@ impl Radau5 {
         ok1 && ok2
     }
 
+    /// A Jacobian where one is needed, and the two LUs where `h` moved away from the step they
+    /// were built for; false where a matrix is singular.
+    fn prepare_matrices<S: OdeSystem>(&mut self, sys: &S, st: &mut Stats) -> bool {
+        if self.need_jac {
+            sys.jacobian(self.t, &self.y, &mut self.jac);
+            st.jac_evals += 1;
+            self.need_jac = false;
+            self.jac_current = true;
+            self.lu_h = f64::NAN;
+        }
+        // Refactorise when h moved away from the step the LU was built for.
+        self.lu_h == self.h || self.factorize(st)
+    }
+
+    /// The stages' starting values.
+    fn starting_values(&mut self) {
+        let (n, h) = (self.n, self.h);
+        // Starting values: zero on the first step, else the previous collocation polynomial.
+        if self.first {
+            for i in 0..n {
+                self.z1[i] = 0.0;
+                self.z2[i] = 0.0;
+                self.z3[i] = 0.0;
+                self.w1[i] = 0.0;
+                self.w2[i] = 0.0;
+                self.w3[i] = 0.0;
+            }
+        } else {
+            let c3q = h / self.hold;
+            let c1q = C1 * c3q;
+            let c2q = C2 * c3q;
+            for i in 0..n {
+                let ak1 = self.cont[1][i];
+                let ak2 = self.cont[2][i];
+                let ak3 = self.cont[3][i];
+                let z1 = c1q * (ak1 + (c1q - C2M1) * (ak2 + (c1q - C1M1) * ak3));
+                let z2 = c2q * (ak1 + (c2q - C2M1) * (ak2 + (c2q - C1M1) * ak3));
+                let z3 = c3q * (ak1 + (c3q - C2M1) * (ak2 + (c3q - C1M1) * ak3));
+                self.z1[i] = z1;
+                self.z2[i] = z2;
+                self.z3[i] = z3;
+                self.w1[i] = TI11 * z1 + TI12 * z2 + TI13 * z3;
+                self.w2[i] = TI21 * z1 + TI22 * z2 + TI23 * z3;
+                self.w3[i] = TI31 * z1 + TI32 * z2 + TI33 * z3;
+            }
+        }
+    }
+
+    /// The simplified Newton iteration on the transformed stage values: its iterations where it
+    /// converged, else the attempt's outcome (a smaller step).
+    fn newton<S: OdeSystem>(&mut self, sys: &S, st: &mut Stats) -> Result<usize, StepOutcome> {
+        // Simplified Newton iteration on the transformed stage values W = T⁻¹ Z.
+        let (n, h, t) = (self.n, self.h, self.t);
+        let fac1 = self.u1 / h;
+        let alphn = self.alph / h;
+        let betan = self.beta / h;
+        let mut newt = 0usize;
+        self.faccon = self.faccon.max(f64::EPSILON).powf(0.8);
+        self.theta = THET.abs();
+        let mut dynold = 0.0f64;
+        let mut thqold = 0.0f64;
+        loop {
+            if newt >= NIT {
+                return Err(self.newton_failure(st));
+            }
+            for i in 0..n {
+                self.tmp[i] = self.y[i] + self.z1[i];
+            }
+            sys.rhs(t + C1 * h, &self.tmp, &mut self.z1);
+            for i in 0..n {
+                self.tmp[i] = self.y[i] + self.z2[i];
+            }
+            sys.rhs(t + C2 * h, &self.tmp, &mut self.z2);
+            for i in 0..n {
+                self.tmp[i] = self.y[i] + self.z3[i];
+            }
+            sys.rhs(t + h, &self.tmp, &mut self.z3);
+            st.rhs_evals += 3;
+            st.newton_iters += 1;
+            // Right-hand sides of the transformed linear systems.
+            for i in 0..n {
+                let (a1, a2, a3) = (self.z1[i], self.z2[i], self.z3[i]);
+                let r1 = TI11 * a1 + TI12 * a2 + TI13 * a3;
+                let r2 = TI21 * a1 + TI22 * a2 + TI23 * a3;
+                let r3 = TI31 * a1 + TI32 * a2 + TI33 * a3;
+                let s2 = -self.w2[i];
+                let s3 = -self.w3[i];
+                self.z1[i] = r1 - self.w1[i] * fac1;
+                self.ctmp[i] =
+                    Complex64::new(r2 + s2 * alphn - s3 * betan, r3 + s3 * alphn + s2 * betan);
+            }
+            for c in self.z1.chunks_mut(self.m) {
+                self.e1.solve(c);
+            }
+            for c in self.ctmp.chunks_mut(self.m) {
+                self.e2.solve(c);
+            }
+            for i in 0..n {
+                self.z2[i] = self.ctmp[i].re;
+                self.z3[i] = self.ctmp[i].im;
+            }
+            newt += 1;
+            let mut dyno = 0.0;
+            for i in 0..n {
+                let d = self.scal[i];
+                dyno +=
+                    (self.z1[i] / d).powi(2) + (self.z2[i] / d).powi(2) + (self.z3[i] / d).powi(2);
+            }
+            let dyno = (dyno / (3 * n) as f64).sqrt();
+            if !dyno.is_finite() {
+                return Err(self.newton_failure(st));
+            }
+            // Convergence monitor: the contraction rate θ predicts whether NIT iterations suffice.
+            if newt > 1 && newt < NIT {
+                let thq = dyno / dynold;
+                self.theta = if newt == 2 {
+                    thq
+                } else {
+                    (thq * thqold).sqrt()
+                };
+                thqold = thq;
+                if self.theta < 0.99 {
+                    self.faccon = self.theta / (1.0 - self.theta);
+                    let dyth =
+                        self.faccon * dyno * self.theta.powi((NIT - 1 - newt) as i32) / self.fnewt;
+                    if dyth >= 1.0 {
+                        // Too slow: retry with a smaller step, keeping the Jacobian.
+                        let qnewt = dyth.clamp(1e-4, 20.0);
+                        let hhfac = 0.8 * qnewt.powf(-1.0 / (4.0 + NIT as f64 - 1.0 - newt as f64));
+                        self.h *= hhfac;
+                        self.reject = true;
+                        st.rejected += 1;
+                        if !self.jac_current {
+                            self.need_jac = true;
+                        }
+                        return Err(StepOutcome::Rejected);
+                    }
+                } else {
+                    return Err(self.newton_failure(st));
+                }
+            }
+            dynold = dyno.max(f64::EPSILON);
+            for i in 0..n {
+                let f1 = self.w1[i] + self.z1[i];
+                let f2 = self.w2[i] + self.z2[i];
+                let f3 = self.w3[i] + self.z3[i];
+                self.w1[i] = f1;
+                self.w2[i] = f2;
+                self.w3[i] = f3;
+                self.z1[i] = T11 * f1 + T12 * f2 + T13 * f3;
+                self.z2[i] = T21 * f1 + T22 * f2 + T23 * f3;
+                self.z3[i] = T31 * f1 + f2;
+            }
+            if self.faccon * dyno <= self.fnewt {
+                break;
+            }
+        }
+        Ok(newt)
+    }
+
+    /// The embedded error estimate of the converged stages, in tolerance units.
+    fn error_estimate<S: OdeSystem>(&mut self, sys: &S, st: &mut Stats) -> f64 {
+        let (n, h, t) = (self.n, self.h, self.t);
+        // Error estimate (Hairer & Wanner IV.8, (8.19)-(8.20)), filtered through E1.
+        let hee1 = DD1 / h;
+        let hee2 = DD2 / h;
+        let hee3 = DD3 / h;
+        for i in 0..n {
+            let f2 = hee1 * self.z1[i] + hee2 * self.z2[i] + hee3 * self.z3[i];
+            self.w2[i] = f2;
+            self.tmp[i] = f2 + self.f0[i];
+        }
+        for c in self.tmp.chunks_mut(self.m) {
+            self.e1.solve(c);
+        }
+        let mut err = error_norm(&self.tmp, &self.y, &self.y, &self.atol, self.rtol);
+        if err.partial_cmp(&1.0) != Some(Ordering::Less) && (self.first || self.reject) {
+            for i in 0..n {
+                self.w3[i] = self.y[i] + self.tmp[i];
+            }
+            sys.rhs(t, &self.w3, &mut self.w1);
+            st.rhs_evals += 1;
+            for i in 0..n {
+                self.tmp[i] = self.w1[i] + self.w2[i];
+            }
+            for c in self.tmp.chunks_mut(self.m) {
+                self.e1.solve(c);
+            }
+            err = error_norm(&self.tmp, &self.y, &self.y, &self.atol, self.rtol);
+        }
+        err
+    }
+
+    /// The step accepted (its state, dense output and next step) or rejected by the error `err`
+    /// after `newt` Newton iterations.
+    fn accept_or_reject<S: OdeSystem>(
+        &mut self,
+        sys: &S,
+        st: &mut Stats,
+        err: f64,
+        newt: usize,
+    ) -> StepOutcome {
+        let (n, h, t) = (self.n, self.h, self.t);
+        let cfac = SAFE * (1.0 + 2.0 * NIT as f64);
+        let fac = SAFE.min(cfac / (newt as f64 + 2.0 * NIT as f64));
+        let mut quot = FACR.max(FACL.min(err.powf(0.25) / fac));
+        let mut hnew = h / quot;
+        if err < 1.0 {
+            self.fail_streak = 0;
+            self.first = false;
+            self.naccpt += 1;
+            // Predictive controller of Gustafsson.
+            if self.naccpt > 1 {
+                let facgus = (self.hacc / h) * (err * err / self.erracc).powf(0.25) / SAFE;
+                let facgus = FACR.max(FACL.min(facgus));
+                quot = quot.max(facgus);
+                hnew = h / quot;
+            }
+            self.hacc = h;
+            self.erracc = err.max(1e-2);
+            self.hold = h;
+            self.t = t + h;
+            for i in 0..n {
+                self.y[i] += self.z3[i];
+                let z1 = self.z1[i];
+                let z2 = self.z2[i];
+                let z3 = self.z3[i];
+                self.cont[1][i] = (z2 - z3) / C2M1;
+                let ak = (z1 - z2) / C1MC2;
+                let acont3 = (ak - z1 / C1) / C2;
+                self.cont[2][i] = (ak - self.cont[1][i]) / C1M1;
+                self.cont[3][i] = self.cont[2][i] - acont3;
+            }
+            self.cont[0].copy_from_slice(&self.y);
+            self.update_scal();
+            sys.rhs(self.t, &self.y, &mut self.f0);
+            st.rhs_evals += 1;
+            st.steps += 1;
+            if self.reject {
+                hnew = hnew.min(h);
+            }
+            self.reject = false;
+            self.jac_current = false;
+            let qt = hnew / h;
+            if self.theta <= THET && (QUOT1..=QUOT2).contains(&qt) {
+                // Keep h, the Jacobian and the LU.
+                self.h = h;
+            } else {
+                self.h = hnew;
+                // Keep the Jacobian (new LU only) while Newton converged fast.
+                self.need_jac = self.theta > THET;
+            }
+            StepOutcome::Accepted
+        } else {
+            self.reject = true;
+            st.rejected += 1;
+            self.h = if self.first { h * 0.1 } else { hnew };
+            if !self.jac_current {
+                self.need_jac = true;
+            }
+            StepOutcome::Rejected
+        }
+    }
+
     /// A failed attempt (Newton divergence, singular matrix, non-finite values): halve the step.
     fn newton_failure(&mut self, st: &mut Stats) -> StepOutcome {
         st.rejected += 1;
@@ -289,248 +553,19 @@ impl Stepper for Radau5 {
     }
 
     fn attempt<S: OdeSystem>(&mut self, sys: &S, st: &mut Stats) -> StepOutcome {
-        let n = self.n;
-        let h = self.h;
-        let t = self.t;
-        if self.need_jac {
-            sys.jacobian(t, &self.y, &mut self.jac);
-            st.jac_evals += 1;
-            self.need_jac = false;
-            self.jac_current = true;
-            self.lu_h = f64::NAN;
-        }
-        // Refactorise when h moved away from the step the LU was built for.
-        if self.lu_h != h && !self.factorize(st) {
+        if !self.prepare_matrices(sys, st) {
             return self.newton_failure(st);
         }
-        let fac1 = self.u1 / h;
-        let alphn = self.alph / h;
-        let betan = self.beta / h;
-
-        // Starting values: zero on the first step, else the previous collocation polynomial.
-        if self.first {
-            for i in 0..n {
-                self.z1[i] = 0.0;
-                self.z2[i] = 0.0;
-                self.z3[i] = 0.0;
-                self.w1[i] = 0.0;
-                self.w2[i] = 0.0;
-                self.w3[i] = 0.0;
-            }
-        } else {
-            let c3q = h / self.hold;
-            let c1q = C1 * c3q;
-            let c2q = C2 * c3q;
-            for i in 0..n {
-                let ak1 = self.cont[1][i];
-                let ak2 = self.cont[2][i];
-                let ak3 = self.cont[3][i];
-                let z1 = c1q * (ak1 + (c1q - C2M1) * (ak2 + (c1q - C1M1) * ak3));
-                let z2 = c2q * (ak1 + (c2q - C2M1) * (ak2 + (c2q - C1M1) * ak3));
-                let z3 = c3q * (ak1 + (c3q - C2M1) * (ak2 + (c3q - C1M1) * ak3));
-                self.z1[i] = z1;
-                self.z2[i] = z2;
-                self.z3[i] = z3;
-                self.w1[i] = TI11 * z1 + TI12 * z2 + TI13 * z3;
-                self.w2[i] = TI21 * z1 + TI22 * z2 + TI23 * z3;
-                self.w3[i] = TI31 * z1 + TI32 * z2 + TI33 * z3;
-            }
-        }
-
-        // Simplified Newton iteration on the transformed stage values W = T⁻¹ Z.
-        let mut newt = 0usize;
-        self.faccon = self.faccon.max(f64::EPSILON).powf(0.8);
-        self.theta = THET.abs();
-        let mut dynold = 0.0f64;
-        let mut thqold = 0.0f64;
-        loop {
-            if newt >= NIT {
-                return self.newton_failure(st);
-            }
-            for i in 0..n {
-                self.tmp[i] = self.y[i] + self.z1[i];
-            }
-            sys.rhs(t + C1 * h, &self.tmp, &mut self.z1);
-            for i in 0..n {
-                self.tmp[i] = self.y[i] + self.z2[i];
-            }
-            sys.rhs(t + C2 * h, &self.tmp, &mut self.z2);
-            for i in 0..n {
-                self.tmp[i] = self.y[i] + self.z3[i];
-            }
-            sys.rhs(t + h, &self.tmp, &mut self.z3);
-            st.rhs_evals += 3;
-            st.newton_iters += 1;
-            // Right-hand sides of the transformed linear systems.
-            for i in 0..n {
-                let (a1, a2, a3) = (self.z1[i], self.z2[i], self.z3[i]);
-                let r1 = TI11 * a1 + TI12 * a2 + TI13 * a3;
-                let r2 = TI21 * a1 + TI22 * a2 + TI23 * a3;
-                let r3 = TI31 * a1 + TI32 * a2 + TI33 * a3;
-                let s2 = -self.w2[i];
-                let s3 = -self.w3[i];
-                self.z1[i] = r1 - self.w1[i] * fac1;
-                self.ctmp[i] =
-                    Complex64::new(r2 + s2 * alphn - s3 * betan, r3 + s3 * alphn + s2 * betan);
-            }
-            for c in self.z1.chunks_mut(self.m) {
-                self.e1.solve(c);
-            }
-            for c in self.ctmp.chunks_mut(self.m) {
-                self.e2.solve(c);
-            }
-            for i in 0..n {
-                self.z2[i] = self.ctmp[i].re;
-                self.z3[i] = self.ctmp[i].im;
-            }
-            newt += 1;
-            let mut dyno = 0.0;
-            for i in 0..n {
-                let d = self.scal[i];
-                dyno +=
-                    (self.z1[i] / d).powi(2) + (self.z2[i] / d).powi(2) + (self.z3[i] / d).powi(2);
-            }
-            let dyno = (dyno / (3 * n) as f64).sqrt();
-            if !dyno.is_finite() {
-                return self.newton_failure(st);
-            }
-            // Convergence monitor: the contraction rate θ predicts whether NIT iterations suffice.
-            if newt > 1 && newt < NIT {
-                let thq = dyno / dynold;
-                self.theta = if newt == 2 {
-                    thq
-                } else {
-                    (thq * thqold).sqrt()
-                };
-                thqold = thq;
-                if self.theta < 0.99 {
-                    self.faccon = self.theta / (1.0 - self.theta);
-                    let dyth =
-                        self.faccon * dyno * self.theta.powi((NIT - 1 - newt) as i32) / self.fnewt;
-                    if dyth >= 1.0 {
-                        // Too slow: retry with a smaller step, keeping the Jacobian.
-                        let qnewt = dyth.clamp(1e-4, 20.0);
-                        let hhfac = 0.8 * qnewt.powf(-1.0 / (4.0 + NIT as f64 - 1.0 - newt as f64));
-                        self.h *= hhfac;
-                        self.reject = true;
-                        st.rejected += 1;
-                        if !self.jac_current {
-                            self.need_jac = true;
-                        }
-                        return StepOutcome::Rejected;
-                    }
-                } else {
-                    return self.newton_failure(st);
-                }
-            }
-            dynold = dyno.max(f64::EPSILON);
-            for i in 0..n {
-                let f1 = self.w1[i] + self.z1[i];
-                let f2 = self.w2[i] + self.z2[i];
-                let f3 = self.w3[i] + self.z3[i];
-                self.w1[i] = f1;
-                self.w2[i] = f2;
-                self.w3[i] = f3;
-                self.z1[i] = T11 * f1 + T12 * f2 + T13 * f3;
-                self.z2[i] = T21 * f1 + T22 * f2 + T23 * f3;
-                self.z3[i] = T31 * f1 + f2;
-            }
-            if self.faccon * dyno <= self.fnewt {
-                break;
-            }
-        }
-
-        // Error estimate (Hairer & Wanner IV.8, (8.19)-(8.20)), filtered through E1.
-        let hee1 = DD1 / h;
-        let hee2 = DD2 / h;
-        let hee3 = DD3 / h;
-        for i in 0..n {
-            let f2 = hee1 * self.z1[i] + hee2 * self.z2[i] + hee3 * self.z3[i];
-            self.w2[i] = f2;
-            self.tmp[i] = f2 + self.f0[i];
-        }
-        for c in self.tmp.chunks_mut(self.m) {
-            self.e1.solve(c);
-        }
-        let mut err = error_norm(&self.tmp, &self.y, &self.y, &self.atol, self.rtol);
-        if err.partial_cmp(&1.0) != Some(Ordering::Less) && (self.first || self.reject) {
-            for i in 0..n {
-                self.w3[i] = self.y[i] + self.tmp[i];
-            }
-            sys.rhs(t, &self.w3, &mut self.w1);
-            st.rhs_evals += 1;
-            for i in 0..n {
-                self.tmp[i] = self.w1[i] + self.w2[i];
-            }
-            for c in self.tmp.chunks_mut(self.m) {
-                self.e1.solve(c);
-            }
-            err = error_norm(&self.tmp, &self.y, &self.y, &self.atol, self.rtol);
-        }
+        self.starting_values();
+        let newt = match self.newton(sys, st) {
+            Ok(newt) => newt,
+            Err(outcome) => return outcome,
+        };
+        let err = self.error_estimate(sys, st);
         if !err.is_finite() {
             return self.newton_failure(st);
         }
-        let err = err.max(1e-10);
-
-        let cfac = SAFE * (1.0 + 2.0 * NIT as f64);
-        let fac = SAFE.min(cfac / (newt as f64 + 2.0 * NIT as f64));
-        let mut quot = FACR.max(FACL.min(err.powf(0.25) / fac));
-        let mut hnew = h / quot;
-        if err < 1.0 {
-            self.fail_streak = 0;
-            self.first = false;
-            self.naccpt += 1;
-            // Predictive controller of Gustafsson.
-            if self.naccpt > 1 {
-                let facgus = (self.hacc / h) * (err * err / self.erracc).powf(0.25) / SAFE;
-                let facgus = FACR.max(FACL.min(facgus));
-                quot = quot.max(facgus);
-                hnew = h / quot;
-            }
-            self.hacc = h;
-            self.erracc = err.max(1e-2);
-            self.hold = h;
-            self.t = t + h;
-            for i in 0..n {
-                self.y[i] += self.z3[i];
-                let z1 = self.z1[i];
-                let z2 = self.z2[i];
-                let z3 = self.z3[i];
-                self.cont[1][i] = (z2 - z3) / C2M1;
-                let ak = (z1 - z2) / C1MC2;
-                let acont3 = (ak - z1 / C1) / C2;
-                self.cont[2][i] = (ak - self.cont[1][i]) / C1M1;
-                self.cont[3][i] = self.cont[2][i] - acont3;
-            }
-            self.cont[0].copy_from_slice(&self.y);
-            self.update_scal();
-            sys.rhs(self.t, &self.y, &mut self.f0);
-            st.rhs_evals += 1;
-            st.steps += 1;
-            if self.reject {
-                hnew = hnew.min(h);
-            }
-            self.reject = false;
-            self.jac_current = false;
-            let qt = hnew / h;
-            if self.theta <= THET && (QUOT1..=QUOT2).contains(&qt) {
-                // Keep h, the Jacobian and the LU.
-                self.h = h;
-            } else {
-                self.h = hnew;
-                // Keep the Jacobian (new LU only) while Newton converged fast.
-                self.need_jac = self.theta > THET;
-            }
-            StepOutcome::Accepted
-        } else {
-            self.reject = true;
-            st.rejected += 1;
-            self.h = if self.first { h * 0.1 } else { hnew };
-            if !self.jac_current {
-                self.need_jac = true;
-            }
-            StepOutcome::Rejected
-        }
+        self.accept_or_reject(sys, st, err.max(1e-10), newt)
     }
 
     fn dense(&self, t: f64, out: &mut [f64]) {

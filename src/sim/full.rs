@@ -5,7 +5,7 @@ use crate::cycle::LimitCycle;
 use crate::measures::{Analyzer, DROP_THRESHOLD, Measures, STICK_VELOCITY, Trend};
 use crate::model::{Params, Rig, V, X};
 use crate::ode::lanes::cos;
-use crate::ode::{Envelope, OdeSystem, Options, OutputGrid, RunReport, Solver, Status};
+use crate::ode::{Envelope, OdeSystem, Options, OutputGrid, RunReport, Solver, Span, Status};
 use crate::sim::options::*;
 use crate::sim::result::{RunResult, nan_measures};
 use crate::sim::tier::{Tier, TierReason};
@@ -203,7 +203,6 @@ pub(crate) struct Run {
     two_stage: bool,
     t_end: f64,
     t_cap: f64,
-    dt: f64,
     nominal: f64,
     start: Instant,
     /// The share of the wall time since `start` this run counts as its own (1, or one over
@@ -326,7 +325,6 @@ impl Run {
             two_stage,
             t_end,
             t_cap,
-            dt,
             nominal,
             start,
             share: 1.0,
@@ -351,13 +349,24 @@ impl Run {
             // The substrate velocity jumps from 0 to u0 ω at t_on (docs/model.md): integrate the
             // stages apart, so the step control restarts at the jump instead of rejecting its
             // way down to it.
-            integrate_stages(solver, rig, rig.p.t_on, t_end, y, ode, grid, |t, y| {
-                rec.observe(t, y)
-            })
+            integrate_stages(
+                solver,
+                rig,
+                rig.p.t_on,
+                Span::new(0.0, t_end, grid),
+                y,
+                ode,
+                |t, y| rec.observe(t, y),
+            )
         } else {
-            solver.solve_envelope(rig, 0.0, t_end, y, ode, grid, envelope.as_ref(), |t, y| {
-                rec.observe(t, y)
-            })
+            solver.solve_envelope(
+                rig,
+                Span::new(0.0, t_end, grid),
+                y,
+                ode,
+                envelope.as_ref(),
+                |t, y| rec.observe(t, y),
+            )
         }
     }
 
@@ -377,7 +386,6 @@ impl Run {
             ode,
             t_end,
             t_cap,
-            dt,
             nominal,
             start,
             share,
@@ -423,7 +431,7 @@ impl Run {
                 break;
             }
             let t_next = ((1.0 + SETTLE_GROWTH) * t_stop).min(t_cap);
-            let more = extend(solver, rig, &mut y, &ode, env, dt, t_stop, t_next, &mut rec);
+            let more = extend(solver, rig, &mut y, &ode, env, t_stop..t_next, &mut rec);
             rep.stats += more.stats;
             rep.status = more.status;
             t_stop = more.t;
@@ -503,24 +511,23 @@ pub(crate) fn integrate(
 }
 
 /// Continues a run from `t` (state `y`, samples up to `rec.idx` recorded) to the last sample
-/// at or before `t_next`: first to the next sample's time without output, then along the
-/// samples, so that sample `i` stays at `i dt` and envelope jumps start on a sample.
-#[allow(clippy::too_many_arguments)]
+/// at or before `t_next` (`span` = `t..t_next`): first to the next sample's time without
+/// output, then along the samples, so that sample `i` stays at `i dt` and envelope jumps start
+/// on a sample.
 fn extend(
     solver: &mut Solver,
     rig: &Rig,
     y: &mut [f64],
     ode: &Options,
     env: Option<&Envelope>,
-    dt: f64,
-    t: f64,
-    t_next: f64,
+    span: std::ops::Range<f64>,
     rec: &mut Recorder,
 ) -> crate::ode::RunReport {
+    let (t, t_next, dt) = (span.start, span.end, rec.dt);
     let first = rec.idx;
     let last = (t_next / dt).floor() as u64;
     let t0 = first as f64 * dt;
-    let mut rep = solver.solve_until(rig, t, t0, y, ode, OutputGrid::NONE, |_, _| true);
+    let mut rep = solver.solve_until(rig, Span::new(t, t0, OutputGrid::NONE), y, ode, |_, _| true);
     if rep.status != Status::Success || last < first {
         return rep;
     }
@@ -529,31 +536,38 @@ fn extend(
         step: dt,
         count: last - first + 1,
     };
-    let more = solver.solve_envelope(rig, t0, last as f64 * dt, y, ode, grid, env, |t, y| {
-        rec.observe(t, y)
-    });
+    let more = solver.solve_envelope(
+        rig,
+        Span::new(t0, last as f64 * dt, grid),
+        y,
+        ode,
+        env,
+        |t, y| rec.observe(t, y),
+    );
     rep.stats += more.stats;
     rep.status = more.status;
     rep.t = more.t;
     rep
 }
 
-/// Integrates from 0 to `t_on` and from `t_on` to `t_end` one after the other, restarting the
-/// step control at the switch-on, where the substrate velocity jumps from 0 to `u0 ω`
-/// (docs/model.md); the output times of `grid` (at or after 0) are shared out by index: those up to
+/// Integrates from `span.t0` to `t_on` and from `t_on` to `span.t1` one after the other,
+/// restarting the step control at the switch-on, where the substrate velocity jumps from 0 to
+/// `u0 ω` (docs/model.md); the output times of `span.grid` are shared out by index: those up to
 /// `t_on` to the first stage. The work is added up.
-// as `Solver::solve_until`, with the switch-on time
-#[allow(clippy::too_many_arguments)]
 pub fn integrate_stages(
     solver: &mut Solver,
     rig: &Rig,
     t_on: f64,
-    t_end: f64,
+    span: Span,
     y: &mut [f64],
     ode: &Options,
-    grid: OutputGrid,
     mut observe: impl FnMut(f64, &[f64]) -> bool,
 ) -> crate::ode::RunReport {
+    let Span {
+        t0,
+        t1: t_end,
+        grid,
+    } = span;
     let first = if t_on < grid.start {
         0
     } else {
@@ -563,7 +577,7 @@ pub fn integrate_stages(
         count: first,
         ..grid
     };
-    let mut rep = solver.solve_until(rig, 0.0, t_on, y, ode, g1, &mut observe);
+    let mut rep = solver.solve_until(rig, Span::new(t0, t_on, g1), y, ode, &mut observe);
     if rep.status != Status::Success || rep.t < t_on {
         return rep;
     }
@@ -572,7 +586,7 @@ pub fn integrate_stages(
         step: grid.step,
         count: grid.count - first,
     };
-    let second = solver.solve_until(rig, t_on, t_end, y, ode, g2, &mut observe);
+    let second = solver.solve_until(rig, Span::new(t_on, t_end, g2), y, ode, &mut observe);
     rep.stats += second.stats;
     rep.status = second.status;
     rep.t = second.t;
@@ -646,7 +660,7 @@ mod tests {
             ..RunOptions::default()
         };
         let mut run = Run::new(&rig, 0.05, &opts);
-        let (k, dt) = (run.rec.k, run.dt);
+        let (k, dt) = (run.rec.k, run.rec.dt);
         assert_eq!(run.rec.u_dot.len(), k);
         let amp = p.u0 * p.omega();
         let y = [0.0, 1e-4, 0.0];

@@ -4,7 +4,7 @@
 use crate::averaged::orbit::AveragingError;
 use crate::averaged::table::Table;
 use crate::model::Params;
-use crate::ode::{Method, OdeSystem, Options, OutputGrid, Solver, Status};
+use crate::ode::{Method, OdeSystem, Options, OutputGrid, Solver, Span, Status};
 use std::cmp::Ordering;
 
 /// The slow model of the averaged rig: the spring's stretch `z = v_d t − x` and the body's
@@ -216,7 +216,7 @@ pub fn simulate_slow_with(
         crate::cycle::LimitCycle::slow(p, level, dt, rtol, [sys.scale(0), sys.scale(1)])
     });
     let mut solver = Solver::new(Method::Radau5);
-    let rep = solver.solve_until(&sys, 0.0, t_end, &mut y, &opts, grid, |t, y| {
+    let rep = solver.solve_until(&sys, Span::new(0.0, t_end, grid), &mut y, &opts, |t, y| {
         let f = p.k_d * y[0] + p.h_d * (p.v_d - y[1]);
         record(i, t, f, y[0], y[1]);
         i += 1;

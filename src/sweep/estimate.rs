@@ -83,6 +83,35 @@ fn mean_sd(v: &[f64]) -> (f64, f64) {
     (m, var.sqrt())
 }
 
+/// The sample's runs as the journal kept them, with what its prediction needs.
+struct Sample {
+    plan: Plan,
+    /// Per grid point, the shard that owns it (0: the sample).
+    owners: Vec<usize>,
+    /// Per sampled point, its share of its averaged table's build \[s\].
+    tables: std::collections::HashMap<usize, f64>,
+    records: Vec<(Task, crate::sim::RunResult)>,
+    /// Wall time of the sample \[s\].
+    wall: f64,
+}
+
+impl Sample {
+    /// A run's cost with its share of its table: the runs found the sample's tables built.
+    fn cost(&self, t: &Task, r: &crate::sim::RunResult) -> f64 {
+        match *t {
+            Task::Point(i) => r.wall_time + self.tables.get(&i).copied().unwrap_or(0.0),
+            _ => r.wall_time,
+        }
+    }
+
+    fn failed(&self) -> usize {
+        self.records
+            .iter()
+            .filter(|(_, r)| r.status != crate::ode::Status::Success)
+            .count()
+    }
+}
+
 /// Runs a sample of about `sample` units of the sweep on `threads` threads and predicts the
 /// whole (module docs).
 pub fn estimate(
@@ -91,6 +120,23 @@ pub fn estimate(
     threads: Option<usize>,
 ) -> Result<Estimate, SweepError> {
     let units = shard::units(spec);
+    let s = run_sample(spec, sample, units, threads)?;
+    refuse_all_failed(&s)?;
+    let base = base_estimate(spec, &s, units, threads);
+    Ok(match spec.refine {
+        None => dense_prediction(&s, base),
+        Some(_) => refine_prediction(spec, &s, base),
+    })
+}
+
+/// Runs shard 0 of as many as make about `sample` units, in a temporary folder removed
+/// afterwards, its averaged tables built first and timed.
+fn run_sample(
+    spec: &SweepSpec,
+    sample: usize,
+    units: usize,
+    threads: Option<usize>,
+) -> Result<Sample, SweepError> {
     // `sample` counts planes; with guide_planes whole groups of them are sampled.
     let per_unit = match spec.refine {
         Some(_) => shard::planes(spec).1 / units,
@@ -125,31 +171,32 @@ pub fn estimate(
         batch: true,
     };
     let outcome = super::run_with(spec, &opts, &store);
-    let sample_wall = t0.elapsed().as_secs_f64();
+    let wall = t0.elapsed().as_secs_f64();
     let records = outcome.and_then(|o| {
         journal::read(&shard::runs_path(&o.out), &journal::fingerprint(&spec.text))
             .map_err(SweepError::State)
     });
     let _ = std::fs::remove_dir_all(&dir);
     let (records, _) = records?;
-    // A point's run with its share of its table: the runs found the sample's tables built.
-    let cost = |t: &Task, r: &crate::sim::RunResult| match *t {
-        Task::Point(i) => r.wall_time + tables.get(&i).copied().unwrap_or(0.0),
-        _ => r.wall_time,
-    };
-    // A sample whose every run failed predicts nothing: its times are those of failures.
-    let failed = records
-        .iter()
-        .filter(|(_, r)| r.status != crate::ode::Status::Success)
-        .count();
-    if let Some((t, r)) = records.first()
-        && failed == records.len()
+    Ok(Sample {
+        plan,
+        owners,
+        tables,
+        records,
+        wall,
+    })
+}
+
+/// A sample whose every run failed predicts nothing: its times are those of failures.
+fn refuse_all_failed(s: &Sample) -> Result<(), SweepError> {
+    if let Some((t, r)) = s.records.first()
+        && s.failed() == s.records.len()
     {
         return Err(SweepError::State(format!(
             "every one of the {} sampled runs failed (the first, {}, ended with {}), so their \
              times predict nothing of this sweep; no estimate. Try one of its points with \
              `stickslip run` and mend the sweep file",
-            records.len(),
+            s.records.len(),
             match *t {
                 Task::Point(i) | Task::Check(i) => format!("grid point {i}"),
                 Task::Ref(k) => format!("reference run {k}"),
@@ -157,13 +204,21 @@ pub fn estimate(
             r.status.name()
         )));
     }
-    // Dense sweeps: the sample's points; [refine] sweeps: its planes, counted below.
-    let sampled = owners.iter().filter(|&&o| o == 0).count();
-    let longest_run = records.iter().map(|(_, r)| r.wall_time).fold(0.0, f64::max);
-    let n_pt = plan.points.iter().filter(|p| p.vibrates()).count() as f64;
-    let n_ref = plan.refs.len() as f64;
-    let threads = threads.unwrap_or_else(rayon::current_num_threads);
-    let base = Estimate {
+    Ok(())
+}
+
+/// What the estimate says before its prediction: the sample and the sweep's counts.
+fn base_estimate(spec: &SweepSpec, s: &Sample, units: usize, threads: Option<usize>) -> Estimate {
+    // Dense sweeps: the sample's points; [refine] sweeps: its planes, counted later.
+    let sampled = s.owners.iter().filter(|&&o| o == 0).count();
+    let longest_run = s
+        .records
+        .iter()
+        .map(|(_, r)| r.wall_time)
+        .fold(0.0, f64::max);
+    let n_pt = s.plan.points.iter().filter(|p| p.vibrates()).count() as f64;
+    let n_ref = s.plan.refs.len() as f64;
+    Estimate {
         name: spec.name.clone(),
         refine: spec.refine.is_some(),
         grouped: spec
@@ -172,90 +227,96 @@ pub fn estimate(
             .is_some_and(|r| r.guide_planes.is_some()),
         sampled,
         units,
-        sample_runs: records.len(),
-        sample_failed: failed,
-        sample_wall,
+        sample_runs: s.records.len(),
+        sample_failed: s.failed(),
+        sample_wall: s.wall,
         runs: 0.0,
         cpu: 0.0,
         cpu_stderr: f64::NAN,
         longest_run,
         counts: (n_pt, n_ref),
         means: (0.0, 0.0, 0.0),
-        threads,
+        threads: threads.unwrap_or_else(rayon::current_num_threads),
+    }
+}
+
+/// A dense sweep: the sample means of runs with vibration and of references times their counts.
+fn dense_prediction(s: &Sample, base: Estimate) -> Estimate {
+    let (n_pt, n_ref) = base.counts;
+    let pts: Vec<f64> = s
+        .records
+        .iter()
+        .filter(|(t, _)| matches!(t, Task::Point(_)))
+        .map(|(t, r)| s.cost(t, r))
+        .collect();
+    let refs: Vec<f64> = s
+        .records
+        .iter()
+        .filter(|(t, _)| matches!(t, Task::Ref(_)))
+        .map(|(_, r)| r.wall_time)
+        .collect();
+    let (cp, sp) = if pts.is_empty() {
+        (0.0, 0.0)
+    } else {
+        mean_sd(&pts)
     };
-    Ok(match spec.refine {
-        None => {
-            let pts: Vec<f64> = records
-                .iter()
-                .filter(|(t, _)| matches!(t, Task::Point(_)))
-                .map(|(t, r)| cost(t, r))
-                .collect();
-            let refs: Vec<f64> = records
-                .iter()
-                .filter(|(t, _)| matches!(t, Task::Ref(_)))
-                .map(|(_, r)| r.wall_time)
-                .collect();
-            let (cp, sp) = if pts.is_empty() {
-                (0.0, 0.0)
-            } else {
-                mean_sd(&pts)
-            };
-            let (cr, sr) = mean_sd(&refs);
-            let se_p = if pts.len() as f64 >= n_pt {
-                0.0
-            } else {
-                n_pt * sp / (pts.len() as f64).sqrt()
-            };
-            let se_r = if refs.len() as f64 >= n_ref {
-                0.0
-            } else {
-                n_ref * sr / (refs.len() as f64).sqrt()
-            };
-            Estimate {
-                runs: n_pt + n_ref,
-                cpu: cp * n_pt + cr * n_ref,
-                cpu_stderr: se_p.hypot(se_r),
-                means: (cp, cr, 0.0),
-                ..base
-            }
+    let (cr, sr) = mean_sd(&refs);
+    let se_p = if pts.len() as f64 >= n_pt {
+        0.0
+    } else {
+        n_pt * sp / (pts.len() as f64).sqrt()
+    };
+    let se_r = if refs.len() as f64 >= n_ref {
+        0.0
+    } else {
+        n_ref * sr / (refs.len() as f64).sqrt()
+    };
+    Estimate {
+        runs: n_pt + n_ref,
+        cpu: cp * n_pt + cr * n_ref,
+        cpu_stderr: se_p.hypot(se_r),
+        means: (cp, cr, 0.0),
+        ..base
+    }
+}
+
+/// A `[refine]` sweep: the mean cost of a unit (a plane, or a group of planes that guide each
+/// other) times the units.
+fn refine_prediction(spec: &SweepSpec, s: &Sample, base: Estimate) -> Estimate {
+    let units = base.units;
+    let (plane, _) = shard::groups(spec);
+    let mut per_plane = std::collections::BTreeMap::<usize, f64>::new();
+    for (i, &o) in s.owners.iter().enumerate() {
+        if o == 0 {
+            per_plane.entry(plane[i]).or_default();
         }
-        Some(_) => {
-            // Per unit: a plane, or a group of planes that guide each other.
-            let (plane, _) = shard::groups(spec);
-            let mut per_plane = std::collections::BTreeMap::<usize, f64>::new();
-            for (i, &o) in owners.iter().enumerate() {
-                if o == 0 {
-                    per_plane.entry(plane[i]).or_default();
-                }
+    }
+    for (t, r) in &s.records {
+        let p = match *t {
+            Task::Point(i) | Task::Check(i) => plane[i],
+            Task::Ref(k) => {
+                plane[(0..s.plan.points.len())
+                    .find(|&i| s.owners[i] == 0 && s.plan.point_ref[i] == k)
+                    .expect("a reference the shard made serves one of its points")]
             }
-            for (t, r) in &records {
-                let p = match *t {
-                    Task::Point(i) | Task::Check(i) => plane[i],
-                    Task::Ref(k) => {
-                        plane[(0..plan.points.len())
-                            .find(|&i| owners[i] == 0 && plan.point_ref[i] == k)
-                            .expect("a reference the shard made serves one of its points")]
-                    }
-                };
-                *per_plane.entry(p).or_default() += cost(t, r);
-            }
-            let per: Vec<f64> = per_plane.values().copied().collect();
-            let (c, s) = mean_sd(&per);
-            let k = per.len() as f64;
-            Estimate {
-                sampled: per.len(),
-                runs: records.len() as f64 / k * units as f64,
-                cpu: c * units as f64,
-                cpu_stderr: if per.len() >= units {
-                    0.0
-                } else {
-                    units as f64 * s / k.sqrt()
-                },
-                means: (0.0, 0.0, c),
-                ..base
-            }
-        }
-    })
+        };
+        *per_plane.entry(p).or_default() += s.cost(t, r);
+    }
+    let per: Vec<f64> = per_plane.values().copied().collect();
+    let (c, sd) = mean_sd(&per);
+    let k = per.len() as f64;
+    Estimate {
+        sampled: per.len(),
+        runs: s.records.len() as f64 / k * units as f64,
+        cpu: c * units as f64,
+        cpu_stderr: if per.len() >= units {
+            0.0
+        } else {
+            units as f64 * sd / k.sqrt()
+        },
+        means: (0.0, 0.0, c),
+        ..base
+    }
 }
 
 /// Builds, timed, the tables of the averaged law that the sample's points (those `owners` gives
