@@ -310,12 +310,7 @@ fn joint_screen(
     (mb, kb): (&Model, EffectKind),
 ) -> FitResult {
     let both_effects = [ka, kb];
-    let screen_opts = FitOptions {
-        max_iter: SCREEN_ITERATIONS,
-        rel_tol: SCREEN_REL_TOL,
-        final_jacobian: false,
-        reach: bar,
-    };
+    let screen_opts = screen_fit(bar);
     [
         with_other(ma, mb, kb, false),
         with_other(mb, ma, ka, false),

@@ -52,6 +52,17 @@ pub const RANK_REL_TOL: f64 = 0.01;
 /// own columns, not a Jacobian and five iterations of steps tried and refused.
 pub const SCREEN_ITERATIONS: usize = 5;
 
+/// A screen's fit options: at most [`SCREEN_ITERATIONS`] iterations, [`SCREEN_REL_TOL`], no
+/// fresh Jacobian at the end, stopped where it cannot reach the gap `reach`.
+pub fn screen_fit(reach: f64) -> FitOptions {
+    FitOptions {
+        max_iter: SCREEN_ITERATIONS,
+        rel_tol: SCREEN_REL_TOL,
+        final_jacobian: false,
+        reach,
+    }
+}
+
 /// The recordings candidates extending a model are screened on, with that model's gap there.
 pub(crate) struct Screen<'a> {
     /// The subset, with the extended model refitted to it, in a campaign of more than
@@ -226,16 +237,16 @@ impl<'a> Screen<'a> {
             checks += n;
         }
         let bar = self.bar();
+        let screen = screen_fit(match reach {
+            // Short of the leader's reach, it is not fitted further whatever its start.
+            Reach::Leader(r) => (r * self.gap).min(bar),
+            Reach::Full => f64::INFINITY,
+            Reach::Bar => bar,
+        });
         let opts = FitOptions {
-            max_iter: opts.max_iter.min(SCREEN_ITERATIONS),
-            rel_tol: SCREEN_REL_TOL,
-            reach: match reach {
-                // Short of the leader's reach, it is not fitted further whatever its start.
-                Reach::Leader(r) => (r * self.gap).min(bar),
-                Reach::Full => f64::INFINITY,
-                Reach::Bar => bar,
-            },
-            ..opts
+            max_iter: opts.max_iter.min(screen.max_iter),
+            final_jacobian: opts.final_jacobian,
+            ..screen
         };
         let mut passed: Option<FitResult> = None;
         let mut lowest = f64::INFINITY;

@@ -78,12 +78,7 @@ pub fn rivals(
     };
     let g0 = gap(&sub.residuals(&sub.predict(&named.model)));
     let bar = (1.0 - keep.min_gain) * g0;
-    let screen = FitOptions {
-        max_iter: crate::diagnosis::screen::SCREEN_ITERATIONS,
-        rel_tol: crate::diagnosis::screen::SCREEN_REL_TOL,
-        final_jacobian: false,
-        reach: bar,
-    };
+    let screen = crate::diagnosis::screen::screen_fit(bar);
     let mut kept = vec![];
     for &k in candidates {
         if named.effects.contains(&k) {
