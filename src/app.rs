@@ -6,6 +6,7 @@ use crate::cli::{
     PlotArgs, RunArgs, SlurmArgs, StatusArgs, SweepArgs, SynthArgs,
 };
 use crate::diagnosis;
+use crate::measures::Measure;
 use crate::ode::Solver;
 use crate::output::{self, OutputError};
 use crate::plot::{self, PlotError};
@@ -631,7 +632,7 @@ pub fn sweep_cmd(a: &SweepArgs) -> Result<(), AppError> {
             Some(rf) => crate::note!(
                 "sweep {}: refining {} = {} along {} on a dense grid of {} points over {dims}: {} coarse points, steps halved {} times where needed, {threads} threads -> {}",
                 spec.name,
-                rf.measure,
+                rf.measure.name(),
                 rf.level,
                 spec.axes[rf.along].name,
                 plan.points.len(),
@@ -1167,16 +1168,8 @@ fn finite(x: f64) -> serde_json::Value {
 
 fn run_json(r: &sim::RunResult) -> serde_json::Value {
     let m = &r.measures;
-    serde_json::json!({
+    let mut obj = serde_json::json!({
         "status": r.status.name(),
-        "dF": finite(m.d_f),
-        "dF_stderr": finite(m.d_f_stderr),
-        "mean_force": finite(m.mean_force),
-        "stick_fraction": finite(m.stick_fraction),
-        "period": finite(m.period),
-        "peak_force": finite(m.peak_force),
-        "trough_force": finite(m.trough_force),
-        "cycles": m.cycles,
         "t_end": r.t_end,
         "window_start": r.window_start,
         "wall_time": r.wall_time,
@@ -1187,7 +1180,16 @@ fn run_json(r: &sim::RunResult) -> serde_json::Value {
         "tier_reason": r.tier_reason.name(),
         "tier_reason_text": r.tier_reason.text(),
         "stats": r.stats,
-    })
+    });
+    let fields = obj.as_object_mut().expect("object");
+    for k in Measure::OF_RUN {
+        let v = match k {
+            Measure::Cycles => serde_json::json!(m.cycles),
+            k => finite(k.of_run(m).unwrap_or(f64::NAN)),
+        };
+        fields.insert(k.name().into(), v);
+    }
+    obj
 }
 
 /// The results of a case as one JSON object (non-finite numbers become null).

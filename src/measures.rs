@@ -64,6 +64,187 @@ impl Measures {
     }
 }
 
+/// A measure of a run or of a point: its one definition (name, unit, what it means, how it is
+/// read), from which the sweep file's choice of measures (`[output] measures`), the journal,
+/// the HDF5 files, the JSON of `run` and the refined level are all written. Adding a measure is
+/// a variant here (and, where a run measures it, a field of [`Measures`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Measure {
+    /// Reduction coefficient `r = dF / dF_reference` (Eq. 5.1): a point's, of two runs.
+    R,
+    /// Standard error of `r`.
+    RStderr,
+    /// Stick-slip amplitude ([`Measures::d_f`]).
+    DF,
+    /// Its standard error ([`Measures::d_f_stderr`]).
+    DFStderr,
+    /// Mean drive force ([`Measures::mean_force`]).
+    MeanForce,
+    /// Share of the window spent sticking ([`Measures::stick_fraction`]).
+    StickFraction,
+    /// Mean stick-slip period ([`Measures::period`]).
+    Period,
+    /// Mean peak force ([`Measures::peak_force`]).
+    PeakForce,
+    /// Mean trough force ([`Measures::trough_force`]).
+    TroughForce,
+    /// Cycles counted ([`Measures::cycles`]).
+    Cycles,
+}
+
+impl Measure {
+    /// Every measure, in the order files write them.
+    pub const ALL: [Measure; 10] = [
+        Measure::R,
+        Measure::RStderr,
+        Measure::DF,
+        Measure::DFStderr,
+        Measure::MeanForce,
+        Measure::StickFraction,
+        Measure::Period,
+        Measure::PeakForce,
+        Measure::TroughForce,
+        Measure::Cycles,
+    ];
+
+    /// The measures of one run (every one but those of a point's two runs, `r` and its error).
+    pub const OF_RUN: [Measure; 8] = [
+        Measure::DF,
+        Measure::DFStderr,
+        Measure::MeanForce,
+        Measure::StickFraction,
+        Measure::Period,
+        Measure::PeakForce,
+        Measure::TroughForce,
+        Measure::Cycles,
+    ];
+
+    /// Its name in files, sweep files and the JSON.
+    pub fn name(self) -> &'static str {
+        match self {
+            Measure::R => "r",
+            Measure::RStderr => "r_stderr",
+            Measure::DF => "dF",
+            Measure::DFStderr => "dF_stderr",
+            Measure::MeanForce => "mean_force",
+            Measure::StickFraction => "stick_fraction",
+            Measure::Period => "period",
+            Measure::PeakForce => "peak_force",
+            Measure::TroughForce => "trough_force",
+            Measure::Cycles => "cycles",
+        }
+    }
+
+    /// Its unit (SI; `1` for a number).
+    pub fn unit(self) -> &'static str {
+        match self {
+            Measure::R | Measure::RStderr | Measure::StickFraction | Measure::Cycles => "1",
+            Measure::Period => "s",
+            _ => "N",
+        }
+    }
+
+    /// What it means, as the files describe it.
+    pub fn doc(self) -> &'static str {
+        match self {
+            Measure::R => "reduction coefficient dF/dF_reference (Eq. 5.1)",
+            Measure::RStderr => {
+                "standard error of r (NaN where a run with vibration holds one cycle)"
+            }
+            Measure::DF => "stick-slip amplitude: mean drop of the smoothed drive force per cycle",
+            Measure::DFStderr => {
+                "standard error of dF over the cycles (NaN where a run with vibration holds one)"
+            }
+            Measure::MeanForce => "mean drive force over the steady window",
+            Measure::StickFraction => "share of the steady window spent sticking",
+            Measure::Period => "mean stick-slip period",
+            Measure::PeakForce => "mean peak of the smoothed drive force",
+            Measure::TroughForce => "mean trough of the smoothed drive force",
+            Measure::Cycles => "stick-slip cycles counted in the steady window",
+        }
+    }
+
+    /// The measure named `name`, if any.
+    pub fn from_name(name: &str) -> Option<Measure> {
+        Measure::ALL.into_iter().find(|m| m.name() == name)
+    }
+
+    /// The names of `ms`, joined by commas (for messages that list what is allowed).
+    pub fn names(ms: &[Measure]) -> String {
+        ms.iter().map(|m| m.name()).collect::<Vec<_>>().join(", ")
+    }
+
+    /// Its value on a run's measures `m`; `None` for a point's measures (`r`, `r_stderr`).
+    pub fn of_run(self, m: &Measures) -> Option<f64> {
+        Some(match self {
+            Measure::R | Measure::RStderr => return None,
+            Measure::DF => m.d_f,
+            Measure::DFStderr => m.d_f_stderr,
+            Measure::MeanForce => m.mean_force,
+            Measure::StickFraction => m.stick_fraction,
+            Measure::Period => m.period,
+            Measure::PeakForce => m.peak_force,
+            Measure::TroughForce => m.trough_force,
+            Measure::Cycles => f64::from(m.cycles),
+        })
+    }
+
+    /// Its value at a point: of the point's run's measures `m`, or of the point's reduction
+    /// `(r, r_stderr)`.
+    pub fn of_point(self, m: &Measures, reduction: (f64, f64)) -> f64 {
+        match self {
+            Measure::R => reduction.0,
+            Measure::RStderr => reduction.1,
+            _ => self.of_run(m).expect("a run's measure"),
+        }
+    }
+
+    /// Sets it on a run's measures (a point's measures are not a run's: nothing is set). A
+    /// count is set from a whole, non-negative `v`.
+    pub fn set(self, m: &mut Measures, v: f64) {
+        match self {
+            Measure::R | Measure::RStderr => {}
+            Measure::DF => m.d_f = v,
+            Measure::DFStderr => m.d_f_stderr = v,
+            Measure::MeanForce => m.mean_force = v,
+            Measure::StickFraction => m.stick_fraction = v,
+            Measure::Period => m.period = v,
+            Measure::PeakForce => m.peak_force = v,
+            Measure::TroughForce => m.trough_force = v,
+            Measure::Cycles => m.cycles = v as u32,
+        }
+    }
+
+    /// The open range a level of it must lie in to be crossed at all, with the rule in words: r,
+    /// dF, their errors and the period are never negative, a share lies within 0 to 1; `None`
+    /// where any level may be crossed.
+    pub fn level_range(self) -> Option<(f64, f64, &'static str)> {
+        match self {
+            Measure::StickFraction => Some((0.0, 1.0, "0 < level < 1")),
+            Measure::R | Measure::RStderr | Measure::DF | Measure::DFStderr | Measure::Period => {
+                Some((0.0, f64::INFINITY, "level > 0"))
+            }
+            _ => None,
+        }
+    }
+
+    /// Whether a level set of it can be refined: every measure but a count.
+    pub fn refinable(self) -> bool {
+        self != Measure::Cycles
+    }
+}
+
+impl Measures {
+    /// The measures of a run that measured nothing (it failed): NaN, no cycle.
+    pub fn nan() -> Measures {
+        let mut m = Measures::default();
+        for k in Measure::OF_RUN {
+            k.set(&mut m, f64::NAN);
+        }
+        m
+    }
+}
+
 /// Statistics of one block of smoothed samples (for windows chosen after the fact).
 #[derive(Clone, Copy, Debug)]
 struct Block {

@@ -2,7 +2,9 @@
 //! and CSV. Every file is written under a temporary name and renamed into place, so a reader
 //! never sees a half-written file.
 
+use crate::measures::Measure;
 use crate::model::params::PARAMS;
+use crate::ode::Counter;
 use crate::sim::{CaseResult, RunOptions, RunResult, Trace};
 use rust_hdf5::{H5Dataset, H5File, VarLenUnicode};
 use std::io::Write;
@@ -183,14 +185,15 @@ pub fn iso_from_unix(secs: u64) -> String {
 fn set_measures(file: &H5File, prefix: &str, r: &RunResult, path: &Path) -> Result<()> {
     let m = &r.measures;
     let e = h5err(path);
+    for k in Measure::OF_RUN {
+        let name = format!("{prefix}{}", k.name());
+        match k {
+            Measure::Cycles => file.set_attr_numeric(&name, &i64::from(m.cycles)),
+            k => file.set_attr_numeric(&name, &k.of_run(m).unwrap_or(f64::NAN)),
+        }
+        .map_err(&e)?;
+    }
     for (k, v) in [
-        ("dF", m.d_f),
-        ("dF_stderr", m.d_f_stderr),
-        ("mean_force", m.mean_force),
-        ("stick_fraction", m.stick_fraction),
-        ("period", m.period),
-        ("peak_force", m.peak_force),
-        ("trough_force", m.trough_force),
         ("t_end", r.t_end),
         ("window_start", r.window_start),
         ("wall_time", r.wall_time),
@@ -198,8 +201,6 @@ fn set_measures(file: &H5File, prefix: &str, r: &RunResult, path: &Path) -> Resu
         file.set_attr_numeric(&format!("{prefix}{k}"), &v)
             .map_err(&e)?;
     }
-    file.set_attr_numeric(&format!("{prefix}cycles"), &(m.cycles as i64))
-        .map_err(&e)?;
     // 1 where the measures are the settled level, extrapolated from a settling force, with the
     // level's error bound (NaN where not extrapolated).
     file.set_attr_numeric(&format!("{prefix}predicted"), &i64::from(r.predicted()))
@@ -216,16 +217,8 @@ fn set_measures(file: &H5File, prefix: &str, r: &RunResult, path: &Path) -> Resu
         .map_err(&e)?;
     file.set_attr_string(&format!("{prefix}tier_reason"), r.tier_reason.name())
         .map_err(&e)?;
-    let s = &r.stats;
-    for (k, v) in [
-        ("steps", s.steps),
-        ("rejected", s.rejected),
-        ("rhs_evals", s.rhs_evals),
-        ("jac_evals", s.jac_evals),
-        ("lu_decomps", s.lu_decomps),
-        ("newton_iters", s.newton_iters),
-    ] {
-        file.set_attr_numeric(&format!("{prefix}{k}"), &(v as i64))
+    for c in Counter::ALL {
+        file.set_attr_numeric(&format!("{prefix}{}", c.name()), &(c.of(&r.stats) as i64))
             .map_err(&e)?;
     }
     Ok(())

@@ -251,7 +251,7 @@ impl SlurmJob {
 
     /// Refuses shards of another sweep file or program version in `OUT.shards/`.
     pub fn check_shards(&self, spec: &SweepSpec) -> Result<(), SlurmError> {
-        let head = journal::header(&journal::fingerprint(&spec.text));
+        let fp = journal::fingerprint(&spec.text);
         for index in 0..self.tasks {
             let h5 = Shard {
                 index,
@@ -260,7 +260,7 @@ impl SlurmJob {
             .path(&self.out);
             for f in [shard::runs_path(&h5), journal::path_for(&h5)] {
                 if let Ok(text) = std::fs::read_to_string(&f)
-                    && text.lines().next() != Some(head.as_str())
+                    && !journal::belongs(text.lines().next().unwrap_or_default(), &fp)
                 {
                     return Err(SlurmError::Io(format!(
                         "{} was made from another sweep file or program version; \

@@ -333,13 +333,99 @@ pub struct Stats {
 
 impl std::ops::AddAssign for Stats {
     fn add_assign(&mut self, o: Stats) {
-        self.steps += o.steps;
-        self.rejected += o.rejected;
-        self.rhs_evals += o.rhs_evals;
-        self.jac_evals += o.jac_evals;
-        self.lu_decomps += o.lu_decomps;
-        self.newton_iters += o.newton_iters;
-        self.skipped_periods += o.skipped_periods;
+        for c in Counter::ALL {
+            *c.slot(self) += c.of(&o);
+        }
+    }
+}
+
+/// A counter of [`Stats`]: its one definition (name, meaning, field), from which the journal,
+/// the sweep file's datasets and the sums of work are all written.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Counter {
+    /// [`Stats::steps`].
+    Steps,
+    /// [`Stats::rejected`].
+    Rejected,
+    /// [`Stats::rhs_evals`].
+    RhsEvals,
+    /// [`Stats::jac_evals`].
+    JacEvals,
+    /// [`Stats::lu_decomps`].
+    LuDecomps,
+    /// [`Stats::newton_iters`].
+    NewtonIters,
+    /// [`Stats::skipped_periods`].
+    SkippedPeriods,
+}
+
+impl Counter {
+    /// Every counter of [`Stats`], in the order files write them.
+    pub const ALL: [Counter; 7] = [
+        Counter::Steps,
+        Counter::Rejected,
+        Counter::RhsEvals,
+        Counter::JacEvals,
+        Counter::LuDecomps,
+        Counter::NewtonIters,
+        Counter::SkippedPeriods,
+    ];
+
+    /// Its name in files (the field's).
+    pub fn name(self) -> &'static str {
+        match self {
+            Counter::Steps => "steps",
+            Counter::Rejected => "rejected",
+            Counter::RhsEvals => "rhs_evals",
+            Counter::JacEvals => "jac_evals",
+            Counter::LuDecomps => "lu_decomps",
+            Counter::NewtonIters => "newton_iters",
+            Counter::SkippedPeriods => "skipped_periods",
+        }
+    }
+
+    /// What it counts, as the files describe it.
+    pub fn doc(self) -> &'static str {
+        match self {
+            Counter::Steps => "accepted steps",
+            Counter::Rejected => "rejected steps",
+            Counter::RhsEvals => "right-hand-side evaluations",
+            Counter::JacEvals => "Jacobian evaluations",
+            Counter::LuDecomps => "LU factorisations",
+            Counter::NewtonIters => "Newton iterations of the implicit methods",
+            Counter::SkippedPeriods => "vibration periods jumped by envelope following",
+        }
+    }
+
+    /// The counter named `name`, if any.
+    pub fn from_name(name: &str) -> Option<Counter> {
+        Counter::ALL.into_iter().find(|c| c.name() == name)
+    }
+
+    /// Its value in `s`.
+    pub fn of(self, s: &Stats) -> u64 {
+        match self {
+            Counter::Steps => s.steps,
+            Counter::Rejected => s.rejected,
+            Counter::RhsEvals => s.rhs_evals,
+            Counter::JacEvals => s.jac_evals,
+            Counter::LuDecomps => s.lu_decomps,
+            Counter::NewtonIters => s.newton_iters,
+            Counter::SkippedPeriods => s.skipped_periods,
+        }
+    }
+
+    /// Its field in `s`.
+    pub fn slot(self, s: &mut Stats) -> &mut u64 {
+        match self {
+            Counter::Steps => &mut s.steps,
+            Counter::Rejected => &mut s.rejected,
+            Counter::RhsEvals => &mut s.rhs_evals,
+            Counter::JacEvals => &mut s.jac_evals,
+            Counter::LuDecomps => &mut s.lu_decomps,
+            Counter::NewtonIters => &mut s.newton_iters,
+            Counter::SkippedPeriods => &mut s.skipped_periods,
+        }
     }
 }
 

@@ -7,7 +7,7 @@ use crate::model::{Params, Rig, V, X};
 use crate::ode::lanes::cos;
 use crate::ode::{Envelope, OdeSystem, Options, OutputGrid, RunReport, Solver, Span, Status};
 use crate::sim::options::*;
-use crate::sim::result::{RunResult, nan_measures};
+use crate::sim::result::RunResult;
 use crate::sim::tier::{Tier, TierReason};
 use crate::sim::trace::Trace;
 use crate::sim::window::{first_check, first_loading, sampling, window_start};
@@ -449,7 +449,7 @@ impl Run {
                 (rec.an.window_measures(window_start), None)
             }
             (Status::Success, None, None) => (rec.an.finish(), None),
-            _ => (nan_measures(), None),
+            _ => (crate::measures::Measures::nan(), None),
         };
         let measures = if p.vibrates() {
             measures.varying_cycles()

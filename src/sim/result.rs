@@ -59,19 +59,6 @@ impl RunResult {
     }
 }
 
-pub(crate) fn nan_measures() -> Measures {
-    Measures {
-        d_f: f64::NAN,
-        d_f_stderr: f64::NAN,
-        mean_force: f64::NAN,
-        stick_fraction: f64::NAN,
-        period: f64::NAN,
-        peak_force: f64::NAN,
-        trough_force: f64::NAN,
-        cycles: 0,
-    }
-}
-
 /// A run with vibration and its reference without vibration, and the reduction coefficient.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct CaseResult {

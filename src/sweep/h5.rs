@@ -2,6 +2,9 @@
 //! sweep's axes (zipped axes share one), each axis a coordinate dataset attached as an HDF5
 //! dimension scale, so h5py's `dims` and xarray (engine h5netcdf) show named coordinates.
 //!
+//! The measures' datasets are those of [`Measure`] (each with its unit and meaning as
+//! attributes), the statistics' those of [`Counter`]:
+//!
 //! | dataset | unit | meaning |
 //! |---|---|---|
 //! | `r`, `r_stderr` | 1 | reduction coefficient (5.1) and its standard error (NaN: one cycle of a run with vibration) |
@@ -12,7 +15,7 @@
 //! | `period` | s | stick-slip period |
 //! | `cycles` | 1 | cycles counted |
 //! | `status` | 1 | 0 success, 1 step too small, 2 max steps, 3 Newton failure, 4 non-finite, 5 unsettled (measured, force still creeping at the longest time), −1 not run yet |
-//! | `steps`, `rejected`, `rhs_evals`, `jac_evals`, `lu_decomps` | 1 | solver statistics of the point's own run |
+//! | `steps`, `rejected`, `rhs_evals`, `jac_evals`, `lu_decomps`, `newton_iters`, `skipped_periods` | 1 | solver statistics of the point's own run, one per [`Counter`] |
 //! | `wall_time` | s | wall time of the point's own run |
 //! | `t_end` | s | simulated time of the point's own run (shorter than planned where it stopped early) |
 //! | `tier` | 1 | model that served the point's own run: 0 full, 1 averaged, 2 hybrid (`crate::sim::Tier`), −1 not run yet |
@@ -30,7 +33,9 @@
 use super::plan::{Plan, Results};
 use super::shard::Shard;
 use super::spec::SweepSpec;
+use crate::measures::Measure;
 use crate::model::params::PARAMS;
+use crate::ode::Counter;
 use crate::output::{self, OutputError, ds_attr_str, h5err, ioerr};
 use crate::sim::{self, Trace};
 use ndarray::{ArrayD, IxDyn};
@@ -59,16 +64,6 @@ struct At<'a> {
 }
 
 impl At<'_> {
-    /// A measure of the run (NaN where not run).
-    fn measure(&self, f: fn(&crate::measures::Measures) -> f64) -> f64 {
-        self.own.map(|r| f(&r.measures)).unwrap_or(f64::NAN)
-    }
-
-    /// A counter of the run's statistics (NaN where not run).
-    fn stat(&self, f: fn(&crate::ode::Stats) -> u64) -> f64 {
-        self.own.map(|r| f(&r.stats) as f64).unwrap_or(f64::NAN)
-    }
-
     /// The point's status: its run's, or its reference's where that failed (a point fails when
     /// its run or its reference fails); −1 where not run.
     fn status(&self) -> f64 {
@@ -81,188 +76,131 @@ impl At<'_> {
     }
 }
 
-/// One array of the sweep file: its dataset's name, unit and description, and how a grid
-/// point's value is read. A measure a sweep file can leave out ([`super::spec::MEASURES`]) is
-/// written where the sweep asks for it; every other column always.
+/// Where a column's values come from: a measure ([`Measure`], left out where the sweep does
+/// not keep it), a counter of the run's work ([`Counter`]), or the point's run or parameters.
+#[derive(Clone, Copy)]
+enum Source {
+    Measure(Measure),
+    Counter(Counter),
+    Other(fn(&At<'_>) -> f64),
+}
+
+/// One array of the sweep file: its dataset's name, unit and description, and where a grid
+/// point's value comes from.
 struct Column {
     name: &'static str,
     unit: &'static str,
     doc: &'static str,
-    read: fn(&At<'_>) -> f64,
+    source: Source,
 }
 
-/// The sweep file's arrays, in the order they are written.
-const COLUMNS: &[Column] = &[
-    Column {
-        name: "r",
+impl Column {
+    fn read(&self, a: &At<'_>) -> f64 {
+        match self.source {
+            Source::Measure(m) => match m {
+                Measure::R => a.r,
+                Measure::RStderr => a.r_stderr,
+                m => a
+                    .own
+                    .and_then(|r| m.of_run(&r.measures))
+                    .unwrap_or(f64::NAN),
+            },
+            Source::Counter(c) => a.own.map(|r| c.of(&r.stats) as f64).unwrap_or(f64::NAN),
+            Source::Other(f) => f(a),
+        }
+    }
+}
+
+/// The sweep file's arrays, in the order they are written: every measure, the reference's dF
+/// and the status, every counter of the run's work, then the run's times and tier and the
+/// point's vibration.
+fn columns() -> Vec<Column> {
+    let measures = Measure::ALL.into_iter().map(|m| Column {
+        name: m.name(),
+        unit: m.unit(),
+        doc: m.doc(),
+        source: Source::Measure(m),
+    });
+    let counters = Counter::ALL.into_iter().map(|c| Column {
+        name: c.name(),
         unit: "1",
-        doc: "reduction coefficient dF/dF_reference (Eq. 5.1)",
-        read: |a| a.r,
-    },
-    Column {
-        name: "r_stderr",
-        unit: "1",
-        doc: "standard error of r (NaN where a run with vibration holds one cycle)",
-        read: |a| a.r_stderr,
-    },
-    Column {
-        name: "dF",
-        unit: "N",
-        doc: "stick-slip amplitude: mean drop of the smoothed drive force per cycle",
-        read: |a| a.measure(|m| m.d_f),
-    },
-    Column {
-        name: "dF_stderr",
-        unit: "N",
-        doc: "standard error of dF over the cycles (NaN where a run with vibration holds one)",
-        read: |a| a.measure(|m| m.d_f_stderr),
-    },
-    Column {
-        name: "dF_reference",
-        unit: "N",
-        doc: "dF of the run without vibration",
-        read: |a| a.reference.map(|r| r.measures.d_f).unwrap_or(f64::NAN),
-    },
-    Column {
-        name: "mean_force",
-        unit: "N",
-        doc: "mean drive force over the steady window",
-        read: |a| a.measure(|m| m.mean_force),
-    },
-    Column {
-        name: "stick_fraction",
-        unit: "1",
-        doc: "share of the steady window spent sticking",
-        read: |a| a.measure(|m| m.stick_fraction),
-    },
-    Column {
-        name: "period",
-        unit: "s",
-        doc: "mean stick-slip period",
-        read: |a| a.measure(|m| m.period),
-    },
-    Column {
-        name: "peak_force",
-        unit: "N",
-        doc: "mean peak of the smoothed drive force",
-        read: |a| a.measure(|m| m.peak_force),
-    },
-    Column {
-        name: "trough_force",
-        unit: "N",
-        doc: "mean trough of the smoothed drive force",
-        read: |a| a.measure(|m| m.trough_force),
-    },
-    Column {
-        name: "cycles",
-        unit: "1",
-        doc: "stick-slip cycles counted in the steady window",
-        read: |a| a.measure(|m| m.cycles as f64),
-    },
-    Column {
-        name: "status",
-        unit: "1",
-        doc: "run status",
-        read: |a| a.status(),
-    },
-    Column {
-        name: "steps",
-        unit: "1",
-        doc: "accepted steps",
-        read: |a| a.stat(|s| s.steps),
-    },
-    Column {
-        name: "rejected",
-        unit: "1",
-        doc: "rejected steps",
-        read: |a| a.stat(|s| s.rejected),
-    },
-    Column {
-        name: "rhs_evals",
-        unit: "1",
-        doc: "right-hand-side evaluations",
-        read: |a| a.stat(|s| s.rhs_evals),
-    },
-    Column {
-        name: "jac_evals",
-        unit: "1",
-        doc: "Jacobian evaluations",
-        read: |a| a.stat(|s| s.jac_evals),
-    },
-    Column {
-        name: "lu_decomps",
-        unit: "1",
-        doc: "LU factorisations",
-        read: |a| a.stat(|s| s.lu_decomps),
-    },
-    Column {
-        name: "newton_iters",
-        unit: "1",
-        doc: "Newton iterations of the implicit methods",
-        read: |a| a.stat(|s| s.newton_iters),
-    },
-    Column {
-        name: "skipped_periods",
-        unit: "1",
-        doc: "vibration periods jumped by envelope following",
-        read: |a| a.stat(|s| s.skipped_periods),
-    },
-    Column {
-        name: "wall_time",
-        unit: "s",
-        doc: "wall time of the run",
-        read: |a| a.own.map(|r| r.wall_time).unwrap_or(f64::NAN),
-    },
-    Column {
-        name: "t_end",
-        unit: "s",
-        doc: "simulated time of the run (shorter than planned where it stopped early)",
-        read: |a| a.own.map(|r| r.t_end).unwrap_or(f64::NAN),
-    },
-    Column {
-        name: "tier",
-        unit: "1",
-        doc: "model that served the run: 0 full (every period integrated), 1 averaged (the vibration averaged out), 2 hybrid (averaged, with full windows in the law's zones)",
-        read: |a| a.own.map(|r| f64::from(r.tier.code())).unwrap_or(-1.0),
-    },
-    Column {
-        name: "tier_reason",
-        unit: "1",
-        doc: "why: 0 asked, 1 no_vibration, 2 two_stage, 3 effects, 4 separation, 5 no_law, 6 valid, 7 asked_averaged, 8 check (a full run replaced a disagreeing averaged one), 9 left_law (the averaged run left the valid law: full), 10 below_resonance, 11 unshared (no other point shares its table: full), 12 small_amplitude (v_a < 0.1 v_d: full), 13 asked_hybrid, 14 zones (under auto, the averaged run passed the law's zones: hybrid), 15 partial_law (the law's continuation stopped short: full), 16 near_zone (under auto, v_d in or within 25 % of a zone of the law: full)",
-        read: |a| {
-            a.own
-                .map(|r| f64::from(r.tier_reason.code()))
-                .unwrap_or(-1.0)
+        doc: c.doc(),
+        source: Source::Counter(c),
+    });
+    let first = [
+        Column {
+            name: "dF_reference",
+            unit: "N",
+            doc: "dF of the run without vibration",
+            source: Source::Other(|a| a.reference.map(|r| r.measures.d_f).unwrap_or(f64::NAN)),
         },
-    },
-    Column {
-        name: "u0_grid",
-        unit: "m",
-        doc: "vibration amplitude u0 of the point",
-        read: |a| a.point.u0,
-    },
-    Column {
-        name: "v_a_grid",
-        unit: "m/s",
-        doc: "vibration velocity amplitude v_a = 2 pi f u0 of the point",
-        read: |a| a.point.v_a(),
-    },
-    Column {
-        name: "computed",
-        unit: "1",
-        doc: "1 where the point was run (a [refine] sweep runs only the points near the level; the others hold NaN)",
-        read: |a| f64::from(u8::from(a.own.is_some())),
-    },
-];
+        Column {
+            name: "status",
+            unit: "1",
+            doc: "run status",
+            source: Source::Other(|a| a.status()),
+        },
+    ];
+    let rest = [
+        Column {
+            name: "wall_time",
+            unit: "s",
+            doc: "wall time of the run",
+            source: Source::Other(|a| a.own.map(|r| r.wall_time).unwrap_or(f64::NAN)),
+        },
+        Column {
+            name: "t_end",
+            unit: "s",
+            doc: "simulated time of the run (shorter than planned where it stopped early)",
+            source: Source::Other(|a| a.own.map(|r| r.t_end).unwrap_or(f64::NAN)),
+        },
+        Column {
+            name: "tier",
+            unit: "1",
+            doc: "model that served the run: 0 full (every period integrated), 1 averaged (the vibration averaged out), 2 hybrid (averaged, with full windows in the law's zones)",
+            source: Source::Other(|a| a.own.map(|r| f64::from(r.tier.code())).unwrap_or(-1.0)),
+        },
+        Column {
+            name: "tier_reason",
+            unit: "1",
+            doc: "why: 0 asked, 1 no_vibration, 2 two_stage, 3 effects, 4 separation, 5 no_law, 6 valid, 7 asked_averaged, 8 check (a full run replaced a disagreeing averaged one), 9 left_law (the averaged run left the valid law: full), 10 below_resonance, 11 unshared (no other point shares its table: full), 12 small_amplitude (v_a < 0.1 v_d: full), 13 asked_hybrid, 14 zones (under auto, the averaged run passed the law's zones: hybrid), 15 partial_law (the law's continuation stopped short: full), 16 near_zone (under auto, v_d in or within 25 % of a zone of the law: full)",
+            source: Source::Other(|a| {
+                a.own
+                    .map(|r| f64::from(r.tier_reason.code()))
+                    .unwrap_or(-1.0)
+            }),
+        },
+        Column {
+            name: "u0_grid",
+            unit: "m",
+            doc: "vibration amplitude u0 of the point",
+            source: Source::Other(|a| a.point.u0),
+        },
+        Column {
+            name: "v_a_grid",
+            unit: "m/s",
+            doc: "vibration velocity amplitude v_a = 2 pi f u0 of the point",
+            source: Source::Other(|a| a.point.v_a()),
+        },
+        Column {
+            name: "computed",
+            unit: "1",
+            doc: "1 where the point was run (a [refine] sweep runs only the points near the level; the others hold NaN)",
+            source: Source::Other(|a| f64::from(u8::from(a.own.is_some()))),
+        },
+    ];
+    measures.chain(first).chain(counters).chain(rest).collect()
+}
 
 /// Builds the result arrays from the results so far (NaN where not run).
 fn grids(spec: &SweepSpec, plan: &Plan, res: &Results) -> Vec<Grid> {
     let shape = IxDyn(&spec.shape());
     let n = plan.points.len();
-    let keep = |name: &str| {
-        !super::spec::MEASURES.contains(&name) || spec.measures.iter().any(|m| m == name)
+    let keep = |c: &Column| match c.source {
+        Source::Measure(m) => spec.measures.contains(&m),
+        _ => true,
     };
-    let columns: Vec<&Column> = COLUMNS.iter().filter(|c| keep(c.name)).collect();
+    let columns: Vec<Column> = columns().into_iter().filter(keep).collect();
     let mut data: Vec<Vec<f64>> = vec![Vec::with_capacity(n); columns.len()];
     for i in 0..n {
         let (own, reference) = res.point(plan, i);
@@ -275,7 +213,7 @@ fn grids(spec: &SweepSpec, plan: &Plan, res: &Results) -> Vec<Grid> {
             point: &plan.points[i],
         };
         for (c, v) in columns.iter().zip(data.iter_mut()) {
-            v.push((c.read)(&at));
+            v.push(c.read(&at));
         }
     }
     columns
@@ -416,7 +354,7 @@ pub fn write(
         file.set_attr_numeric("reference_runs", &(plan.refs.len() as i64))
             .map_err(&e)?;
         if let Some(rf) = &spec.refine {
-            file.set_attr_string("refine_measure", &rf.measure)
+            file.set_attr_string("refine_measure", rf.measure.name())
                 .map_err(&e)?;
             file.set_attr_string("refine_along", &spec.axes[rf.along].name)
                 .map_err(&e)?;

@@ -2,16 +2,21 @@
 //! written and flushed as the run finishes, so a crash, `kill -9` or Ctrl-C loses only the runs
 //! in flight. A torn last line is ignored on reading.
 //!
-//! Format: a header `stickslip-journal 2 <fingerprint>` (the sweep text and program version,
-//! so that a journal is never applied to another sweep), then one record per line, ended by
-//! its checksum `~xxxxxxxx` (FNV-1a of the line before it: a damaged line is dropped and its
-//! run made again):
+//! Format: a header `stickslip-journal 3 <fingerprint> <columns>` (the fingerprint of the
+//! sweep text and program version, so that a journal is never applied to another sweep; the
+//! record's columns by name, comma-separated), then one record per line, ended by its checksum
+//! `~xxxxxxxx` (FNV-1a of the line before it: a damaged line is dropped and its run made again):
 //!
 //! ```text
-//! <kind> <index> <status> <t_end> <window_start> <wall_time> <steps> <rejected> <rhs> <jac> <lu>
-//!        <newton> <dF> <dF_stderr> <mean_force> <stick_fraction> <period> <peak> <trough> <cycles> <skipped_periods>
-//!        <continued_from> <predicted> <level_error> <tier> <tier_reason> ~<checksum>
+//! <kind> <index> <value of each column> ~<checksum>
 //! ```
+//!
+//! The columns this version writes ([`COLUMNS`]): `status t_end window_start wall_time`, the
+//! counters of [`Stats`] but `skipped_periods` ([`Counter`]), the measures of a run
+//! ([`Measure::OF_RUN`]), then `skipped_periods continued_from predicted level_error tier
+//! tier_reason`: the order of version 2, whose header (`stickslip-journal 2 <fingerprint>`)
+//! named no columns, so a journal written by it still resumes (its records hold a prefix of
+//! these columns, as they grew).
 //!
 //! with `kind` `ref`, `pt` or `chk` (a full-model check of an averaged point), `continued_from` NaN where the run was integrated to its end and
 //! `predicted` 1 where the measures are the settled level extrapolated from the window, else 0,
@@ -26,8 +31,8 @@
 //! a resumed sweep or shard loads them instead of building them again (building is
 //! deterministic, so either way the results are the same bit for bit).
 
-use crate::measures::Measures;
-use crate::ode::{Stats, Status};
+use crate::measures::{Measure, Measures};
+use crate::ode::{Counter, Stats, Status};
 use crate::sim::RunResult;
 use crate::sim::{Tier, TierReason};
 use std::fs::{File, OpenOptions};
@@ -68,9 +73,174 @@ pub fn fingerprint(text: &str) -> String {
     format!("{h:016x}")
 }
 
-/// The first line of a journal for fingerprint `fp`.
+/// The first line of a journal for fingerprint `fp`, naming its columns.
 pub fn header(fp: &str) -> String {
-    format!("stickslip-journal 2 {fp}")
+    let names: Vec<&str> = COLUMNS.iter().map(|c| c.name()).collect();
+    format!("stickslip-journal 3 {fp} {}", names.join(","))
+}
+
+/// What a journal's header says: its fingerprint and the columns of its records (those of
+/// [`COLUMNS`] for a journal of version 2), or why it cannot be read.
+fn read_header(first: &str) -> Result<(&str, Vec<Column>), String> {
+    let f: Vec<&str> = first.split(' ').collect();
+    match f.as_slice() {
+        ["stickslip-journal", "2", fp] => Ok((fp, COLUMNS.to_vec())),
+        ["stickslip-journal", "3", fp, names] => {
+            let cols = names
+                .split(',')
+                .map(|n| {
+                    Column::from_name(n).ok_or_else(|| {
+                        format!("its header names a column `{n}` this program does not know")
+                    })
+                })
+                .collect::<Result<Vec<Column>, String>>()?;
+            for need in [
+                Column::Status,
+                Column::TEnd,
+                Column::WindowStart,
+                Column::WallTime,
+            ] {
+                if !cols.contains(&need) {
+                    return Err(format!("its header lacks the column `{}`", need.name()));
+                }
+            }
+            Ok((fp, cols))
+        }
+        _ => Err("its header is not that of a journal of version 2 or 3".into()),
+    }
+}
+
+/// Whether the journal whose first line is `first` was written for fingerprint `fp` (by this
+/// version or by version 2).
+pub fn belongs(first: &str, fp: &str) -> bool {
+    read_header(first).is_ok_and(|(f, _)| f == fp)
+}
+
+/// A column of a run's record: one of the run's own fields, a counter of its work or one of
+/// its measures.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Column {
+    /// [`RunResult::status`], by its code.
+    Status,
+    /// [`RunResult::t_end`].
+    TEnd,
+    /// [`RunResult::window_start`].
+    WindowStart,
+    /// [`RunResult::wall_time`].
+    WallTime,
+    /// A counter of [`RunResult::stats`].
+    Counter(Counter),
+    /// A measure of [`RunResult::measures`] (one of [`Measure::OF_RUN`]).
+    Measure(Measure),
+    /// [`RunResult::continued_from`], NaN for none.
+    ContinuedFrom,
+    /// [`RunResult::predicted`], 1 or 0.
+    Predicted,
+    /// [`RunResult::level_error`], NaN for none.
+    LevelError,
+    /// [`RunResult::tier`], by its code ([`Tier::code`]).
+    Tier,
+    /// [`RunResult::tier_reason`], by its code ([`TierReason::code`]).
+    TierReason,
+}
+
+/// The columns this version writes, in order (module docs).
+pub const COLUMNS: [Column; 24] = [
+    Column::Status,
+    Column::TEnd,
+    Column::WindowStart,
+    Column::WallTime,
+    Column::Counter(Counter::Steps),
+    Column::Counter(Counter::Rejected),
+    Column::Counter(Counter::RhsEvals),
+    Column::Counter(Counter::JacEvals),
+    Column::Counter(Counter::LuDecomps),
+    Column::Counter(Counter::NewtonIters),
+    Column::Measure(Measure::OF_RUN[0]),
+    Column::Measure(Measure::OF_RUN[1]),
+    Column::Measure(Measure::OF_RUN[2]),
+    Column::Measure(Measure::OF_RUN[3]),
+    Column::Measure(Measure::OF_RUN[4]),
+    Column::Measure(Measure::OF_RUN[5]),
+    Column::Measure(Measure::OF_RUN[6]),
+    Column::Measure(Measure::OF_RUN[7]),
+    Column::Counter(Counter::SkippedPeriods),
+    Column::ContinuedFrom,
+    Column::Predicted,
+    Column::LevelError,
+    Column::Tier,
+    Column::TierReason,
+];
+
+/// The numbers of columns a record of version 2 held, as it grew (20 fields: no skipped
+/// periods; then the limit-cycle continuation, predicted windows, their error bound, tiers).
+const V2_LENGTHS: [usize; 6] = [18, 19, 20, 21, 22, 24];
+
+impl Column {
+    /// Its name in a header (a counter's or a measure's own).
+    pub fn name(self) -> &'static str {
+        match self {
+            Column::Status => "status",
+            Column::TEnd => "t_end",
+            Column::WindowStart => "window_start",
+            Column::WallTime => "wall_time",
+            Column::Counter(c) => c.name(),
+            Column::Measure(m) => m.name(),
+            Column::ContinuedFrom => "continued_from",
+            Column::Predicted => "predicted",
+            Column::LevelError => "level_error",
+            Column::Tier => "tier",
+            Column::TierReason => "tier_reason",
+        }
+    }
+
+    /// The column named `name` among those this version knows.
+    pub fn from_name(name: &str) -> Option<Column> {
+        COLUMNS.into_iter().find(|c| c.name() == name)
+    }
+
+    /// Its value in run `r` (floats in Rust's shortest round-trip form).
+    fn format(self, r: &RunResult) -> String {
+        match self {
+            Column::Status => r.status.code().to_string(),
+            Column::TEnd => r.t_end.to_string(),
+            Column::WindowStart => r.window_start.to_string(),
+            Column::WallTime => r.wall_time.to_string(),
+            Column::Counter(c) => c.of(&r.stats).to_string(),
+            Column::Measure(Measure::Cycles) => r.measures.cycles.to_string(),
+            Column::Measure(m) => m.of_run(&r.measures).unwrap_or(f64::NAN).to_string(),
+            Column::ContinuedFrom => r.continued_from.unwrap_or(f64::NAN).to_string(),
+            Column::Predicted => u8::from(r.predicted()).to_string(),
+            Column::LevelError => r.level_error.unwrap_or(f64::NAN).to_string(),
+            Column::Tier => r.tier.code().to_string(),
+            Column::TierReason => r.tier_reason.code().to_string(),
+        }
+    }
+
+    /// Sets its field of `r` from the text `v`; `None` where `v` does not parse.
+    fn parse(self, v: &str, r: &mut RunResult) -> Option<()> {
+        let x = || v.parse::<f64>().ok();
+        match self {
+            Column::Status => r.status = Status::from_code(v.parse().ok()?)?,
+            Column::TEnd => r.t_end = x()?,
+            Column::WindowStart => r.window_start = x()?,
+            Column::WallTime => r.wall_time = x()?,
+            Column::Counter(c) => *c.slot(&mut r.stats) = v.parse().ok()?,
+            Column::Measure(Measure::Cycles) => r.measures.cycles = v.parse().ok()?,
+            Column::Measure(m) => m.set(&mut r.measures, x()?),
+            Column::ContinuedFrom => r.continued_from = Some(x()?).filter(|t| t.is_finite()),
+            // Whether the level was extrapolated; its error bound is the next column.
+            Column::Predicted => {
+                if !matches!(v, "0" | "1") {
+                    return None;
+                }
+            }
+            Column::LevelError => r.level_error = Some(x()?).filter(|e| e.is_finite()),
+            Column::Tier => r.tier = Tier::from_code(v.parse().ok()?)?,
+            Column::TierReason => r.tier_reason = TierReason::from_code(v.parse().ok()?)?,
+        }
+        Some(())
+    }
 }
 
 /// The checksum that ends a record: FNV-1a (32 bits) of the record's text before it, in hex
@@ -113,46 +283,32 @@ fn format_body(task: Task, r: &RunResult) -> String {
         Task::Point(i) => ("pt", i),
         Task::Check(i) => ("chk", i),
     };
-    let s = &r.stats;
-    let m = &r.measures;
-    format!(
-        "{kind} {i} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {}",
-        r.status.code(),
-        r.t_end,
-        r.window_start,
-        r.wall_time,
-        s.steps,
-        s.rejected,
-        s.rhs_evals,
-        s.jac_evals,
-        s.lu_decomps,
-        s.newton_iters,
-        m.d_f,
-        m.d_f_stderr,
-        m.mean_force,
-        m.stick_fraction,
-        m.period,
-        m.peak_force,
-        m.trough_force,
-        m.cycles,
-        s.skipped_periods,
-        r.continued_from.unwrap_or(f64::NAN),
-        u8::from(r.predicted()),
-        r.level_error.unwrap_or(f64::NAN),
-        r.tier.code(),
-        r.tier_reason.code()
-    )
+    let mut body = format!("{kind} {i}");
+    for c in COLUMNS {
+        body.push(' ');
+        body.push_str(&c.format(r));
+    }
+    body
 }
 
-/// Parses one record; `None` for a torn or foreign line.
+/// Parses one record of this version's columns, or of version 2 (a prefix of them, as its
+/// records grew: [`V2_LENGTHS`]); `None` for a torn or foreign line.
 pub fn parse_record(line: &str) -> Option<(Task, RunResult)> {
+    let n = checked(line)?.split(' ').count().checked_sub(2)?;
+    V2_LENGTHS
+        .contains(&n)
+        .then(|| parse_with(line, &COLUMNS[..n]))
+        .flatten()
+}
+
+/// Parses one record whose values are those of `cols`, in order; `None` for a torn, damaged or
+/// foreign line. A column `cols` lacks keeps its default (no work, no continuation, no
+/// extrapolated level, the full model, as asked).
+fn parse_with(line: &str, cols: &[Column]) -> Option<(Task, RunResult)> {
     // Records end with their checksum; one that does not match is damaged.
     let body = checked(line)?;
     let f: Vec<&str> = body.split(' ').collect();
-    // 26 fields; 24 in journals written before runs had tiers (every run full), 23 before
-    // extrapolated levels had an error bound, 22 before predicted windows, 21 before the
-    // limit-cycle continuation, 20 before envelope following (no skipped periods).
-    if !(20..=26).contains(&f.len()) || f.len() == 25 {
+    if f.len() != cols.len() + 2 {
         return None;
     }
     let i: usize = f[1].parse().ok()?;
@@ -162,58 +318,23 @@ pub fn parse_record(line: &str) -> Option<(Task, RunResult)> {
         "chk" => Task::Check(i),
         _ => return None,
     };
-    // Field 22 says whether the level was extrapolated; field 23 gives its error bound.
-    if !matches!(f.get(22).copied(), None | Some("0" | "1")) {
-        return None;
+    let mut r = RunResult {
+        status: Status::Success,
+        stats: Stats::default(),
+        measures: Measures::nan(),
+        t_end: f64::NAN,
+        window_start: f64::NAN,
+        wall_time: f64::NAN,
+        continued_from: None,
+        level_error: None,
+        tier: Tier::Full,
+        tier_reason: TierReason::Asked,
+        trace: None,
+    };
+    for (c, v) in cols.iter().zip(&f[2..]) {
+        c.parse(v, &mut r)?;
     }
-    let u = |k: usize| f[k].parse::<u64>().ok();
-    let x = |k: usize| f[k].parse::<f64>().ok();
-    Some((
-        task,
-        RunResult {
-            status: Status::from_code(f[2].parse().ok()?)?,
-            t_end: x(3)?,
-            window_start: x(4)?,
-            wall_time: x(5)?,
-            stats: Stats {
-                steps: u(6)?,
-                rejected: u(7)?,
-                rhs_evals: u(8)?,
-                jac_evals: u(9)?,
-                lu_decomps: u(10)?,
-                newton_iters: u(11)?,
-                skipped_periods: if f.len() >= 21 { u(20)? } else { 0 },
-            },
-            measures: Measures {
-                d_f: x(12)?,
-                d_f_stderr: x(13)?,
-                mean_force: x(14)?,
-                stick_fraction: x(15)?,
-                period: x(16)?,
-                peak_force: x(17)?,
-                trough_force: x(18)?,
-                cycles: f[19].parse().ok()?,
-            },
-            continued_from: if f.len() >= 22 {
-                Some(x(21)?).filter(|t| t.is_finite())
-            } else {
-                None
-            },
-            level_error: match f.get(23) {
-                Some(_) => Some(x(23)?).filter(|e| e.is_finite()),
-                None => None,
-            },
-            tier: match f.get(24) {
-                Some(c) => Tier::from_code(c.parse().ok()?)?,
-                None => Tier::Full,
-            },
-            tier_reason: match f.get(25) {
-                Some(c) => TierReason::from_code(c.parse().ok()?)?,
-                None => TierReason::Asked,
-            },
-            trace: None,
-        },
-    ))
+    Some((task, r))
 }
 
 /// Reads a journal written for fingerprint `fp`. Errors when the journal belongs to another
@@ -226,21 +347,35 @@ pub fn read(path: &Path, fp: &str) -> Result<(Vec<(Task, RunResult)>, usize), St
     let whole = whole_lines(&text);
     let mut lines = whole.lines();
     let first = lines.next().unwrap_or_default();
-    if first != header(fp) {
-        return Err(format!(
-            "{} was written for another sweep file or program version (header `{first}`, expected `{}`); \
-             start afresh with --overwrite",
-            path.display(),
-            header(fp)
-        ));
-    }
+    let cols = match read_header(first) {
+        Ok((f, cols)) if f == fp => cols,
+        Ok(_) => {
+            return Err(format!(
+                "{} was written for another sweep file or program version (header `{first}`, expected `{}`); \
+                 start afresh with --overwrite",
+                path.display(),
+                header(fp)
+            ));
+        }
+        Err(why) => {
+            return Err(format!(
+                "{} cannot be resumed: {why} (header `{first}`); start afresh with --overwrite",
+                path.display()
+            ));
+        }
+    };
+    let v2 = first.starts_with("stickslip-journal 2 ");
     let torn = usize::from(text.last().is_some_and(|&b| b != b'\n'));
     let mut dropped = torn;
     let records = lines
         // Tables of the averaged law are read by read_tables.
         .filter(|l| !l.starts_with("tab "))
         .filter_map(|l| {
-            let r = parse_record(l);
+            let r = if v2 {
+                parse_record(l)
+            } else {
+                parse_with(l, &cols)
+            };
             dropped += usize::from(r.is_none());
             r
         })
@@ -438,6 +573,63 @@ mod tests {
         assert_eq!(back.level_error, None);
         // A line cut short of its fields is rejected (a torn number is caught by `read`).
         assert!(parse_record("pt 1 0 1.0").is_none());
+    }
+
+    /// A journal of version 2 (no columns in its header, records of 20 to 26 fields) still
+    /// resumes under this version; a header of version 3 is read by its columns, in any order,
+    /// and one naming a column this version does not know, or lacking the run's status, is
+    /// refused by the column's name.
+    #[test]
+    fn journals_resume_by_their_header_columns_and_version_2_still_reads() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("j");
+        let line = |body: &str| format!("{body} {}\n", checksum(body));
+        // Version 2, as it wrote them: a record before envelope following (20 fields) and one
+        // with tiers (26 fields).
+        let old = "ref 0 0 1 0.5 0.1 1 0 6 1 2 3 6.4 0.01 8.4 0.9 1.1 11.4 5.1 4";
+        let new = "pt 3 0 2 1 0.2 10 1 60 2 4 6 1.5 0.02 8.1 0.1 0.01 9 6.5 7 12 NaN 0 NaN 1 6";
+        std::fs::write(
+            &p,
+            "stickslip-journal 2 abc\n".to_string() + &line(old) + &line(new),
+        )
+        .unwrap();
+        let (recs, dropped) = read(&p, "abc").unwrap();
+        assert_eq!((recs.len(), dropped), (2, 0));
+        assert_eq!(recs[0].1.measures.cycles, 4);
+        assert_eq!(recs[0].1.stats.skipped_periods, 0);
+        assert_eq!(recs[1].1.stats.skipped_periods, 12);
+        assert_eq!(recs[1].1.tier, Tier::Averaged);
+        assert_eq!(recs[1].1.measures.trough_force, 6.5);
+        // Version 3 written by a program whose columns came in another order.
+        std::fs::write(
+            &p,
+            "stickslip-journal 3 abc wall_time,window_start,t_end,status,dF,cycles\n".to_string()
+                + &line("chk 5 0.25 0.5 1 0 6.25 3"),
+        )
+        .unwrap();
+        let (recs, _) = read(&p, "abc").unwrap();
+        let r = &recs[0].1;
+        assert_eq!(recs[0].0, Task::Check(5));
+        assert_eq!((r.wall_time, r.window_start, r.t_end), (0.25, 0.5, 1.0));
+        assert_eq!((r.measures.d_f, r.measures.cycles), (6.25, 3));
+        assert!(r.measures.mean_force.is_nan() && r.stats == Stats::default());
+        std::fs::write(
+            &p,
+            "stickslip-journal 3 abc status,t_end,window_start,wall_time,q\n",
+        )
+        .unwrap();
+        let e = read(&p, "abc").unwrap_err();
+        assert!(e.contains("column `q`"), "{e}");
+        std::fs::write(&p, "stickslip-journal 3 abc t_end,window_start,wall_time\n").unwrap();
+        let e = read(&p, "abc").unwrap_err();
+        assert!(e.contains("lacks the column `status`"), "{e}");
+        // This version's header names every column it writes.
+        let h = header("abc");
+        assert!(
+            h.ends_with("skipped_periods,continued_from,predicted,level_error,tier,tier_reason")
+        );
+        assert!(belongs(&h, "abc") && !belongs(&h, "abd"));
+        assert!(belongs("stickslip-journal 2 abc", "abc"));
     }
 
     #[test]

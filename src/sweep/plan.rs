@@ -4,6 +4,7 @@
 
 use super::journal::Task;
 use super::spec::SweepSpec;
+use crate::measures::Measure;
 use crate::model::{Params, params::PARAMS};
 use crate::ode::Status;
 use crate::sim;
@@ -200,26 +201,13 @@ impl Results {
         }
     }
 
-    /// The value of measure `name` (one of [`MEASURES`](super::spec::MEASURES)) at grid point `i`: NaN where
-    /// the point, or for `r` its reference, has no measures.
-    pub fn measure(&self, plan: &Plan, i: usize, name: &str) -> f64 {
+    /// The value of measure `m` at grid point `i`: NaN where the point, or for `r` its
+    /// reference, has no measures.
+    pub fn measure(&self, plan: &Plan, i: usize, m: Measure) -> f64 {
         let Some(own) = measured(self.point(plan, i).0) else {
             return f64::NAN;
         };
-        let m = &own.measures;
-        match name {
-            "r" => self.reduction(plan, i).0,
-            "r_stderr" => self.reduction(plan, i).1,
-            "dF" => m.d_f,
-            "dF_stderr" => m.d_f_stderr,
-            "mean_force" => m.mean_force,
-            "stick_fraction" => m.stick_fraction,
-            "period" => m.period,
-            "peak_force" => m.peak_force,
-            "trough_force" => m.trough_force,
-            "cycles" => m.cycles as f64,
-            _ => f64::NAN,
-        }
+        m.of_point(&own.measures, self.reduction(plan, i))
     }
 
     /// The run that stands for grid point `i` (its own, its full-model check where that
@@ -242,7 +230,7 @@ impl Results {
 pub fn check_level(spec: &SweepSpec) -> f64 {
     spec.refine
         .as_ref()
-        .filter(|r| r.measure == "r")
+        .filter(|r| r.measure == Measure::R)
         .map_or(super::boundary::ELIMINATED, |r| r.level)
 }
 

@@ -300,7 +300,7 @@ pub fn next_points(spec: &SweepSpec, plan: &Plan, res: &Results, p: usize) -> Ve
     let value = |i: usize| -> Option<f64> {
         let (own, _) = res.point(plan, i);
         own?;
-        Some(res.measure(plan, i, &rf.measure))
+        Some(res.measure(plan, i, rf.measure))
     };
     let at = |line: &[usize], j: usize| {
         let mut idx = line.to_vec();

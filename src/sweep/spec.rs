@@ -39,23 +39,10 @@
 //! `v_a` [m/s] and `va_ratio` [-], which set `u0` per point.
 
 use crate::config::{self, ConfigError, Doc};
+use crate::measures::Measure;
 use crate::model::{Params, params};
 use crate::sim::RunOptions;
 use std::path::Path;
-
-/// Names of the measures a sweep can keep.
-pub const MEASURES: [&str; 10] = [
-    "r",
-    "r_stderr",
-    "dF",
-    "dF_stderr",
-    "mean_force",
-    "stick_fraction",
-    "period",
-    "peak_force",
-    "trough_force",
-    "cycles",
-];
 
 /// Default cap on the number of grid points.
 pub const DEFAULT_MAX_RUNS: usize = 100_000;
@@ -103,8 +90,8 @@ pub struct Axis {
 /// [`crate::sweep::refine`].
 #[derive(Clone, Debug, PartialEq)]
 pub struct Refine {
-    /// Measure whose level set is refined (a name of [`MEASURES`]).
-    pub measure: String,
+    /// Measure whose level set is refined (any but a count: [`Measure::refinable`]).
+    pub measure: Measure,
     /// The level.
     pub level: f64,
     /// Index into [`SweepSpec::axes`] of the refined axis.
@@ -180,7 +167,7 @@ pub struct SweepSpec {
     /// Solver and run policy.
     pub run: RunOptions,
     /// Measures to keep.
-    pub measures: Vec<String>,
+    pub measures: Vec<Measure>,
     /// Points that keep traces.
     pub traces: Vec<TraceSel>,
     /// Cap on the grid size.
@@ -327,7 +314,7 @@ impl SweepSpec {
             axes: vec![],
             dims: vec![],
             run: RunOptions::default(),
-            measures: MEASURES.iter().map(|s| s.to_string()).collect(),
+            measures: Measure::ALL.to_vec(),
             traces: vec![],
             max_runs: DEFAULT_MAX_RUNS,
             effects: crate::model::Effects::none(),
@@ -756,14 +743,17 @@ impl SweepSpec {
                         .ok_or_else(|| doc.err("output", k, "expected a list of measure names"))?;
                     let mut list = vec![];
                     for m in arr {
-                        let s = m.as_str().filter(|s| MEASURES.contains(s)).ok_or_else(|| {
+                        let s = m.as_str().and_then(Measure::from_name).ok_or_else(|| {
                             doc.err(
                                 "output",
                                 k,
-                                format!("unknown measure {m}; allowed: {}", MEASURES.join(", ")),
+                                format!(
+                                    "unknown measure {m}; allowed: {}",
+                                    Measure::names(&Measure::ALL)
+                                ),
                             )
                         })?;
-                        list.push(s.to_string());
+                        list.push(s);
                     }
                     self.measures = list;
                 }
@@ -1117,7 +1107,7 @@ fn refine_levels(
 /// The keys of a `[refine]` table, each checked alone (their relations to the axes are
 /// [`SweepSpec::parse_refine`]'s).
 struct RefineKeys {
-    measure: String,
+    measure: Measure,
     level: f64,
     along: Option<String>,
     across: Option<String>,
@@ -1130,7 +1120,7 @@ struct RefineKeys {
 /// Reads the keys of `[refine]`; unset: `measure` r, `level` 0.05, `tolerance` 0, `guided`.
 fn refine_keys(doc: &Doc, t: &toml::Table) -> Result<RefineKeys, ConfigError> {
     let sec = "refine";
-    let mut measure = "r".to_string();
+    let mut measure = Measure::R;
     let mut level = 0.05;
     let mut along: Option<String> = None;
     let mut across: Option<String> = None;
@@ -1144,17 +1134,20 @@ fn refine_keys(doc: &Doc, t: &toml::Table) -> Result<RefineKeys, ConfigError> {
                 let m = v
                     .as_str()
                     .ok_or_else(|| doc.err(sec, k, "expected the name of a measure"))?;
-                if !MEASURES.contains(&m) || m == "cycles" {
-                    return Err(doc.err(
-                        sec,
-                        k,
-                        format!(
-                            "unknown measure `{m}`; allowed: {}",
-                            MEASURES[..MEASURES.len() - 1].join(", ")
-                        ),
-                    ));
-                }
-                measure = m.to_string();
+                let refinable: Vec<Measure> =
+                    Measure::ALL.into_iter().filter(|m| m.refinable()).collect();
+                measure = Measure::from_name(m)
+                    .filter(|m| m.refinable())
+                    .ok_or_else(|| {
+                        doc.err(
+                            sec,
+                            k,
+                            format!(
+                                "unknown measure `{m}`; allowed: {}",
+                                Measure::names(&refinable)
+                            ),
+                        )
+                    })?;
             }
             "level" => {
                 level = doc.number(sec, k, v)?;
@@ -1220,11 +1213,7 @@ fn refine_keys(doc: &Doc, t: &toml::Table) -> Result<RefineKeys, ConfigError> {
     // A level the measure never crosses refines nothing: r, dF, their errors and the period
     // are never negative and a stick fraction lies within 0 to 1; the boundary of such a
     // measure lies strictly inside its range.
-    let range = match measure.as_str() {
-        "stick_fraction" => Some((0.0, 1.0, "0 < level < 1")),
-        "r" | "r_stderr" | "dF" | "dF_stderr" | "period" => Some((0.0, f64::INFINITY, "level > 0")),
-        _ => None,
-    };
+    let range = measure.level_range();
     if let Some((lo, hi, rule)) = range
         && !(level > lo && level < hi)
     {
@@ -1232,8 +1221,9 @@ fn refine_keys(doc: &Doc, t: &toml::Table) -> Result<RefineKeys, ConfigError> {
             sec,
             "level",
             format!(
-                "level = {level}: {measure} never crosses it, so nothing would be refined; \
-                 allowed: {rule}"
+                "level = {level}: {} never crosses it, so nothing would be refined; \
+                 allowed: {rule}",
+                measure.name()
             ),
         ));
     }
