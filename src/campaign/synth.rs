@@ -2,36 +2,12 @@
 //! sampling rate, over a design of conditions like the paper's tests.
 
 use super::{CampaignError, GridAsk, Recording, simulate_grids, write_recording};
-use crate::model::effects::{amplitude_gain, form_param, load_swing};
+use crate::model::effects::{amplitude_gain, form_param, load_swing, normal_coupling};
 use crate::model::{EffectKind, Effects, Params};
 use crate::sim;
 use rand::{RngExt, SeedableRng, rngs::StdRng};
 use rayon::prelude::*;
 use std::path::Path;
-
-/// Realistic magnitudes of each effect, from which `synth --draw` picks values uniformly
-/// (log-uniformly for parameters fitted on a log scale): `(effect, parameter, low, high)`.
-/// They span what test stands show (a 40 to 80 Hz load cell carrying a heavy frame, a 2.5 to
-/// 5 kHz piezo-saddle resonance, a few micrometres of screw error, a normal load that swings by
-/// a few to twenty per cent with the tangential vibration, ...).
-pub const REALISTIC: [(EffectKind, &str, f64, f64); 16] = [
-    (EffectKind::Aging, "b", 0.03, 0.06),
-    (EffectKind::ActuatorResponse, "f_r", 2500.0, 5000.0),
-    (EffectKind::ActuatorResponse, "zeta", 0.05, 0.2),
-    (EffectKind::NormalCoupling, "k_n", 2e7, 6e7),
-    (EffectKind::SensorDynamics, "f_n", 40.0, 80.0),
-    (EffectKind::SensorDynamics, "zeta", 0.02, 0.08),
-    (EffectKind::DriveRipple, "a", 4e-6, 10e-6),
-    (EffectKind::DriveRipple, "wavelength", 0.2e-3, 0.5e-3),
-    (EffectKind::Viscous, "h_v", 40.0, 100.0),
-    (EffectKind::StribeckShape, "delta", 0.5, 1.0),
-    (EffectKind::Presliding, "spread", 0.5, 0.9),
-    (EffectKind::FrictionalLag, "tau", 0.5e-3, 2e-3),
-    (EffectKind::FrictionalLag, "length", 0.5e-6, 2e-6),
-    (EffectKind::Track, "a", 0.08, 0.15),
-    (EffectKind::Track, "wavelength", 0.5e-3, 1e-3),
-    (EffectKind::Track, "offset", 0.0, 0.0),
-];
 
 /// Conditions of a synthetic campaign.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -252,7 +228,8 @@ impl SynthSpec {
 /// keeps a margin.
 pub const MAX_LOAD_SWING: f64 = 0.5;
 
-/// Draws every parameter of `kind` listed in [`REALISTIC`] with `rng`, within what `spec`'s
+/// Draws every parameter of `kind` with realistic magnitudes
+/// ([`EffectInfo::realistic`](crate::model::effects::EffectInfo::realistic)) with `rng`, within what `spec`'s
 /// design allows: the load modulation's `k_n` at most [`SynthSpec::k_n_cap`] (its realistic
 /// range is then that cap and down to a third of it, where the cap lies below the range).
 ///
@@ -266,11 +243,12 @@ pub fn draw(kind: EffectKind, rng: &mut StdRng, spec: &SynthSpec) -> Effects {
         fx.set(kind, form, v)
             .expect("a form the spec holds is valid");
     }
-    for &(k, name, lo, hi) in &REALISTIC {
-        if k != kind || hi <= lo {
+    for r in kind.info().realistic {
+        let (k, name, lo, hi) = (kind, r.param.name(kind), r.lo, r.hi);
+        if hi <= lo {
             continue;
         }
-        let cap = (k == EffectKind::NormalCoupling && name == "k_n")
+        let cap = (k == EffectKind::NormalCoupling && r.param == normal_coupling::K_N)
             .then(|| spec.k_n_cap())
             .flatten();
         let (lo, hi) = match cap {

@@ -829,7 +829,7 @@ fn scan_limit(
     };
     let strong = s.strong.unwrap_or(if s.stronger_below { lo } else { hi });
     let mut model = against.model.clone();
-    for &(q, v) in s.fixed {
+    for &(q, v) in &s.fixed {
         // The form's values are inside the library's bounds by construction.
         let _ = model.effects.set(s.kind, q, v);
     }
@@ -1148,11 +1148,11 @@ mod tests {
 
     #[test]
     fn scans_name_real_parameters_in_range() {
-        for s in &SCANS {
+        for s in SCANS.iter() {
             let info = s.kind.info();
             assert!(info.params.iter().any(|p| p.name == s.param), "{}", s.label);
             let mut fx = crate::model::Effects::none();
-            for &(q, v) in s.fixed {
+            for &(q, v) in &s.fixed {
                 fx.set(s.kind, q, v).unwrap();
             }
             assert!(info.candidate, "{}", s.label);

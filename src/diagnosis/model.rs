@@ -156,7 +156,7 @@ pub(crate) fn coords(bounds: &Plausible, effects: &[EffectKind], fx: &Effects) -
 }
 
 /// The plausible range of one effect parameter in a campaign, where the recordings themselves
-/// narrow the library's table (`src/model/effects.rs`), with the reason in words.
+/// narrow the library's table (`src/model/effects/`), with the reason in words.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Bound {
     /// The effect.
@@ -276,19 +276,14 @@ pub(crate) fn circular(kind: EffectKind, param: &str) -> bool {
     matches!((kind, param), (EffectKind::NormalCoupling, "phase"))
 }
 
-/// Where a fit narrows an effect parameter's allowed range: ends that add a stiff mode to the
-/// simulations (a lag under 30 µs, a sensor above 20 kHz) would make every evaluation of a fit
-/// that drifts there several times slower, as an effect-free campaign drives these candidates
-/// towards their most neutral end. These ends lie far outside rigs' values (lags of 0.5 to
-/// 2 ms, load cells of tens to hundreds of hertz).
+/// Where a fit narrows an effect parameter's allowed range: the effect's
+/// [`fit_ranges`](crate::model::effects::EffectInfo::fit_ranges).
 pub(crate) fn fit_range(kind: EffectKind, param: &str) -> Option<(f64, f64)> {
-    match (kind, param) {
-        (EffectKind::FrictionalLag, "tau") => Some((3e-5, 1.0)),
-        // 0.1 µm of slip: 25 µs at the 4 mm/s of the fastest vibrated slips.
-        (EffectKind::FrictionalLag, "length") => Some((1e-7, 1e-3)),
-        (EffectKind::SensorDynamics, "f_n") => Some((10.0, 2e4)),
-        _ => None,
-    }
+    kind.info()
+        .fit_ranges
+        .iter()
+        .find(|r| r.param.name(kind) == param)
+        .map(|r| (r.lo, r.hi))
 }
 
 /// A model in files is [`Model::to_json`]'s form.

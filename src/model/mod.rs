@@ -101,10 +101,7 @@ fn gauss(q2: f64) -> f64 {
 /// Largest state dimension of the rig with every effect on.
 pub const MAX_DIM: usize = 16;
 
-/// The slip velocity `V_1` [m/s] at which the `viscous` effect's coefficient `h_v` is given
-/// when its exponent is not 1: `F = h_v v_r (|v_r|/V_1)^(n−1)`, so that `h_v` keeps its unit
-/// and its size (a quadratic drag `c₂ v_r |v_r|` has `h_v = c₂ V_1`).
-pub const VISCOUS_REFERENCE: f64 = 1e-3;
+pub use effects::viscous::VISCOUS_REFERENCE;
 
 /// The rig as an ODE system. Build it once per run from validated [`Params`] (and, optionally,
 /// [`Effects`]).

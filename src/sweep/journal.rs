@@ -292,7 +292,7 @@ fn format_body(task: Task, r: &RunResult) -> String {
 }
 
 /// Parses one record of this version's columns, or of version 2 (a prefix of them, as its
-/// records grew: [`V2_LENGTHS`]); `None` for a torn or foreign line.
+/// records grew: 20 to 26 fields but 25); `None` for a torn or foreign line.
 pub fn parse_record(line: &str) -> Option<(Task, RunResult)> {
     let n = checked(line)?.split(' ').count().checked_sub(2)?;
     V2_LENGTHS

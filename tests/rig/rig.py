@@ -3,7 +3,7 @@ campaigns that stickslip did not make.
 
 It shares no code with the crate: the stand is written again from docs/model.md (numpy, numba), with a
 fixed-step classical Runge-Kutta method instead of the crate's adaptive integrators, and every
-effect in a form of its own, unlike `src/model/effects.rs`:
+effect in a form of its own, unlike `src/model/effects/`:
 
 - ``sensor``: a force sensor as a fourth-order Butterworth low-pass (two cascaded second-order
   sections, damping 0.924 and 0.383) at ``f_n`` [Hz]; the crate's is one second-order section.

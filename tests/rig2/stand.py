@@ -4,7 +4,7 @@ campaigns neither the crate nor the first rig (`tests/rig/rig.py`) made.
 Written apart from both: the stand from docs/model.md again, integrated by the three-stage
 strong-stability-preserving Runge-Kutta method of Shu and Osher at a fixed step of 2.5 us (the
 crate uses adaptive Rosenbrock/Radau and Dormand-Prince methods, the first rig classical RK4), and
-every effect in a form that is neither the library's (`src/model/effects.rs`) nor the first rig's:
+every effect in a form that is neither the library's (`src/model/effects/`) nor the first rig's:
 
 - ``sensor``: a second-order force sensor (``f_n`` [Hz], ``zeta``) followed by the acquisition's
   first-order anti-alias low-pass at ``f_lp`` [Hz].

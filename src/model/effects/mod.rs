@@ -45,8 +45,107 @@
 //! 10, a presliding spread below 0.95 (no element may break away at zero force), and so on; see
 //! [`EFFECTS`].
 
-use super::extended::{FxCoeffs, Lag, Shape, Stribeck};
 use std::fmt;
+use terms::{FxCoeffs, Lag, Shape, Stribeck};
+
+pub mod actuator_response;
+pub mod aging;
+pub mod drive_ripple;
+pub mod frictional_lag;
+pub mod normal_coupling;
+pub mod presliding;
+pub mod sensor_dynamics;
+pub mod stribeck_shape;
+pub mod terms;
+pub mod track;
+pub mod viscous;
+
+pub use actuator_response::{actuator_gain, amplitude_gain, first_order_gain, response_gain};
+pub use normal_coupling::{NORMAL_REFERENCE_AMPLITUDE, NORMAL_REFERENCE_FREQUENCY, load_swing};
+
+/// A parameter of an effect: its position among the effect's [`EffectInfo::params`] (and in
+/// its values, [`Effects::list`]). Each effect's file names its own (`aging::B`, ...).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct Param(pub usize);
+
+impl Param {
+    /// Its entry among `kind`'s parameters.
+    pub fn of(self, kind: EffectKind) -> &'static EffectParam {
+        &kind.info().params[self.0]
+    }
+
+    /// Its name among `kind`'s parameters.
+    pub fn name(self, kind: EffectKind) -> &'static str {
+        self.of(kind).name
+    }
+}
+
+impl std::ops::Index<Param> for [f64] {
+    type Output = f64;
+    fn index(&self, p: Param) -> &f64 {
+        &self[p.0]
+    }
+}
+
+impl std::ops::IndexMut<Param> for [f64] {
+    fn index_mut(&mut self, p: Param) -> &mut f64 {
+        &mut self[p.0]
+    }
+}
+
+/// A range of one of an effect's parameters, `lo` to `hi`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Range {
+    pub param: Param,
+    pub lo: f64,
+    pub hi: f64,
+}
+
+const fn range(param: Param, lo: f64, hi: f64) -> Range {
+    Range { param, lo, hi }
+}
+
+/// A scan of the detection limits ([`crate::diagnosis::limits`]) over one form of an effect:
+/// the parameter that sets its strength, the other parameters fixed, and the ends and scale it
+/// is scanned over.
+#[derive(Clone, Copy, Debug)]
+pub struct Scan {
+    /// The parameter that sets the effect's strength.
+    pub param: Param,
+    /// What the effect is, in a reader's words.
+    pub label: &'static str,
+    /// The other parameters and their values (the form parameter among them, for a form
+    /// other than the default).
+    pub fixed: &'static [(Param, f64)],
+    /// The effect is stronger where the parameter is lower (a resonance).
+    pub stronger_below: bool,
+    /// The weak end, where the neutral value cannot serve (0 on a log scale; a scan of one
+    /// side of the Stribeck exponent's 2).
+    pub weak: Option<f64>,
+    /// The strong end, where it is not the plausible range's.
+    pub strong: Option<f64>,
+    /// Scanned on a log scale.
+    pub log: bool,
+}
+
+impl Scan {
+    /// This scan in another form of the effect's family: its label, the parameter that sets
+    /// its strength there and its other parameters (the form parameter among them); the scale
+    /// and the ends as this one's.
+    const fn in_form(
+        self,
+        label: &'static str,
+        param: Param,
+        fixed: &'static [(Param, f64)],
+    ) -> Scan {
+        Scan {
+            label,
+            param,
+            fixed,
+            ..self
+        }
+    }
+}
 
 /// One switchable effect.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -110,6 +209,21 @@ pub struct EffectInfo {
     /// Its forms: how its strength scales with the conditions, or its order where it is a
     /// filter ([`Form`]); empty where the library has one form. The first is the default.
     pub forms: &'static [Form],
+    /// Where a fit narrows a parameter's allowed range: ends that add a stiff mode to the
+    /// simulations (a lag under 30 µs, a sensor above 20 kHz) would make every evaluation of
+    /// a fit that drifts there several times slower, as an effect-free campaign drives these
+    /// candidates towards their most neutral end. These ends lie far outside rigs' values.
+    pub fit_ranges: &'static [Range],
+    /// Realistic magnitudes, from which `synth --draw` picks values uniformly (log-uniformly
+    /// for parameters fitted on a log scale), in the order they are drawn: what test stands
+    /// show.
+    pub realistic: &'static [Range],
+    /// The detection limits' scans of it, one per form with a strength to scan (none for an
+    /// effect that is no candidate).
+    pub scans: &'static [Scan],
+    /// Its share of the right-hand side's numbers, from its values, at the forcing frequency
+    /// and normal load.
+    pub(crate) resolve: fn(&[f64], &mut Resolved, &At),
 }
 
 /// One form of an effect: a value of its form parameter (`form`, or `exponent` for
@@ -144,31 +258,6 @@ pub fn form_param(kind: EffectKind) -> &'static str {
     }
 }
 
-/// Displacement amplitude \[m\] at which the `fixed` form of `normal_coupling` swings the
-/// normal load by `k_n` times it: its `k_n` reads as for a 1 µm vibration, whatever the
-/// amplitude and frequency.
-pub const NORMAL_REFERENCE_AMPLITUDE: f64 = 1e-6;
-
-/// Frequency \[Hz\] at which the `velocity` and `acceleration` forms of `normal_coupling`
-/// swing the normal load as much as the `displacement` form of the same `k_n`.
-pub const NORMAL_REFERENCE_FREQUENCY: f64 = 1000.0;
-
-/// Amplitude of the normal-load swing `ΔF_N` \[N\] of `normal_coupling` with `k_n` \[N/m\] in
-/// the form of value `form`, at a substrate displacement amplitude `u` \[m\] and frequency `f`
-/// \[Hz\] (0 where `u = 0`): `k_n u`, `k_n u f/f_ref`, `k_n u (f/f_ref)²` or `k_n u_ref`.
-pub fn load_swing(k_n: f64, form: f64, f: f64, u: f64) -> f64 {
-    if u == 0.0 {
-        return 0.0;
-    }
-    let q = f / NORMAL_REFERENCE_FREQUENCY;
-    match form as usize {
-        1 => k_n * u * q,
-        2 => k_n * u * q * q,
-        3 => k_n * NORMAL_REFERENCE_AMPLITUDE,
-        _ => k_n * u,
-    }
-}
-
 /// One entry of [`EFFECTS`]: `range` is `(min, max)`.
 const fn ep(
     name: &'static str,
@@ -191,459 +280,18 @@ const fn ep(
     }
 }
 
-/// The library of effects, in a fixed order.
+/// The library of effects, in a fixed order: one line per effect, each defined in its file.
 pub static EFFECTS: [EffectInfo; 10] = [
-    EffectInfo {
-        kind: EffectKind::Aging,
-        name: "aging",
-        doc: "static friction grows with the time the contact has been stuck (dwell-time ageing)",
-        params: &[
-            ep(
-                "b",
-                "-",
-                "ageing rate: relative growth of F_s per e-fold of contact age",
-                (0.0, 0.5),
-                0.03,
-                true,
-                false,
-            ),
-            ep(
-                "theta_0",
-                "s",
-                "contact age at which ageing sets in",
-                (1e-5, 10.0),
-                0.01,
-                false,
-                true,
-            ),
-            ep(
-                "d_c",
-                "m",
-                "memory slip distance that renews the contact",
-                (1e-9, 1e-3),
-                1e-6,
-                false,
-                true,
-            ),
-            ep(
-                "form",
-                "-",
-                "form of the state law: 0 ageing_law, 1 slip_law",
-                (0.0, 1.0),
-                0.0,
-                false,
-                false,
-            ),
-        ],
-        candidate: true,
-        forms: &[
-            form(
-                "ageing_law",
-                "Dieterich's ageing law: the contact ages with stick time, θ' = 1 − |v_r| θ/D_c",
-                0.0,
-            ),
-            form(
-                "slip_law",
-                "Ruina's slip law: the contact state evolves only with slip, θ' = −(|v_r| θ/D_c) ln(|v_r| θ/D_c)",
-                1.0,
-            ),
-        ],
-    },
-    EffectInfo {
-        kind: EffectKind::ActuatorResponse,
-        name: "actuator_response",
-        doc: "the substrate's vibration amplitude follows a resonance of the piezo and saddle",
-        params: &[
-            ep(
-                "f_r",
-                "Hz",
-                "resonance frequency of actuator and saddle",
-                (100.0, 1e5),
-                4000.0,
-                true,
-                true,
-            ),
-            ep(
-                "zeta",
-                "-",
-                "damping ratio of that resonance",
-                (0.01, 2.0),
-                0.2,
-                true,
-                true,
-            ),
-            ep(
-                "form",
-                "-",
-                "order of the response: 0 resonance (two poles), 1 first_order (one pole)",
-                (0.0, 1.0),
-                0.0,
-                false,
-                false,
-            ),
-        ],
-        candidate: true,
-        forms: &[
-            form(
-                "resonance",
-                "two poles: a resonance at f_r with damping ζ",
-                0.0,
-            ),
-            Form {
-                name: "first_order",
-                doc: "one pole: a first-order lag of corner f_r, A = 1/√(1 + (f/f_r)²)",
-                value: 1.0,
-                unused: &["zeta"],
-            },
-        ],
-    },
-    EffectInfo {
-        kind: EffectKind::NormalCoupling,
-        name: "normal_coupling",
-        doc: "the tangential vibration modulates the normal load and so F_c and F_s",
-        params: &[
-            ep(
-                "k_n",
-                "N/m",
-                "normal load change per metre of tangential substrate displacement",
-                (1e3, 1e9),
-                2e7,
-                true,
-                true,
-            ),
-            ep(
-                "phase",
-                "deg",
-                "phase of the load change ahead of the displacement (90: with the velocity)",
-                (-180.0, 180.0),
-                90.0,
-                true,
-                false,
-            ),
-            ep(
-                "delay",
-                "s",
-                "time by which the load change lags the displacement besides its phase (a load path with a delay: its phase falls by 360° f delay)",
-                (0.0, 1e-3),
-                0.0,
-                true,
-                false,
-            ),
-            ep(
-                "form",
-                "-",
-                "how the load swing scales: 0 displacement, 1 velocity, 2 acceleration, 3 fixed",
-                (0.0, 3.0),
-                0.0,
-                false,
-                false,
-            ),
-        ],
-        candidate: true,
-        forms: &[
-            form(
-                "displacement",
-                "the load swing grows with the substrate's displacement amplitude: k_n A u0",
-                0.0,
-            ),
-            form(
-                "velocity",
-                "it grows with the substrate's velocity amplitude: k_n A u0 f/f_ref, f_ref = 1 kHz",
-                1.0,
-            ),
-            form(
-                "acceleration",
-                "it grows with the substrate's acceleration (a frame mode driven by the shaker's reaction): k_n A u0 (f/f_ref)²",
-                2.0,
-            ),
-            form(
-                "fixed",
-                "a fixed swing while the substrate vibrates, set by the loading arm: k_n × 1 µm, whatever the amplitude and frequency",
-                3.0,
-            ),
-        ],
-    },
-    EffectInfo {
-        kind: EffectKind::SensorDynamics,
-        name: "sensor_dynamics",
-        doc: "a lightly damped second-order force sensor lies between the true and recorded force",
-        params: &[
-            ep(
-                "f_n",
-                "Hz",
-                "natural frequency of the sensor",
-                (10.0, 1e5),
-                250.0,
-                true,
-                true,
-            ),
-            ep(
-                "zeta",
-                "-",
-                "damping ratio of the sensor",
-                (0.005, 2.0),
-                0.05,
-                true,
-                true,
-            ),
-            ep(
-                "form",
-                "-",
-                "order of the sensor's filter: 0 order2, 1 order4, 2 order4_delay",
-                (0.0, 2.0),
-                0.0,
-                false,
-                false,
-            ),
-            ep(
-                "delay",
-                "s",
-                "delay of the recorded force behind the filter's output (order4_delay)",
-                (0.0, 5e-3),
-                1e-4,
-                true,
-                false,
-            ),
-        ],
-        candidate: true,
-        forms: &[
-            Form {
-                name: "order2",
-                doc: "one second-order section (a load cell's resonance)",
-                value: 0.0,
-                unused: &["delay"],
-            },
-            Form {
-                name: "order4",
-                doc: "two second-order sections at f_n, of damping ζ and (1 + √2) ζ (a sharp anti-alias filter: Butterworth at ζ = 0.383)",
-                value: 1.0,
-                unused: &["delay"],
-            },
-            form(
-                "order4_delay",
-                "order4, its output recorded a time `delay` late (an acquisition channel: anti-alias filter, then the converter's delay)",
-                2.0,
-            ),
-        ],
-    },
-    EffectInfo {
-        kind: EffectKind::DriveRipple,
-        name: "drive_ripple",
-        doc: "a periodic error in the drive's motion (screw or stepper motor)",
-        params: &[
-            ep(
-                "a",
-                "m",
-                "amplitude of the drive position error",
-                (0.0, 1e-3),
-                5e-6,
-                true,
-                false,
-            ),
-            ep(
-                "wavelength",
-                "m",
-                "drive travel per period of the error",
-                (1e-6, 0.1),
-                0.3e-3,
-                true,
-                true,
-            ),
-        ],
-        candidate: true,
-        forms: &[],
-    },
-    EffectInfo {
-        kind: EffectKind::Viscous,
-        name: "viscous",
-        doc: "friction growing with the slip velocity: proportional to it, or to a power of it",
-        params: &[
-            ep(
-                "h_v",
-                "N s/m",
-                "viscous friction coefficient at a slip velocity of 1 mm/s (added to the model's h_v where the exponent is 1)",
-                (0.0, 1e4),
-                50.0,
-                true,
-                false,
-            ),
-            ep(
-                "exponent",
-                "-",
-                "power of the slip velocity: 1 linear (a lubricant film), 2 quadratic (a drag that grows with the square of the speed); not fitted by diagnose",
-                (1.0, 3.0),
-                1.0,
-                false,
-                false,
-            ),
-        ],
-        candidate: true,
-        forms: &[
-            form(
-                "linear",
-                "friction proportional to the slip velocity (a lubricant film)",
-                1.0,
-            ),
-            form(
-                "quadratic",
-                "friction growing with the square of the slip velocity (a drag)",
-                2.0,
-            ),
-        ],
-    },
-    EffectInfo {
-        kind: EffectKind::StribeckShape,
-        name: "stribeck_shape",
-        doc: "a Stribeck exponent other than 2",
-        params: &[
-            ep(
-                "delta",
-                "-",
-                "Stribeck exponent",
-                (0.2, 10.0),
-                1.0,
-                true,
-                true,
-            ),
-            ep(
-                "form",
-                "-",
-                "shape of the Stribeck curve: 0 exponential, 1 rational",
-                (0.0, 1.0),
-                0.0,
-                false,
-                false,
-            ),
-        ],
-        candidate: true,
-        forms: &[
-            form("exponential", "exp(−|v_r/v_s|^δ)", 0.0),
-            form(
-                "rational",
-                "1/(1 + |v_r/v_s|^δ) (a Lorentzian curve at δ = 2)",
-                1.0,
-            ),
-        ],
-    },
-    EffectInfo {
-        kind: EffectKind::Presliding,
-        name: "presliding",
-        doc: "Maxwell-slip presliding: several elements that break away one after another",
-        params: &[
-            ep(
-                "spread",
-                "-",
-                "spread of the elements' breakaway deformations about the mean",
-                (0.0, 0.95),
-                0.5,
-                true,
-                false,
-            ),
-            ep(
-                "elements",
-                "-",
-                "number of elements (whole number)",
-                (1.0, 8.0),
-                4.0,
-                false,
-                false,
-            ),
-        ],
-        candidate: true,
-        forms: &[],
-    },
-    EffectInfo {
-        kind: EffectKind::FrictionalLag,
-        name: "frictional_lag",
-        doc: "the friction force lags behind changes of the slip velocity",
-        params: &[
-            ep(
-                "tau",
-                "s",
-                "time constant of the lag (form time)",
-                (1e-6, 1.0),
-                1e-3,
-                true,
-                true,
-            ),
-            ep(
-                "length",
-                "m",
-                "memory slip distance of the lag (forms distance and level)",
-                (1e-9, 1e-3),
-                1e-6,
-                true,
-                true,
-            ),
-            ep(
-                "form",
-                "-",
-                "what the lag runs over: 0 time, 1 distance (slip), 2 level (the Stribeck level over slip)",
-                (0.0, 2.0),
-                0.0,
-                false,
-                false,
-            ),
-        ],
-        candidate: true,
-        forms: &[
-            Form {
-                name: "time",
-                doc: "the lag is a time: τ w' = v_r − w",
-                value: 0.0,
-                unused: &["length"],
-            },
-            Form {
-                name: "distance",
-                doc: "the memory fades over slip distance: L w' = |v_r| (v_r − w)",
-                value: 1.0,
-                unused: &["tau"],
-            },
-            Form {
-                name: "level",
-                doc: "the Stribeck level lags over slip distance: L φ' = |v_r| (e(v_r) − φ), \
-                      g = F_c + (F_s − F_c) φ",
-                value: 2.0,
-                unused: &["tau"],
-            },
-        ],
-    },
-    EffectInfo {
-        kind: EffectKind::Track,
-        name: "track",
-        doc: "friction varying with position along the track (for testing; not a diagnosis candidate)",
-        params: &[
-            ep(
-                "a",
-                "-",
-                "relative amplitude of the friction variation",
-                (0.0, 0.5),
-                0.1,
-                false,
-                false,
-            ),
-            ep(
-                "wavelength",
-                "m",
-                "period of the variation along the track",
-                (1e-6, 1.0),
-                0.7e-3,
-                false,
-                true,
-            ),
-            ep(
-                "offset",
-                "m",
-                "track position at x = 0",
-                (0.0, 1.0),
-                0.0,
-                false,
-                false,
-            ),
-        ],
-        candidate: false,
-        forms: &[],
-    },
+    aging::INFO,
+    actuator_response::INFO,
+    normal_coupling::INFO,
+    sensor_dynamics::INFO,
+    drive_ripple::INFO,
+    viscous::INFO,
+    stribeck_shape::INFO,
+    presliding::INFO,
+    frictional_lag::INFO,
+    track::INFO,
 ];
 
 impl EffectKind {
@@ -882,6 +530,12 @@ impl Effects {
         self.form(kind).is_none_or(|f| !f.unused.contains(&param))
     }
 
+    /// The value of parameter `p` of `kind` ([`Param`]), if the effect is on.
+    pub fn at(&self, kind: EffectKind, p: Param) -> Option<f64> {
+        let (_, vals) = self.list.iter().find(|(k, _)| *k == kind)?;
+        vals.get(p.0).copied()
+    }
+
     /// The value of one parameter, if the effect is on.
     pub fn get(&self, kind: EffectKind, name: &str) -> Option<f64> {
         let (_, vals) = self.list.iter().find(|(k, _)| *k == kind)?;
@@ -982,37 +636,11 @@ fn check(info: &EffectInfo, p: &EffectParam, v: f64) -> Result<(), EffectError> 
     Ok(())
 }
 
-/// Gain of the `actuator_response` resonance at the forcing frequency `f` \[Hz\] (module
-/// docs): `A = 1 / √((1 − (f/f_r)²)² + (2 ζ f/f_r)²)`, 1 at `f = 0`, `1/(2ζ)` at `f = f_r`.
-pub fn actuator_gain(f: f64, f_r: f64, zeta: f64) -> f64 {
-    let q = f / f_r;
-    1.0 / ((1.0 - q * q).powi(2) + (2.0 * zeta * q).powi(2)).sqrt()
-}
-
-/// Gain `A` of the substrate's amplitude at `f` \[Hz\] under `fx`'s `actuator_response` in its
-/// form (1 without it).
-pub fn amplitude_gain(fx: &Effects, f: f64) -> f64 {
-    let k = EffectKind::ActuatorResponse;
-    match (fx.get(k, "f_r"), fx.get(k, "zeta"), fx.get(k, "form")) {
-        (Some(f_r), Some(zeta), Some(form)) => response_gain(form, f, f_r, zeta),
-        _ => 1.0,
-    }
-}
-
-/// Gain of `actuator_response` in the form of value `form` at `f` \[Hz\]: [`first_order_gain`]
-/// for `first_order` (`zeta` unused), else [`actuator_gain`].
-pub fn response_gain(form: f64, f: f64, f_r: f64, zeta: f64) -> f64 {
-    if form == 1.0 {
-        first_order_gain(f, f_r)
-    } else {
-        actuator_gain(f, f_r, zeta)
-    }
-}
-
-/// Gain of the `first_order` form of `actuator_response` at `f` \[Hz\]: one pole at the corner
-/// `f_r`, `A = 1/√(1 + (f/f_r)²)`.
-pub fn first_order_gain(f: f64, f_r: f64) -> f64 {
-    1.0 / (1.0 + (f / f_r).powi(2)).sqrt()
+/// The conditions an effect's numbers are resolved at: the forcing frequency `f` \[Hz\] and
+/// the normal load `f_n` \[N\].
+pub(crate) struct At {
+    pub f: f64,
+    pub f_n: f64,
 }
 
 /// The effects resolved into the numbers the right-hand side uses, with the positions of the
@@ -1146,60 +774,10 @@ impl Resolved {
             lag_form: Lag::Time,
             track: None,
         };
-        let tau = std::f64::consts::TAU;
         // Presliding elements come first so the contact states stay together.
-        if let Some(n) = fx.get(EffectKind::Presliding, "elements") {
-            r.elements = n as usize;
-            r.spread = fx.get(EffectKind::Presliding, "spread").unwrap_or(0.0);
-            r.dim += r.elements - 1;
-        }
+        presliding::elements_first(fx, &mut r);
         for (k, v) in &fx.list {
-            match k {
-                EffectKind::Aging => {
-                    r.aging = Some((v[0], v[1], v[2], r.dim));
-                    r.slip_law = v[3] == 1.0;
-                    r.dim += 1;
-                }
-                EffectKind::ActuatorResponse => r.gain = response_gain(v[2], f, v[0], v[1]),
-                EffectKind::NormalCoupling => {
-                    let fixed = v[3] == 3.0;
-                    // Per metre of displacement amplitude; the fixed form's swing whatever it is.
-                    let c = load_swing(v[0], v[3], f, 1.0) / f_n;
-                    r.normal = Some((c, v[1].to_radians() - tau * f * v[2], fixed))
-                }
-                EffectKind::SensorDynamics => {
-                    r.sensor = Some((tau * v[0], v[1], r.dim));
-                    r.dim += 2;
-                    if v[2] >= 1.0 {
-                        r.sensor4 = Some((v[1] * (1.0 + std::f64::consts::SQRT_2)).min(2.0));
-                        r.dim += 2;
-                    }
-                    if v[2] == 2.0 {
-                        r.sensor_delay = v[3];
-                    }
-                }
-                EffectKind::DriveRipple => r.ripple = Some((v[0], tau / v[1])),
-                EffectKind::Viscous => {
-                    r.h_v = v[0];
-                    r.visc_n = v[1];
-                }
-                EffectKind::StribeckShape => {
-                    r.delta = v[0];
-                    r.rational = v[1] == 1.0;
-                }
-                EffectKind::Presliding => {}
-                EffectKind::FrictionalLag => {
-                    r.lag_form = match v[2] {
-                        1.0 => Lag::Distance,
-                        2.0 => Lag::Level,
-                        _ => Lag::Time,
-                    };
-                    let l = if r.lag_form == Lag::Time { v[0] } else { v[1] };
-                    r.lag = Some((l, r.dim));
-                    r.dim += 1;
-                }
-                EffectKind::Track => r.track = Some((v[0], tau / v[1], v[2])),
-            }
+            (k.info().resolve)(v, &mut r, &At { f, f_n });
         }
         r
     }
