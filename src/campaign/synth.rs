@@ -2,7 +2,7 @@
 //! sampling rate, over a design of conditions like the paper's tests.
 
 use super::{CampaignError, GridAsk, Recording, simulate_grids, write_recording};
-use crate::model::effects::{amplitude_gain, form_param, load_swing, normal_coupling};
+use crate::model::effects::{amplitude_gain, form_param, load_swing, normal_coupling, track};
 use crate::model::{EffectKind, Effects, Params};
 use crate::sim;
 use rand::{RngExt, SeedableRng, rngs::StdRng};
@@ -144,7 +144,7 @@ impl SynthSpec {
                 "1 <= min_cycles <= 100",
             );
         }
-        if let Some(k_n) = self.effects.get(EffectKind::NormalCoupling, "k_n")
+        if let Some(k_n) = self.effects.at(EffectKind::NormalCoupling, normal_coupling::K_N)
             && let Some((name, p, u)) = self.largest_amplitude()
         {
             let per = self.swing_per_k_n(&p, u);
@@ -187,7 +187,7 @@ impl SynthSpec {
     fn swing_per_k_n(&self, p: &Params, u: f64) -> f64 {
         let form = self
             .effects
-            .get(EffectKind::NormalCoupling, "form")
+            .at(EffectKind::NormalCoupling, normal_coupling::FORM)
             .unwrap_or(0.0);
         load_swing(1.0, form, p.f, u)
     }
@@ -313,10 +313,10 @@ fn record(
         let mut rng =
             StdRng::seed_from_u64(spec.seed.wrapping_mul(1_000_003).wrapping_add(i as u64));
         let mut fx = spec.effects.clone();
-        if let Some(lambda) = fx.get(EffectKind::Track, "wavelength") {
+        if let Some(lambda) = fx.at(EffectKind::Track, track::WAVELENGTH) {
             // Each recording starts at another place on the track.
             let off: f64 = rng.random::<f64>() * lambda;
-            fx.set(EffectKind::Track, "offset", off).expect("in range");
+            fx.set_at(EffectKind::Track, track::OFFSET, off).expect("in range");
         }
         rngs.push(rng);
         asks.push(GridAsk {

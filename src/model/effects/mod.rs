@@ -505,6 +505,11 @@ impl Effects {
         Ok(())
     }
 
+    /// Sets parameter `p` of `kind` ([`Param`]), switching the effect on, checking its range.
+    pub fn set_at(&mut self, kind: EffectKind, p: Param, value: f64) -> Result<(), EffectError> {
+        self.set(kind, p.name(kind), value)
+    }
+
     /// Sets an effect's form by name (switching the effect on): `form = "velocity"`.
     pub fn set_form(&mut self, kind: EffectKind, name: &str) -> Result<(), EffectError> {
         let info = kind.info();
