@@ -144,7 +144,9 @@ impl SynthSpec {
                 "1 <= min_cycles <= 100",
             );
         }
-        if let Some(k_n) = self.effects.at(EffectKind::NormalCoupling, normal_coupling::K_N)
+        if let Some(k_n) = self
+            .effects
+            .at(EffectKind::NormalCoupling, normal_coupling::K_N)
             && let Some((name, p, u)) = self.largest_amplitude()
         {
             let per = self.swing_per_k_n(&p, u);
@@ -316,7 +318,8 @@ fn record(
         if let Some(lambda) = fx.at(EffectKind::Track, track::WAVELENGTH) {
             // Each recording starts at another place on the track.
             let off: f64 = rng.random::<f64>() * lambda;
-            fx.set_at(EffectKind::Track, track::OFFSET, off).expect("in range");
+            fx.set_at(EffectKind::Track, track::OFFSET, off)
+                .expect("in range");
         }
         rngs.push(rng);
         asks.push(GridAsk {

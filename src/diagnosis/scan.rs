@@ -8,7 +8,10 @@ use super::fit::{FitOptions, FitResult, Model, Target, cost_of, evaluate};
 use super::model::neutral;
 use super::target::Fidelity;
 use crate::campaign::Recording;
-use crate::model::effects::{actuator_gain, form_param, response_gain};
+use crate::model::effects::{
+    actuator_gain, actuator_response, aging, drive_ripple, form_param, normal_coupling,
+    response_gain, viscous,
+};
 use crate::model::{EffectKind, Params};
 use crate::sweep::spec::logspace;
 use rayon::prelude::*;
@@ -79,9 +82,11 @@ pub fn starts(target: &Target, base: &FitResult, kind: EffectKind, form: f64) ->
         && let Some((a, lambda)) = ripple_from_drive(&target.recs)
     {
         let mut m = m0.clone();
-        let _ = m.effects.set(kind, "a", a.clamp(0.0, 1e-3));
+        let _ = m.effects.set_at(kind, drive_ripple::A, a.clamp(0.0, 1e-3));
         let (lo, hi) = target.bounds.range(kind, "wavelength");
-        let _ = m.effects.set(kind, "wavelength", lambda.clamp(lo, hi));
+        let _ = m
+            .effects
+            .set_at(kind, drive_ripple::WAVELENGTH, lambda.clamp(lo, hi));
         candidates.push(m);
     }
     // The scan only chooses a start: score the starts on a subset of the recordings, at the
@@ -152,7 +157,7 @@ pub fn starts(target: &Target, base: &FitResult, kind: EffectKind, form: f64) ->
             if kind == EffectKind::Viscous {
                 let mut mn = m.clone();
                 (mn.f_s, mn.v_s, mn.h_d) = (nominal.f_s, nominal.v_s, nominal.h_d);
-                let h_v = m.effects.get(kind, "h_v").unwrap_or(0.0);
+                let h_v = m.effects.at(kind, viscous::H_V).unwrap_or(0.0);
                 mn.f_c = (m.f_c - h_v * v_mean).max(0.5 * m.f_c);
                 candidates.push(mn);
             }
@@ -162,8 +167,8 @@ pub fn starts(target: &Target, base: &FitResult, kind: EffectKind, form: f64) ->
             if kind == EffectKind::Aging
                 && let (Some(age), Some(b), Some(theta_0)) = (
                     age,
-                    m.effects.get(kind, "b"),
-                    m.effects.get(kind, "theta_0"),
+                    m.effects.at(kind, aging::B),
+                    m.effects.at(kind, aging::THETA_0),
                 )
             {
                 let mut ma = m.clone();
@@ -263,7 +268,7 @@ pub fn strongest_near(
     if kind != EffectKind::Viscous || !costs[best].is_finite() {
         return vec![];
     }
-    let strength = |i: usize| candidates[i].effects.get(kind, "h_v").unwrap_or(0.0);
+    let strength = |i: usize| candidates[i].effects.at(kind, viscous::H_V).unwrap_or(0.0);
     let near: Vec<usize> = (0..costs.len())
         .filter(|&i| costs[i] <= (1.0 + STRONGER_START_MARGIN) * costs[best])
         .filter(|&i| strength(i) > strength(best))
@@ -361,9 +366,9 @@ pub fn normal_scan(sub: &Target, m0: &Model) -> Option<Model> {
         .par_iter()
         .map(|&(i, k, j)| {
             let mut m = m0.clone();
-            let _ = m.effects.set(kind, "k_n", strengths[k]);
-            let _ = m.effects.set(kind, "phase", phase(j));
-            let _ = m.effects.set(kind, "delay", 0.0);
+            let _ = m.effects.set_at(kind, normal_coupling::K_N, strengths[k]);
+            let _ = m.effects.set_at(kind, normal_coupling::PHASE, phase(j));
+            let _ = m.effects.set_at(kind, normal_coupling::DELAY, 0.0);
             let (ssq, _) = cost_of(&groups[i], &m);
             if ssq.is_finite() { ssq } else { f64::INFINITY }
         })
@@ -404,9 +409,9 @@ pub fn normal_scan(sub: &Target, m0: &Model) -> Option<Model> {
         }
     }
     let mut m = m0.clone();
-    let _ = m.effects.set(kind, "k_n", best.1);
-    let _ = m.effects.set(kind, "phase", best.2);
-    let _ = m.effects.set(kind, "delay", best.3);
+    let _ = m.effects.set_at(kind, normal_coupling::K_N, best.1);
+    let _ = m.effects.set_at(kind, normal_coupling::PHASE, best.2);
+    let _ = m.effects.set_at(kind, normal_coupling::DELAY, best.3);
     Some(m)
 }
 
@@ -445,20 +450,22 @@ pub fn actuator_scan(sub: &Target, m0: &Model) -> Option<Model> {
     // it for g > 1 (`(f/f_r)² = 1 − 1/g`), lightly damped; the neutral start `m0` for 1. The
     // gain tabulated is the one realised (the bounds of `f_r` may cut it).
     // The table is of gains, whatever the form; it is realised by the resonance.
-    let first_order = m0.effects.get(kind, "form") == Some(1.0);
+    let first_order = m0.effects.at(kind, actuator_response::FORM) == Some(1.0);
     let realise = |f: f64, g: f64| -> Model {
         let mut m = m0.clone();
-        let _ = m.effects.set(kind, "form", 0.0);
+        let _ = m.effects.set_at(kind, actuator_response::FORM, 0.0);
         if g != 1.0 {
             let q2 = if g < 1.0 {
                 1.0 + 1.0 / g
             } else {
                 1.0 - 1.0 / g
             };
-            let _ = m
-                .effects
-                .set(kind, "f_r", (f / q2.sqrt()).clamp(f_lo, f_hi));
-            let _ = m.effects.set(kind, "zeta", 0.01);
+            let _ = m.effects.set_at(
+                kind,
+                actuator_response::F_R,
+                (f / q2.sqrt()).clamp(f_lo, f_hi),
+            );
+            let _ = m.effects.set_at(kind, actuator_response::ZETA, 0.01);
         }
         m
     };
@@ -471,7 +478,10 @@ pub fn actuator_scan(sub: &Target, m0: &Model) -> Option<Model> {
         .par_iter()
         .map(|&(i, g)| {
             let m = realise(freqs[i], g);
-            let (f_r, zeta) = (m.effects.get(kind, "f_r"), m.effects.get(kind, "zeta"));
+            let (f_r, zeta) = (
+                m.effects.at(kind, actuator_response::F_R),
+                m.effects.at(kind, actuator_response::ZETA),
+            );
             let gain = actuator_gain(freqs[i], f_r.unwrap_or(f_hi), zeta.unwrap_or(1.0));
             let (ssq, _) = cost_of(&groups[i], &m);
             let ssq = if ssq.is_finite() { ssq } else { f64::INFINITY };
@@ -528,9 +538,9 @@ pub fn actuator_scan(sub: &Target, m0: &Model) -> Option<Model> {
         }
     }
     let mut m = m0.clone();
-    let _ = m.effects.set(kind, "f_r", best.1);
+    let _ = m.effects.set_at(kind, actuator_response::F_R, best.1);
     if !first_order {
-        let _ = m.effects.set(kind, "zeta", best.2);
+        let _ = m.effects.set_at(kind, actuator_response::ZETA, best.2);
     }
     Some(m)
 }
