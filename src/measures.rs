@@ -876,6 +876,20 @@ fn cycle_measures(drops: &[Drop], mean_force: f64, stick_fraction: f64) -> Measu
 mod tests {
     use super::*;
 
+    /// A run's measures are every measure a run's values give (`of_run`), in the order of all.
+    #[test]
+    fn the_measures_of_a_run_are_those_a_run_gives() {
+        let m = Measures::default();
+        let of_run: Vec<Measure> = Measure::ALL
+            .into_iter()
+            .filter(|k| k.of_run(&m).is_some())
+            .collect();
+        assert_eq!(of_run, Measure::OF_RUN);
+        for k in Measure::ALL {
+            assert_eq!(Measure::from_name(k.name()), Some(k));
+        }
+    }
+
     /// A saw-tooth: linear rise from 5 to 11 N over 0.9 s, then a fall back over 0.1 s.
     fn saw(t: f64) -> f64 {
         let ph = t.rem_euclid(1.0);

@@ -55,30 +55,23 @@ impl Scan {
         }
     }
 
-    /// Whether it scans the effect's default form: it fixes no other value of the form
-    /// parameter.
-    fn in_default_form(&self) -> bool {
+    /// The value of the form parameter it scans: among `fixed`, else the family's default.
+    fn form_value(&self) -> f64 {
         let q = form_param(self.kind);
         self.fixed
             .iter()
             .find(|(n, _)| *n == q)
-            .is_none_or(|f| f.1 == self.kind.default_form())
+            .map_or(self.kind.default_form(), |f| f.1)
+    }
+
+    /// Whether it scans the effect's default form.
+    fn in_default_form(&self) -> bool {
+        self.form_value() == self.kind.default_form()
     }
 
     /// The name of the form scanned: the form parameter's value among `fixed`, else the
     /// family's default form.
     pub(crate) fn form_name(&self) -> &'static str {
-        let q = form_param(self.kind);
-        let v = self
-            .fixed
-            .iter()
-            .find(|(n, _)| *n == q)
-            .map_or(self.kind.default_form(), |f| f.1);
-        self.kind
-            .info()
-            .forms
-            .iter()
-            .find(|f| f.value == v)
-            .map_or("", |f| f.name)
+        self.kind.form_of(self.form_value()).map_or("", |f| f.name)
     }
 }

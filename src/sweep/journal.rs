@@ -79,12 +79,13 @@ pub fn header(fp: &str) -> String {
     format!("stickslip-journal 3 {fp} {}", names.join(","))
 }
 
-/// What a journal's header says: its fingerprint and the columns of its records (those of
-/// [`COLUMNS`] for a journal of version 2), or why it cannot be read.
-fn read_header(first: &str) -> Result<(&str, Vec<Column>), String> {
+/// What a journal's header says: its fingerprint and the columns of its records (`None` for a
+/// journal of version 2, whose records hold a prefix of [`COLUMNS`]: [`parse_record`]), or why
+/// it cannot be read.
+fn read_header(first: &str) -> Result<(&str, Option<Vec<Column>>), String> {
     let f: Vec<&str> = first.split(' ').collect();
     match f.as_slice() {
-        ["stickslip-journal", "2", fp] => Ok((fp, COLUMNS.to_vec())),
+        ["stickslip-journal", "2", fp] => Ok((fp, None)),
         ["stickslip-journal", "3", fp, names] => {
             let cols = names
                 .split(',')
@@ -104,7 +105,7 @@ fn read_header(first: &str) -> Result<(&str, Vec<Column>), String> {
                     return Err(format!("its header lacks the column `{}`", need.name()));
                 }
             }
-            Ok((fp, cols))
+            Ok((fp, Some(cols)))
         }
         _ => Err("its header is not that of a journal of version 2 or 3".into()),
     }
@@ -364,17 +365,16 @@ pub fn read(path: &Path, fp: &str) -> Result<(Vec<(Task, RunResult)>, usize), St
             ));
         }
     };
-    let v2 = first.starts_with("stickslip-journal 2 ");
+
     let torn = usize::from(text.last().is_some_and(|&b| b != b'\n'));
     let mut dropped = torn;
     let records = lines
         // Tables of the averaged law are read by read_tables.
         .filter(|l| !l.starts_with("tab "))
         .filter_map(|l| {
-            let r = if v2 {
-                parse_record(l)
-            } else {
-                parse_with(l, &cols)
+            let r = match &cols {
+                Some(cols) => parse_with(l, cols),
+                None => parse_record(l),
             };
             dropped += usize::from(r.is_none());
             r

@@ -500,14 +500,15 @@ impl Effects {
                     .join(", "),
             });
         };
-        check(info, &info.params[i], value)?;
-        self.enable(kind)[i] = value;
-        Ok(())
+        self.set_at(kind, Param(i), value)
     }
 
     /// Sets parameter `p` of `kind` ([`Param`]), switching the effect on, checking its range.
     pub fn set_at(&mut self, kind: EffectKind, p: Param, value: f64) -> Result<(), EffectError> {
-        self.set(kind, p.name(kind), value)
+        let info = kind.info();
+        check(info, p.of(kind), value)?;
+        self.enable(kind)[p.0] = value;
+        Ok(())
     }
 
     /// Sets an effect's form by name (switching the effect on): `form = "velocity"`.
@@ -543,9 +544,8 @@ impl Effects {
 
     /// The value of one parameter, if the effect is on.
     pub fn get(&self, kind: EffectKind, name: &str) -> Option<f64> {
-        let (_, vals) = self.list.iter().find(|(k, _)| *k == kind)?;
         let i = kind.info().params.iter().position(|p| p.name == name)?;
-        Some(vals[i])
+        self.at(kind, Param(i))
     }
 
     /// Whether an effect is on.
@@ -807,6 +807,95 @@ mod tests {
             }
         }
         assert_eq!(EffectKind::candidates().len(), 9);
+    }
+
+    /// Each effect file's typed indices name the parameter at their place in its table, and its
+    /// forms' enum tells every form of the table apart: the two definitions of an effect's
+    /// parameters cannot drift apart.
+    #[test]
+    fn typed_indices_and_form_enums_match_the_table() {
+        use EffectKind as K;
+        let named: &[(K, Param, &str)] = &[
+            (K::Aging, aging::B, "b"),
+            (K::Aging, aging::THETA_0, "theta_0"),
+            (K::Aging, aging::D_C, "d_c"),
+            (K::Aging, aging::FORM, "form"),
+            (K::ActuatorResponse, actuator_response::F_R, "f_r"),
+            (K::ActuatorResponse, actuator_response::ZETA, "zeta"),
+            (K::ActuatorResponse, actuator_response::FORM, "form"),
+            (K::NormalCoupling, normal_coupling::K_N, "k_n"),
+            (K::NormalCoupling, normal_coupling::PHASE, "phase"),
+            (K::NormalCoupling, normal_coupling::DELAY, "delay"),
+            (K::NormalCoupling, normal_coupling::FORM, "form"),
+            (K::SensorDynamics, sensor_dynamics::F_N, "f_n"),
+            (K::SensorDynamics, sensor_dynamics::ZETA, "zeta"),
+            (K::SensorDynamics, sensor_dynamics::FORM, "form"),
+            (K::SensorDynamics, sensor_dynamics::DELAY, "delay"),
+            (K::DriveRipple, drive_ripple::A, "a"),
+            (K::DriveRipple, drive_ripple::WAVELENGTH, "wavelength"),
+            (K::Viscous, viscous::H_V, "h_v"),
+            (K::Viscous, viscous::EXPONENT, "exponent"),
+            (K::StribeckShape, stribeck_shape::DELTA, "delta"),
+            (K::StribeckShape, stribeck_shape::FORM, "form"),
+            (K::Presliding, presliding::SPREAD, "spread"),
+            (K::Presliding, presliding::ELEMENTS, "elements"),
+            (K::FrictionalLag, frictional_lag::TAU, "tau"),
+            (K::FrictionalLag, frictional_lag::LENGTH, "length"),
+            (K::FrictionalLag, frictional_lag::FORM, "form"),
+            (K::Track, track::A, "a"),
+            (K::Track, track::WAVELENGTH, "wavelength"),
+            (K::Track, track::OFFSET, "offset"),
+        ];
+        for &(k, p, name) in named {
+            assert_eq!(p.name(k), name, "{k}");
+        }
+        for e in &EFFECTS {
+            assert_eq!(
+                named.iter().filter(|n| n.0 == e.kind).count(),
+                e.params.len(),
+                "{}",
+                e.name
+            );
+        }
+        // Each enum tells the table's forms apart (and the default is the first).
+        let values = |k: K| -> Vec<f64> { k.info().forms.iter().map(|f| f.value).collect() };
+        fn distinct<T: PartialEq>(v: &[T]) -> bool {
+            v.iter()
+                .enumerate()
+                .all(|(i, a)| v[..i].iter().all(|b| a != b))
+        }
+        let aging: Vec<_> = values(K::Aging).into_iter().map(aging::Law::of).collect();
+        assert!(distinct(&aging) && aging[0] == aging::Law::AgeingLaw);
+        let act: Vec<_> = values(K::ActuatorResponse)
+            .into_iter()
+            .map(actuator_response::Response::of)
+            .collect();
+        assert!(distinct(&act) && act[0] == actuator_response::Response::Resonance);
+        let swing: Vec<_> = values(K::NormalCoupling)
+            .into_iter()
+            .map(normal_coupling::Swing::of)
+            .collect();
+        assert!(distinct(&swing) && swing[0] == normal_coupling::Swing::Displacement);
+        let order: Vec<_> = values(K::SensorDynamics)
+            .into_iter()
+            .map(sensor_dynamics::Order::of)
+            .collect();
+        assert!(distinct(&order) && order[0] == sensor_dynamics::Order::Order2);
+        let curve: Vec<_> = values(K::StribeckShape)
+            .into_iter()
+            .map(stribeck_shape::Curve::of)
+            .collect();
+        assert!(distinct(&curve) && curve[0] == stribeck_shape::Curve::Exponential);
+        let power: Vec<_> = values(K::Viscous)
+            .into_iter()
+            .map(viscous::Power::of)
+            .collect();
+        assert!(distinct(&power) && power.iter().all(Option::is_some));
+        let lag: Vec<_> = values(K::FrictionalLag)
+            .into_iter()
+            .map(frictional_lag::lag_of)
+            .collect();
+        assert!(distinct(&lag) && lag[0] == Lag::Time);
     }
 
     #[test]
