@@ -261,7 +261,7 @@ fn batch_against_alone(asks: &[stickslip::sim::batch::Ask], fx: &Effects) {
 fn each_form() -> Vec<(&'static stickslip::model::effects::EffectInfo, Effects)> {
     use stickslip::model::effects::{EFFECTS, form_param};
     let mut sets = Vec::new();
-    for info in &EFFECTS {
+    for info in EFFECTS {
         let forms: Vec<Option<f64>> = if info.forms.is_empty() {
             vec![None]
         } else {

@@ -8,6 +8,7 @@ use rand::{SeedableRng, rngs::StdRng};
 use stickslip::campaign::Campaign;
 use stickslip::campaign::synth::{Design, SynthSpec, draw, synth};
 use stickslip::diagnosis::diagnose::{DiagnoseOptions, Diagnosis, Verdict, diagnose};
+use stickslip::model::effects::{actuator_response, drive_ripple, sensor_dynamics};
 use stickslip::model::{EffectKind, Effects};
 
 /// A small campaign (16 recordings, 4 drives × 4 vibrations, 5 kHz, two cycles in each
@@ -508,7 +509,7 @@ fn plausible_ranges_come_from_the_recordings_and_hold_the_truth() {
         .fold(0.0, f64::max);
     // k_d = 20 000 N/m on 0.665 kg: 27.6 Hz.
     assert!((f_osc - 27.6).abs() < 0.1, "{f_osc}");
-    let (lo, hi) = b.range(EffectKind::SensorDynamics, "f_n");
+    let (lo, hi) = b.range(EffectKind::SensorDynamics, sensor_dynamics::F_N);
     assert!(lo >= f_osc && lo < 40.0, "sensor range [{lo}, {hi}]");
     assert_eq!(hi, 2e4);
     let t_slip = all
@@ -521,14 +522,14 @@ fn plausible_ranges_come_from_the_recordings_and_hold_the_truth() {
         (lo - f_osc.max(SLIP_BOUND_MARGIN / (2.0 * t_slip))).abs() < 1e-9,
         "{lo} {t_slip}"
     );
-    let (a_lo, _) = b.range(EffectKind::ActuatorResponse, "f_r");
+    let (a_lo, _) = b.range(EffectKind::ActuatorResponse, actuator_response::F_R);
     assert!((a_lo - f_osc.max(100.0)).abs() < 1e-9, "{a_lo}");
     let travel = c
         .recordings
         .iter()
         .map(|r| r.params.v_d * (r.t[r.t.len() - 1] - r.t[0]))
         .fold(0.0, f64::max);
-    let (_, w_hi) = b.range(EffectKind::DriveRipple, "wavelength");
+    let (_, w_hi) = b.range(EffectKind::DriveRipple, drive_ripple::WAVELENGTH);
     assert!(
         (w_hi - 0.5 * travel).abs() < 1e-12 * travel,
         "{w_hi} {travel}"

@@ -2,7 +2,7 @@
 //! sampling rate, over a design of conditions like the paper's tests.
 
 use super::{CampaignError, GridAsk, Recording, simulate_grids, write_recording};
-use crate::model::effects::{amplitude_gain, form_param, load_swing, normal_coupling, track};
+use crate::model::effects::{amplitude_gain, load_swing, normal_coupling, track};
 use crate::model::{EffectKind, Effects, Params};
 use crate::sim;
 use rand::{RngExt, SeedableRng, rngs::StdRng};
@@ -239,14 +239,13 @@ pub const MAX_LOAD_SWING: f64 = 0.5;
 /// otherwise), and the magnitudes of that form.
 pub fn draw(kind: EffectKind, rng: &mut StdRng, spec: &SynthSpec) -> Effects {
     let mut fx = Effects::none();
-    let form = form_param(kind);
     fx.enable(kind);
-    if let Some(v) = spec.effects.get(kind, form) {
-        fx.set(kind, form, v)
+    if let Some(v) = spec.effects.form_value(kind) {
+        fx.set_form_value(kind, v)
             .expect("a form the spec holds is valid");
     }
     for r in kind.info().realistic {
-        let (k, name, lo, hi) = (kind, r.param.name(kind), r.lo, r.hi);
+        let (k, lo, hi) = (kind, r.lo, r.hi);
         if hi <= lo {
             continue;
         }
@@ -257,19 +256,14 @@ pub fn draw(kind: EffectKind, rng: &mut StdRng, spec: &SynthSpec) -> Effects {
             Some(cap) if cap < hi => (lo.min(cap / 3.0), cap),
             _ => (lo, hi),
         };
-        let log = kind
-            .info()
-            .params
-            .iter()
-            .find(|p| p.name == name)
-            .is_some_and(|p| p.log);
+        let log = r.param.of(kind).log();
         let u: f64 = rng.random();
         let v = if log {
             (lo.ln() + u * (hi.ln() - lo.ln())).exp()
         } else {
             lo + u * (hi - lo)
         };
-        fx.set(kind, name, v)
+        fx.set_at(kind, r.param, v)
             .expect("realistic ranges lie within the bounds");
     }
     fx

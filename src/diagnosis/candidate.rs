@@ -287,10 +287,10 @@ fn with_other(m: &Model, other: &Model, k: EffectKind, at_neutral: bool) -> Mode
     if let Some((_, v)) = other.effects.list.iter().find(|(e, _)| *e == k) {
         let v: Vec<f64> = v
             .iter()
-            .zip(k.info().params)
-            .map(|(&x, p)| {
+            .enumerate()
+            .map(|(i, &x)| {
                 at_neutral
-                    .then(|| super::model::neutral(k, p.name))
+                    .then(|| super::model::neutral(k, crate::model::effects::Param(i)))
                     .flatten()
                     .unwrap_or(x)
             })

@@ -37,11 +37,11 @@ pub fn at_bounds(bounds: &Plausible, fr: &FitResult) -> Vec<String> {
         .unzip();
     // The end where the effect vanishes is the model it extends, not an implausible value.
     on_bounds(&cs, &theta, |c, end| {
-        let Ok((k, i)) = c.target else { return true };
-        if circular(k, k.info().params[i].name) {
+        let Ok((k, p)) = c.target else { return true };
+        if p.of(k).scale == crate::model::effects::Scale::Degrees {
             return true;
         }
-        neutral(k, k.info().params[i].name).is_some_and(|v| {
+        neutral(k, p).is_some_and(|v| {
             let v = if c.log { v.ln() } else { v };
             let tol = if c.log { 0.01 } else { 1e-3 * (c.hi - c.lo) };
             (v - end).abs() <= tol

@@ -6,7 +6,6 @@ use super::decide::between;
 use super::fit::{FitResult, Model};
 use super::verdict::{FormChoice, Ranked};
 use crate::model::EffectKind;
-use crate::model::effects::form_param;
 
 /// The candidates of a round to try in their other forms: every form of each effect with
 /// forms whose default form passed its screen (its fit holds the effect), and, with `all`
@@ -33,7 +32,7 @@ pub(crate) fn other_forms(ranked: &[Ranked], all: bool) -> Vec<(EffectKind, f64,
                 .map(move |f| {
                     let warm = passed.then(|| {
                         let mut m = r.fit.model.clone();
-                        let _ = m.effects.set(k, form_param(k), f.value);
+                        let _ = m.effects.set_form_value(k, f.value);
                         m
                     });
                     (k, f.value, warm)

@@ -81,7 +81,6 @@ use super::folds::{CrossValidated, concentrated, summarise};
 use super::model::{Coord, coords, neutral};
 use super::scans::{SCANS, Scan};
 use super::target::{Fidelity, simulate_many};
-use crate::model::effects::form_param;
 use rand::{RngExt, SeedableRng, rngs::StdRng};
 use rand_distr::{Distribution, Normal};
 use rayon::prelude::*;
@@ -813,11 +812,7 @@ fn scan_limit(
 ) -> Limit {
     let power_of = |sig: &Signature| pt.power_of(sig);
     let info = s.kind.info();
-    let p = info
-        .params
-        .iter()
-        .find(|p| p.name == s.param)
-        .expect("a scan's parameter is the effect's");
+    let p = s.param.of(s.kind);
     let (lo, hi) = all.bounds.range(s.kind, s.param);
     let (lo, hi) = (lo.max(p.min), hi.min(p.max));
     let neutral = neutral(s.kind, s.param).unwrap_or(if s.stronger_below { hi } else { lo });
@@ -829,9 +824,9 @@ fn scan_limit(
     };
     let strong = s.strong.unwrap_or(if s.stronger_below { lo } else { hi });
     let mut model = against.model.clone();
-    for &(q, v) in &s.fixed {
+    for &(q, v) in s.fixed {
         // The form's values are inside the library's bounds by construction.
-        let _ = model.effects.set(s.kind, q, v);
+        let _ = model.effects.set_at(s.kind, q, v);
     }
     let (vmin, vmax) = (lo.min(hi), lo.max(hi));
     // An effect that acts through the vibration leaves a recording without any (its
@@ -845,7 +840,7 @@ fn scan_limit(
     let power_at = |u: f64| -> (f64, f64) {
         let mut m = model.clone();
         let v = value_at(weak, strong, s.log, u).clamp(vmin, vmax);
-        if m.effects.set(s.kind, s.param, v).is_err() {
+        if m.effects.set_at(s.kind, s.param, v).is_err() {
             return (0.0, 1.0);
         }
         let Some(sig) = pipe.signature(&m, &alone) else {
@@ -854,8 +849,7 @@ fn scan_limit(
         (power_of(&sig), sig.failed)
     };
     let form = s
-        .fixed
-        .iter()
+        .fixed_named()
         .map(|(q, v)| format!("{q} = {v}"))
         .collect::<Vec<_>>()
         .join(", ");
@@ -927,7 +921,7 @@ fn scan_limit(
         effect: info.name,
         holes,
         band_end,
-        param: s.param,
+        param: s.param_name(),
         unit: p.unit,
         label: s.label,
         form,
@@ -1008,8 +1002,8 @@ fn statement(s: &Scan, unit: &str, f: &Found<'_>) -> (&'static str, String) {
     let shown: Vec<String> = s
         .fixed
         .iter()
-        .filter(|(q, _)| *q != form_param(s.kind))
-        .map(|(q, v)| format!("{q} = {v}"))
+        .filter(|(q, _)| Some(*q) != s.kind.info().form)
+        .map(|&(q, v)| format!("{} = {v}", q.name(s.kind)))
         .collect();
     let with = if shown.is_empty() {
         String::new()
@@ -1027,7 +1021,7 @@ fn statement(s: &Scan, unit: &str, f: &Found<'_>) -> (&'static str, String) {
         (Some(_), Some(e)) if everywhere => format!(
             "{}{with} would have shown from the weakest strength scanned, {} = {}, to {} {}; a weaker one, and one {stronger} {} {}, cannot be excluded",
             s.label,
-            s.param,
+            s.param_name(),
             fmt(weak),
             fmt(e),
             p_unit,
@@ -1037,14 +1031,14 @@ fn statement(s: &Scan, unit: &str, f: &Found<'_>) -> (&'static str, String) {
         _ if everywhere => format!(
             "{}{with} would have shown at every strength scanned, down to {} = {} {}: only a weaker one cannot be excluded",
             s.label,
-            s.param,
+            s.param_name(),
             fmt(weak),
             p_unit,
         ),
         (Some(l), Some(e)) => format!(
             "{}{with} with {} from {} to {} {} would have shown; {} {weaker}, and {stronger} {} {}, cannot be excluded",
             s.label,
-            s.param,
+            s.param_name(),
             fmt(l),
             fmt(e),
             p_unit,
@@ -1055,7 +1049,7 @@ fn statement(s: &Scan, unit: &str, f: &Found<'_>) -> (&'static str, String) {
         (Some(l), None) => format!(
             "{}{with} with {} {stronger} {} {} would have shown; {} {weaker} cannot be excluded",
             s.label,
-            s.param,
+            s.param_name(),
             fmt(l),
             p_unit,
             fmt(l),
@@ -1068,7 +1062,7 @@ fn statement(s: &Scan, unit: &str, f: &Found<'_>) -> (&'static str, String) {
             } else {
                 "its plausible range"
             },
-            s.param,
+            s.param_name(),
             fmt(weak),
             fmt(strong),
             p_unit,
@@ -1150,9 +1144,13 @@ mod tests {
     fn scans_name_real_parameters_in_range() {
         for s in SCANS.iter() {
             let info = s.kind.info();
-            assert!(info.params.iter().any(|p| p.name == s.param), "{}", s.label);
+            assert!(
+                info.params.iter().any(|p| p.name == s.param_name()),
+                "{}",
+                s.label
+            );
             let mut fx = crate::model::Effects::none();
-            for &(q, v) in &s.fixed {
+            for (q, v) in s.fixed_named() {
                 fx.set(s.kind, q, v).unwrap();
             }
             assert!(info.candidate, "{}", s.label);

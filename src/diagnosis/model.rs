@@ -2,6 +2,7 @@
 //! the plausible bounds of every effect parameter derived from a campaign.
 
 use crate::campaign::Recording;
+use crate::model::effects::{Param, Scale};
 use crate::model::{EffectKind, Effects, Params};
 
 /// The base parameters a calibration fits.
@@ -53,8 +54,8 @@ impl Model {
 pub(crate) struct Coord {
     pub(crate) name: String,
     pub(crate) unit: &'static str,
-    /// Effect parameter (kind, index) or base parameter (index into BASE_FITTED).
-    pub(crate) target: Result<(EffectKind, usize), usize>,
+    /// Effect parameter or base parameter (index into BASE_FITTED).
+    pub(crate) target: Result<(EffectKind, Param), usize>,
     pub(crate) log: bool,
     pub(crate) lo: f64,
     pub(crate) hi: f64,
@@ -68,7 +69,7 @@ impl Coord {
             Err(1) => m.f_c,
             Err(2) => m.v_s,
             Err(_) => m.h_d,
-            Ok((k, i)) => m.effects.get(k, k.info().params[i].name).unwrap_or(0.0),
+            Ok((k, p)) => m.effects.at(k, p).unwrap_or(0.0),
         };
         if self.log { x.ln() } else { x }
     }
@@ -81,16 +82,16 @@ impl Coord {
             Err(1) => m.f_c = x,
             Err(2) => m.v_s = x,
             Err(_) => m.h_d = x,
-            Ok((k, i)) => {
-                let info = &k.info().params[i];
+            Ok((k, p)) => {
+                let info = p.of(k);
                 // An angle has no ends: it wraps. exp(ln(max)) may land an ulp outside a bound.
-                let x = if circular(k, info.name) {
+                let x = if info.scale == Scale::Degrees {
                     (x + 180.0).rem_euclid(360.0) - 180.0
                 } else {
                     x.clamp(info.min, info.max)
                 };
                 if let Some((_, vals)) = m.effects.list.iter_mut().find(|(kk, _)| *kk == k) {
-                    vals[i] = x;
+                    vals[p.0] = x;
                 }
             }
         }
@@ -119,33 +120,32 @@ pub(crate) fn coords(bounds: &Plausible, effects: &[EffectKind], fx: &Effects) -
     ];
     debug_assert_eq!(c.len(), BASE_FITTED.len());
     for &k in effects {
-        for (i, p) in k.info().params.iter().enumerate() {
-            if !p.fitted || !fx.uses(k, p.name) {
+        let info = k.info();
+        for (i, p) in info.params.iter().enumerate() {
+            let param = Param(i);
+            if !p.fitted || !fx.uses(k, param) {
                 continue;
             }
-            let (min, max) = bounds.range(k, p.name);
-            let (lo, hi) = if p.log {
-                (min.ln(), max.ln())
-            } else if circular(k, p.name) {
+            let (min, max) = bounds.range(k, param);
+            let (lo, hi) = match p.scale {
+                Scale::Log => (min.ln(), max.ln()),
                 // One turn of room on either side: the fit crosses ±180° without meeting an end.
-                (min - 360.0, max + 360.0)
-            } else {
-                (min, max)
+                Scale::Degrees => (min - 360.0, max + 360.0),
+                Scale::Linear | Scale::Whole => (min, max),
             };
-            let step = if p.log {
+            let own_step = info.fit_steps.iter().find(|s| s.0 == param).map(|s| s.1);
+            let step = if p.log() {
                 0.05
-            } else if (k, p.name) == (EffectKind::NormalCoupling, "delay") {
-                // A delay turns the phase by 360° f t_d: 5 µs is 4.5° at 2.5 kHz, a step the
-                // features resolve where 0.05 % of the range would be lost in their roughness.
-                5e-6
+            } else if let Some(step) = own_step {
+                step
             } else {
                 0.05 * p.default.abs().max(1e-3 * (p.max - p.min))
             };
             c.push(Coord {
                 name: format!("{}.{}", k.name(), p.name),
                 unit: p.unit,
-                target: Ok((k, i)),
-                log: p.log,
+                target: Ok((k, param)),
+                log: p.log(),
                 lo,
                 hi,
                 step,
@@ -162,7 +162,7 @@ pub struct Bound {
     /// The effect.
     pub effect: EffectKind,
     /// The parameter.
-    pub param: &'static str,
+    pub param: Param,
     /// Lower end, in the parameter's unit.
     pub lo: f64,
     /// Upper end.
@@ -195,7 +195,7 @@ pub const STRIBECK_DELTA: (f64, f64) = (0.25, 4.0);
 impl Plausible {
     /// The range of a fitted parameter: the campaign's bound, else the fit's narrower range,
     /// else the library's table.
-    pub fn range(&self, kind: EffectKind, param: &str) -> (f64, f64) {
+    pub fn range(&self, kind: EffectKind, param: Param) -> (f64, f64) {
         if let Some(b) = self
             .bounds
             .iter()
@@ -209,10 +209,9 @@ impl Plausible {
 
 /// The range of a fitted effect parameter without the campaign's bounds: the fit's narrower
 /// range ([`fit_range`]), else the library's table.
-pub(crate) fn default_range(kind: EffectKind, param: &str) -> (f64, f64) {
-    let p = kind.info().params.iter().find(|p| p.name == param);
-    let table = p.map_or((f64::NEG_INFINITY, f64::INFINITY), |p| (p.min, p.max));
-    fit_range(kind, param).unwrap_or(table)
+pub(crate) fn default_range(kind: EffectKind, param: Param) -> (f64, f64) {
+    let p = param.of(kind);
+    fit_range(kind, param).unwrap_or((p.min, p.max))
 }
 
 /// The coordinates `cs` at `theta` that lie on an end of their range (within 1 % on a log scale,
@@ -243,46 +242,28 @@ pub(crate) fn on_bounds(
 }
 
 /// The value of an effect parameter at which the effect vanishes, or nearly so, within its
-/// bounds and without adding a stiff mode (an explicit method simulates the vibrated runs): no
-/// ageing, an actuator resonance at 100 kHz, no load coupling, a sensor at 20 kHz with
-/// `ζ = 0.7` (flat within 0.1 % up to 4 kHz), no screw error, no viscous friction, the base
-/// model's Gaussian Stribeck curve (`δ = 2`), one breakaway level, 30 µs of lag. Every
-/// candidate's scan holds this start, so a candidate is not worse on the calibration data than
-/// the base model (where a fit still ends worse, `diagnose` reports the base model for it).
-pub fn neutral(kind: EffectKind, param: &str) -> Option<f64> {
-    use EffectKind as K;
-    Some(match (kind, param) {
-        (K::Aging, "b") => 0.0,
-        (K::ActuatorResponse, "f_r") => 1e5,
-        (K::ActuatorResponse, "zeta") => 0.7,
-        (K::NormalCoupling, "k_n") => 1e3,
-        (K::NormalCoupling, "delay") => 0.0,
-        (K::SensorDynamics, "f_n") => 2e4,
-        (K::SensorDynamics, "zeta") => 0.7,
-        (K::DriveRipple, "a") => 0.0,
-        (K::Viscous, "h_v") => 0.0,
-        (K::StribeckShape, "delta") => 2.0,
-        (K::Presliding, "spread") => 0.0,
-        (K::FrictionalLag, "tau") => 3e-5,
-        (K::FrictionalLag, "length") => 1e-7,
-        _ => return None,
-    })
-}
-
-/// Whether an effect parameter is an angle (degrees, wrapped into [-180°, 180°)): the phase of
-/// the normal-load modulation, whose sign and timing against the vibration a rig's geometry sets
-/// (a load that follows the displacement after a delay lags it by `360° f delay`).
-pub(crate) fn circular(kind: EffectKind, param: &str) -> bool {
-    matches!((kind, param), (EffectKind::NormalCoupling, "phase"))
+/// bounds and without adding a stiff mode (an explicit method simulates the vibrated runs): the
+/// effect's [`neutral`](crate::model::effects::EffectInfo::neutral) values (no ageing, an
+/// actuator resonance at 100 kHz, no load coupling, a sensor at 20 kHz with `ζ = 0.7`, flat
+/// within 0.1 % up to 4 kHz, no screw error, no viscous friction, the base model's Gaussian
+/// Stribeck curve, one breakaway level, 30 µs of lag). Every candidate's scan holds this start,
+/// so a candidate is not worse on the calibration data than the base model (where a fit still
+/// ends worse, `diagnose` reports the base model for it).
+pub fn neutral(kind: EffectKind, param: Param) -> Option<f64> {
+    kind.info()
+        .neutral
+        .iter()
+        .find(|n| n.0 == param)
+        .map(|n| n.1)
 }
 
 /// Where a fit narrows an effect parameter's allowed range: the effect's
 /// [`fit_ranges`](crate::model::effects::EffectInfo::fit_ranges).
-pub(crate) fn fit_range(kind: EffectKind, param: &str) -> Option<(f64, f64)> {
+pub(crate) fn fit_range(kind: EffectKind, param: Param) -> Option<(f64, f64)> {
     kind.info()
         .fit_ranges
         .iter()
-        .find(|r| r.param.name(kind) == param)
+        .find(|r| r.param == param)
         .map(|r| (r.lo, r.hi))
 }
 

@@ -913,7 +913,7 @@ impl DiagnosisRecord {
                 .iter()
                 .map(|b| BoundRecord {
                     effect: b.effect,
-                    param: b.param.to_string(),
+                    param: b.param.name(b.effect).to_string(),
                     lo: b.lo,
                     hi: b.hi,
                     reason: b.reason.clone(),

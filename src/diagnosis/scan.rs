@@ -5,40 +5,33 @@
 
 use super::features::Feature;
 use super::fit::{FitOptions, FitResult, Model, Target, cost_of, evaluate};
-use super::model::neutral;
 use super::target::Fidelity;
 use crate::campaign::Recording;
 use crate::model::effects::{
-    actuator_gain, actuator_response, aging, drive_ripple, form_param, normal_coupling,
-    response_gain, viscous,
+    Grid, Param, actuator_gain, actuator_response, aging, drive_ripple, normal_coupling,
+    response_gain, sensor_dynamics, viscous,
 };
 use crate::model::{EffectKind, Params};
 use crate::sweep::spec::logspace;
 use rayon::prelude::*;
 
 /// The values the global scan of [`starts`] tries for one fitted effect parameter, over its
-/// plausible range: the sensor's resonance at ten frequencies from 20 Hz to 20 kHz (a load cell
-/// carrying the frame rings at tens of hertz), each at a light, a moderate and a
-/// critical-like damping (0.05, 0.3, 0.7); the load modulation's phase with the velocity and
-/// against it (±90°); the others at four or five points of their range.
+/// plausible range: the effect's [`starts`](crate::model::effects::EffectInfo::starts) (the
+/// sensor's resonance at ten frequencies from 20 Hz to 20 kHz, each at a light, a moderate and
+/// a critical-like damping; the load modulation's phase with the velocity and against it; the
+/// others at three to five points of their range); none where the effect has none for it.
 /// The actuator's resonance has a scan of its own ([`actuator_scan`]).
-fn scan_values(kind: EffectKind, param: &str) -> Vec<f64> {
-    use EffectKind as K;
-    match (kind, param) {
-        (K::Aging, "b") => vec![0.02, 0.05, 0.1, 0.2],
-        (K::SensorDynamics, "f_n") => logspace(20.0, 2e4, 10),
-        (K::SensorDynamics, "zeta") => vec![0.05, 0.3, 0.7],
-        (K::NormalCoupling, "k_n") => logspace(1e6, 1e8, 5),
-        // With the velocity or against it: the sign of the mean friction change; the fit
-        // then turns the phase towards the displacement.
-        (K::NormalCoupling, "phase") => vec![-90.0, 90.0],
-        (K::Viscous, "h_v") => vec![20.0, 50.0, 100.0, 200.0],
-        (K::StribeckShape, "delta") => vec![0.5, 1.0, 1.5, 3.0],
-        (K::Presliding, "spread") => vec![0.3, 0.6, 0.9],
-        (K::FrictionalLag, "tau") => logspace(1e-4, 1e-2, 4),
-        // A memory of 0.1 to 10 µm of slip: 0.1 to 10 ms at 1 mm/s.
-        (K::FrictionalLag, "length") => logspace(1e-7, 1e-5, 4),
-        _ => vec![],
+fn scan_values(kind: EffectKind, param: Param) -> Vec<f64> {
+    match kind
+        .info()
+        .starts
+        .iter()
+        .find(|s| s.0 == param)
+        .map(|s| s.1)
+    {
+        Some(Grid::Values(v)) => v.to_vec(),
+        Some(Grid::Log(lo, hi, n)) => logspace(lo, hi, n),
+        None => vec![],
     }
 }
 
@@ -47,11 +40,9 @@ fn scan_values(kind: EffectKind, param: &str) -> Vec<f64> {
 pub fn neutral_start(base: &Model, kind: EffectKind, form: f64) -> Model {
     let mut m0 = base.clone();
     m0.effects.enable(kind);
-    let _ = m0.effects.set(kind, form_param(kind), form);
-    for p in kind.info().params {
-        if let Some(v) = neutral(kind, p.name) {
-            let _ = m0.effects.set(kind, p.name, v);
-        }
+    let _ = m0.effects.set_form_value(kind, form);
+    for &(p, v) in kind.info().neutral {
+        let _ = m0.effects.set_at(kind, p, v);
     }
     m0
 }
@@ -83,7 +74,7 @@ pub fn starts(target: &Target, base: &FitResult, kind: EffectKind, form: f64) ->
     {
         let mut m = m0.clone();
         let _ = m.effects.set_at(kind, drive_ripple::A, a.clamp(0.0, 1e-3));
-        let (lo, hi) = target.bounds.range(kind, "wavelength");
+        let (lo, hi) = target.bounds.range(kind, drive_ripple::WAVELENGTH);
         let _ = m
             .effects
             .set_at(kind, drive_ripple::WAVELENGTH, lambda.clamp(lo, hi));
@@ -100,17 +91,15 @@ pub fn starts(target: &Target, base: &FitResult, kind: EffectKind, form: f64) ->
     };
     let from_scan = scanned.is_some().then_some(candidates.len());
     candidates.extend(scanned);
-    let mut grid: Vec<Vec<(&str, f64)>> = vec![vec![]];
-    for p in kind
-        .info()
-        .params
-        .iter()
-        .filter(|p| p.fitted && m0.effects.uses(kind, p.name))
-    {
+    let mut grid: Vec<Vec<(Param, f64)>> = vec![vec![]];
+    let fitted = (0..kind.info().params.len())
+        .map(Param)
+        .filter(|&p| p.of(kind).fitted);
+    for p in fitted.filter(|&p| m0.effects.uses(kind, p)) {
         // The scan's values within the campaign's plausible range, its ends added where the
         // range cuts some off.
-        let (lo, hi) = target.bounds.range(kind, p.name);
-        let all_vals = scan_values(kind, p.name);
+        let (lo, hi) = target.bounds.range(kind, p);
+        let all_vals = scan_values(kind, p);
         let mut vals: Vec<f64> = all_vals
             .iter()
             .copied()
@@ -130,7 +119,7 @@ pub fn starts(target: &Target, base: &FitResult, kind: EffectKind, form: f64) ->
             .flat_map(|g| {
                 vals.iter().map(move |&v| {
                     let mut g = g.clone();
-                    g.push((p.name, v));
+                    g.push((p, v));
                     g
                 })
             })
@@ -151,8 +140,8 @@ pub fn starts(target: &Target, base: &FitResult, kind: EffectKind, form: f64) ->
             .flatten();
         for g in grid {
             let mut m = m0.clone();
-            for &(n, v) in &g {
-                let _ = m.effects.set(kind, n, v);
+            for &(p, v) in &g {
+                let _ = m.effects.set_at(kind, p, v);
             }
             if kind == EffectKind::Viscous {
                 let mut mn = m.clone();
@@ -386,7 +375,7 @@ pub fn normal_scan(sub: &Target, m0: &Model) -> Option<Model> {
         }
         a + (b - a) * w
     };
-    let (_, d_hi) = sub.bounds.range(kind, "delay");
+    let (_, d_hi) = sub.bounds.range(kind, normal_coupling::DELAY);
     let f_max = freqs[freqs.len() - 1];
     let d_step = 5.0 / (360.0 * f_max);
     let n_d = (d_hi / d_step).floor() as usize;
@@ -445,7 +434,7 @@ pub fn actuator_scan(sub: &Target, m0: &Model) -> Option<Model> {
         return None;
     }
     let groups = frequency_groups(sub, &freqs);
-    let (f_lo, f_hi) = sub.bounds.range(kind, "f_r");
+    let (f_lo, f_hi) = sub.bounds.range(kind, actuator_response::F_R);
     // A resonance that gives gain `g` at `f`: below `f` for g < 1 (`(f/f_r)² = 1 + 1/g`), above
     // it for g > 1 (`(f/f_r)² = 1 − 1/g`), lightly damped; the neutral start `m0` for 1. The
     // gain tabulated is the one realised (the bounds of `f_r` may cut it).
@@ -552,8 +541,8 @@ pub const LINE_POINTS: usize = 36;
 /// The resonance frequencies [`line_search`] scans: the sensor's `f_n`. A lightly damped
 /// sensor's cost along `f_n` is a narrow valley (about ±6 % wide) between a cliff below and a
 /// slope above, so a local fit started outside it slides down the slope, away from it.
-fn line_param(kind: EffectKind) -> Option<&'static str> {
-    (kind == EffectKind::SensorDynamics).then_some("f_n")
+fn line_param(kind: EffectKind) -> Option<Param> {
+    (kind == EffectKind::SensorDynamics).then_some(sensor_dynamics::F_N)
 }
 
 /// A dense scan of the resonance frequency of effect `kind` in the fit `fr` (the sensor's `f_n`;
@@ -570,7 +559,7 @@ pub fn line_search(target: &Target, fr: &FitResult, kind: EffectKind) -> (Option
     let Some(name) = line_param(kind) else {
         return (None, 0);
     };
-    let Some(v0) = fr.model.effects.get(kind, name) else {
+    let Some(v0) = fr.model.effects.at(kind, name) else {
         return (None, 0);
     };
     let target = &target.at(Fidelity::Search);
@@ -583,7 +572,7 @@ pub fn line_search(target: &Target, fr: &FitResult, kind: EffectKind) -> (Option
         .par_iter()
         .map(|&v| {
             let mut m = fr.model.clone();
-            let _ = m.effects.set(kind, name, v);
+            let _ = m.effects.set_at(kind, name, v);
             (evaluate(target, &m), m)
         })
         .collect();
@@ -736,7 +725,7 @@ mod tests {
         let k = EffectKind::Viscous;
         let at = |h_v: f64, f_s: f64| {
             let mut m = neutral_start(&base, k, k.default_form());
-            let _ = m.effects.set(k, "h_v", h_v);
+            let _ = m.effects.set_at(k, viscous::H_V, h_v);
             m.f_s = f_s;
             m
         };

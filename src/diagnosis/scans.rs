@@ -3,17 +3,17 @@
 //! scale it is scanned over.
 
 use crate::model::EffectKind;
-use crate::model::effects::{self, EFFECTS, form_param};
+use crate::model::effects::{self, EFFECTS, Param};
 
 /// One effect's scan: the parameter that sets its strength, in one form.
 #[derive(Clone, Debug)]
 pub(crate) struct Scan {
     pub(crate) kind: EffectKind,
-    pub(crate) param: &'static str,
+    pub(crate) param: Param,
     /// What the effect is, in a reader's words.
     pub(crate) label: &'static str,
     /// The other parameters and their values.
-    pub(crate) fixed: Vec<(&'static str, f64)>,
+    pub(crate) fixed: &'static [(Param, f64)],
     /// The effect is stronger where the parameter is lower (a resonance).
     pub(crate) stronger_below: bool,
     /// The weak end, where the neutral value cannot serve (0 on a log scale; a scan of one
@@ -41,13 +41,13 @@ pub(crate) static SCANS: std::sync::LazyLock<Vec<Scan>> = std::sync::LazyLock::n
 });
 
 impl Scan {
-    /// The scan `s` of effect `kind`, its parameters by name.
+    /// The scan `s` of effect `kind`.
     fn of(kind: EffectKind, s: &effects::Scan) -> Scan {
         Scan {
             kind,
-            param: s.param.name(kind),
+            param: s.param,
             label: s.label,
-            fixed: s.fixed.iter().map(|&(p, v)| (p.name(kind), v)).collect(),
+            fixed: s.fixed,
             stronger_below: s.stronger_below,
             weak: s.weak,
             strong: s.strong,
@@ -57,11 +57,21 @@ impl Scan {
 
     /// The value of the form parameter it scans: among `fixed`, else the family's default.
     fn form_value(&self) -> f64 {
-        let q = form_param(self.kind);
+        let q = self.kind.info().form;
         self.fixed
             .iter()
-            .find(|(n, _)| *n == q)
+            .find(|(p, _)| Some(*p) == q)
             .map_or(self.kind.default_form(), |f| f.1)
+    }
+
+    /// The name of the parameter it scans.
+    pub(crate) fn param_name(&self) -> &'static str {
+        self.param.name(self.kind)
+    }
+
+    /// The other parameters' names and values.
+    pub(crate) fn fixed_named(&self) -> impl Iterator<Item = (&'static str, f64)> + '_ {
+        self.fixed.iter().map(|&(p, v)| (p.name(self.kind), v))
     }
 
     /// Whether it scans the effect's default form.

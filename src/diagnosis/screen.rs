@@ -10,7 +10,6 @@
 use super::fit::{self, FitOptions, FitResult, Model, Target};
 use super::scan;
 use crate::model::EffectKind;
-use crate::model::effects::form_param;
 use faer::Mat;
 
 /// Most recordings a candidate is first fitted on. Each candidate is screened, by a fit of at
@@ -200,10 +199,7 @@ impl<'a> Screen<'a> {
                 Some((_, refit)) => &refit.model,
                 None => from,
             };
-            let form = scanned
-                .effects
-                .get(k, form_param(k))
-                .unwrap_or(k.default_form());
+            let form = scanned.effects.form_value(k).unwrap_or(k.default_form());
             let neutral = fit::prepare(sub, &scan::neutral_start(base, k, form), effects);
             (vec![first, neutral], 1)
         }

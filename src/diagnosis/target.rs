@@ -7,6 +7,9 @@ use super::features::{
 };
 use super::model::{Bound, Model, Plausible, SLIP_BOUND_MARGIN, STRIBECK_DELTA, default_range};
 use crate::campaign::{GridAsk, Recording, SimTrace, Solvers, simulate_grid, simulate_grids};
+use crate::model::effects::{
+    Param, actuator_response, drive_ripple, frictional_lag, sensor_dynamics, stribeck_shape,
+};
 use crate::model::{EffectKind, Params};
 use rayon::prelude::*;
 use std::collections::HashMap;
@@ -243,7 +246,7 @@ impl SimCache {
         let mut m = model.clone();
         if rec.params.u0 == 0.0 {
             for (k, v) in m.effects.list.iter_mut() {
-                if matches!(k, EffectKind::ActuatorResponse | EffectKind::NormalCoupling) {
+                if k.vibration_only() {
                     for (x, p) in v.iter_mut().zip(k.info().params) {
                         *x = p.default;
                     }
@@ -800,20 +803,19 @@ impl Plausible {
     ///   friction curves).
     pub fn of(t: &Target) -> Plausible {
         let mut bounds = vec![];
-        let mut push =
-            |effect: EffectKind, param: &'static str, lo: f64, hi: f64, reason: String| {
-                let (a, b) = default_range(effect, param);
-                let (lo, hi) = (lo.max(a), hi.min(b));
-                if lo < hi && (lo > a || hi < b) {
-                    bounds.push(Bound {
-                        effect,
-                        param,
-                        lo,
-                        hi,
-                        reason,
-                    });
-                }
-            };
+        let mut push = |effect: EffectKind, param: Param, lo: f64, hi: f64, reason: String| {
+            let (a, b) = default_range(effect, param);
+            let (lo, hi) = (lo.max(a), hi.min(b));
+            if lo < hi && (lo > a || hi < b) {
+                bounds.push(Bound {
+                    effect,
+                    param,
+                    lo,
+                    hi,
+                    reason,
+                });
+            }
+        };
         if t.recs.is_empty() {
             return Plausible { bounds };
         }
@@ -864,14 +866,14 @@ impl Plausible {
         };
         push(
             EffectKind::SensorDynamics,
-            "f_n",
+            sensor_dynamics::F_N,
             sensor_lo,
             f64::INFINITY,
             why,
         );
         push(
             EffectKind::ActuatorResponse,
-            "f_r",
+            actuator_response::F_R,
             f_osc,
             f64::INFINITY,
             format!("no lower than the fastest drive oscillator, sqrt(k_d/m)/2pi = {f_osc:.1} Hz"),
@@ -888,7 +890,7 @@ impl Plausible {
             .fold(f64::INFINITY, f64::min);
         push(
             EffectKind::DriveRipple,
-            "wavelength",
+            drive_ripple::WAVELENGTH,
             resolved,
             0.5 * travel,
             format!(
@@ -900,7 +902,7 @@ impl Plausible {
         if period > 0.0 {
             push(
                 EffectKind::FrictionalLag,
-                "tau",
+                frictional_lag::TAU,
                 0.0,
                 period,
                 format!(
@@ -911,7 +913,7 @@ impl Plausible {
         }
         push(
             EffectKind::StribeckShape,
-            "delta",
+            stribeck_shape::DELTA,
             STRIBECK_DELTA.0,
             STRIBECK_DELTA.1,
             format!(

@@ -160,7 +160,7 @@ fn summary_candidates(d: &Diagnosis, s: &mut String) {
             s,
             "  plausible: {}.{} in [{:.4e}, {:.4e}]: {}",
             b.effect.name(),
-            b.param,
+            b.param.name(b.effect),
             b.lo,
             b.hi,
             b.reason

@@ -1,7 +1,9 @@
 //! The actuator's response: the substrate's real vibration amplitude `A u0` follows a
 //! resonance of the piezo and saddle, or a first-order lag, with frequency.
 
-use super::{At, EffectInfo, EffectKind, Effects, Form, Param, Resolved, Scan, ep, form, range};
+use super::{
+    At, EffectInfo, EffectKind, Effects, Form, Param, Resolved, Scale, Scan, ep, form, range,
+};
 
 /// `f_r`.
 pub const F_R: Param = Param(0);
@@ -86,7 +88,7 @@ pub(super) const INFO: EffectInfo = EffectInfo {
             (100.0, 1e5),
             4000.0,
             true,
-            true,
+            Scale::Log,
         ),
         ep(
             "zeta",
@@ -95,7 +97,7 @@ pub(super) const INFO: EffectInfo = EffectInfo {
             (0.01, 2.0),
             0.2,
             true,
-            true,
+            Scale::Log,
         ),
         ep(
             "form",
@@ -104,10 +106,15 @@ pub(super) const INFO: EffectInfo = EffectInfo {
             (0.0, 1.0),
             0.0,
             false,
-            false,
+            Scale::Whole,
         ),
     ],
     candidate: true,
+    form: Some(FORM),
+    vibration_only: true,
+    neutral: &[(F_R, 1e5), (ZETA, 0.7)],
+    starts: &[],
+    fit_steps: &[],
     forms: &[
         form(
             "resonance",
@@ -118,7 +125,7 @@ pub(super) const INFO: EffectInfo = EffectInfo {
             name: "first_order",
             doc: "one pole: a first-order lag of corner f_r, A = 1/√(1 + (f/f_r)²)",
             value: 1.0,
-            unused: &["zeta"],
+            unused: &[ZETA],
         },
     ],
     fit_ranges: &[],

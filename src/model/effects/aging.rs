@@ -3,7 +3,7 @@
 //! with it: `F_s → F_s (1 + b ln(1 + θ/θ_0))`.
 
 use super::terms::{FxCoeffs, Shape};
-use super::{At, EffectInfo, EffectKind, Param, Resolved, Scan, ep, form, range};
+use super::{At, EffectInfo, EffectKind, Grid, Param, Resolved, Scale, Scan, ep, form, range};
 use crate::ode::lanes::{Real, ln, ln_1p};
 
 /// `b`.
@@ -59,7 +59,7 @@ pub(super) const INFO: EffectInfo = EffectInfo {
             (0.0, 0.5),
             0.03,
             true,
-            false,
+            Scale::Linear,
         ),
         ep(
             "theta_0",
@@ -68,7 +68,7 @@ pub(super) const INFO: EffectInfo = EffectInfo {
             (1e-5, 10.0),
             0.01,
             false,
-            true,
+            Scale::Log,
         ),
         ep(
             "d_c",
@@ -77,7 +77,7 @@ pub(super) const INFO: EffectInfo = EffectInfo {
             (1e-9, 1e-3),
             1e-6,
             false,
-            true,
+            Scale::Log,
         ),
         ep(
             "form",
@@ -86,10 +86,15 @@ pub(super) const INFO: EffectInfo = EffectInfo {
             (0.0, 1.0),
             0.0,
             false,
-            false,
+            Scale::Whole,
         ),
     ],
     candidate: true,
+    form: Some(FORM),
+    vibration_only: false,
+    neutral: &[(B, 0.0)],
+    starts: &[(B, Grid::Values(&[0.02, 0.05, 0.1, 0.2]))],
+    fit_steps: &[],
     forms: &[
         form(
             "ageing_law",

@@ -2,7 +2,7 @@
 //! `x_d = v_d t + a sin(2π v_d t / λ)`.
 
 use super::terms::FxCoeffs;
-use super::{At, EffectInfo, EffectKind, Param, Resolved, Scan, ep, range};
+use super::{At, EffectInfo, EffectKind, Param, Resolved, Scale, Scan, ep, range};
 use crate::model::base::BaseCoeffs;
 use crate::model::state::{V, X};
 use crate::ode::lanes::{Real, cos, sin};
@@ -26,7 +26,7 @@ pub(super) const INFO: EffectInfo = EffectInfo {
             (0.0, 1e-3),
             5e-6,
             true,
-            false,
+            Scale::Linear,
         ),
         ep(
             "wavelength",
@@ -35,10 +35,15 @@ pub(super) const INFO: EffectInfo = EffectInfo {
             (1e-6, 0.1),
             0.3e-3,
             true,
-            true,
+            Scale::Log,
         ),
     ],
     candidate: true,
+    form: None,
+    vibration_only: false,
+    neutral: &[(A, 0.0)],
+    starts: &[],
+    fit_steps: &[],
     forms: &[],
     fit_ranges: &[],
     realistic: &[range(A, 4e-6, 10e-6), range(WAVELENGTH, 0.2e-3, 0.5e-3)],

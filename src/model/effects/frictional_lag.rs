@@ -2,7 +2,7 @@
 //! (`τ w' = v_r − w`) or a slip distance, or the Stribeck level itself lags over slip.
 
 use super::terms::{FxCoeffs, Lag, Shape};
-use super::{At, EffectInfo, EffectKind, Form, Param, Resolved, Scan, ep, range};
+use super::{At, EffectInfo, EffectKind, Form, Grid, Param, Resolved, Scale, Scan, ep, range};
 use crate::ode::lanes::Real;
 
 /// `tau`.
@@ -45,7 +45,7 @@ pub(super) const INFO: EffectInfo = EffectInfo {
             (1e-6, 1.0),
             1e-3,
             true,
-            true,
+            Scale::Log,
         ),
         ep(
             "length",
@@ -54,7 +54,7 @@ pub(super) const INFO: EffectInfo = EffectInfo {
             (1e-9, 1e-3),
             1e-6,
             true,
-            true,
+            Scale::Log,
         ),
         ep(
             "form",
@@ -63,29 +63,38 @@ pub(super) const INFO: EffectInfo = EffectInfo {
             (0.0, 2.0),
             0.0,
             false,
-            false,
+            Scale::Whole,
         ),
     ],
     candidate: true,
+    form: Some(FORM),
+    vibration_only: false,
+    neutral: &[(TAU, 3e-5), (LENGTH, 1e-7)],
+    starts: &[
+        (TAU, Grid::Log(1e-4, 1e-2, 4)),
+        // A memory of 0.1 to 10 µm of slip: 0.1 to 10 ms at 1 mm/s.
+        (LENGTH, Grid::Log(1e-7, 1e-5, 4)),
+    ],
+    fit_steps: &[],
     forms: &[
         Form {
             name: "time",
             doc: "the lag is a time: τ w' = v_r − w",
             value: 0.0,
-            unused: &["length"],
+            unused: &[LENGTH],
         },
         Form {
             name: "distance",
             doc: "the memory fades over slip distance: L w' = |v_r| (v_r − w)",
             value: 1.0,
-            unused: &["tau"],
+            unused: &[TAU],
         },
         Form {
             name: "level",
             doc: "the Stribeck level lags over slip distance: L φ' = |v_r| (e(v_r) − φ), \
                   g = F_c + (F_s − F_c) φ",
             value: 2.0,
-            unused: &["tau"],
+            unused: &[TAU],
         },
     ],
     fit_ranges: &[

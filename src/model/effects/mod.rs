@@ -147,29 +147,43 @@ impl Scan {
     }
 }
 
-/// One switchable effect.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub enum EffectKind {
+/// The registry: each effect's variant of [`EffectKind`] and its entry in [`EFFECTS`], from one
+/// line (and its doc) per effect, in a fixed order (the order of `[x, v, s]`'s extensions, of
+/// files and of reports). An effect is defined in its file, whose `INFO` this line names.
+macro_rules! registry {
+    ($($(#[$doc:meta])* $kind:ident => $file:ident,)*) => {
+        /// One switchable effect.
+        #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+        pub enum EffectKind {
+            $($(#[$doc])* $kind,)*
+        }
+
+        /// The library of effects, in the registry's order, each defined in its file.
+        pub static EFFECTS: &[EffectInfo] = &[$($file::INFO,)*];
+    };
+}
+
+registry! {
     /// Static friction grows with the time the contact has been stuck.
-    Aging,
+    Aging => aging,
     /// The substrate's real vibration amplitude departs from the nominal one with frequency.
-    ActuatorResponse,
+    ActuatorResponse => actuator_response,
     /// The tangential vibration modulates the normal load, and so `F_c` and `F_s`.
-    NormalCoupling,
+    NormalCoupling => normal_coupling,
     /// A lightly damped second-order force sensor between the true and the recorded force.
-    SensorDynamics,
+    SensorDynamics => sensor_dynamics,
     /// A periodic error in the drive's motion.
-    DriveRipple,
+    DriveRipple => drive_ripple,
     /// Friction growing with the slip velocity (linearly, or as a power of it).
-    Viscous,
+    Viscous => viscous,
     /// A Stribeck exponent other than 2.
-    StribeckShape,
+    StribeckShape => stribeck_shape,
     /// Multi-element (Maxwell-slip) presliding in place of the single LuGre bristle.
-    Presliding,
+    Presliding => presliding,
     /// The friction force lags behind changes of the slip velocity.
-    FrictionalLag,
+    FrictionalLag => frictional_lag,
     /// Friction varying with position along the track (not a diagnosis candidate).
-    Track,
+    Track => track,
 }
 
 /// One parameter of an effect.
@@ -189,8 +203,38 @@ pub struct EffectParam {
     pub default: f64,
     /// Fitted by `calibrate`/`diagnose` (the others stay at their given value).
     pub fitted: bool,
-    /// Fitted on a log scale (positive quantities spanning decades).
-    pub log: bool,
+    /// How its values are spaced: what a fit steps on and how `synth` draws it.
+    pub scale: Scale,
+}
+
+impl EffectParam {
+    /// Fitted (and drawn) on a log scale.
+    pub fn log(&self) -> bool {
+        self.scale == Scale::Log
+    }
+}
+
+/// How an effect parameter's values are spaced.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Scale {
+    /// A linear quantity.
+    Linear,
+    /// A positive quantity spanning decades: fitted and drawn on a log scale.
+    Log,
+    /// An angle in degrees, wrapped into [-180°, 180°): a fit crosses ±180° without meeting
+    /// an end.
+    Degrees,
+    /// A whole number (a count of elements, a form's code): a fraction is refused.
+    Whole,
+}
+
+/// The values a global scan tries for one parameter ([`EffectInfo::starts`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Grid {
+    /// These values.
+    Values(&'static [f64]),
+    /// `n` values evenly spaced on a log scale from `lo` to `hi`, both ends included.
+    Log(f64, f64, usize),
 }
 
 /// An effect's name, meaning and parameters.
@@ -221,6 +265,20 @@ pub struct EffectInfo {
     /// The detection limits' scans of it, one per form with a strength to scan (none for an
     /// effect that is no candidate).
     pub scans: &'static [Scan],
+    /// The parameter whose value chooses its form (`form`, or `exponent` for `viscous`), where
+    /// it has forms.
+    pub form: Option<Param>,
+    /// Whether it acts only through the substrate's vibration: with a vibration amplitude `u0`
+    /// of 0 the model with it is the model without it, term for term.
+    pub vibration_only: bool,
+    /// The values at which it vanishes, or nearly so, within its bounds and without adding a
+    /// stiff mode: where a diagnosis starts its fit (`diagnosis::model::neutral`).
+    pub neutral: &'static [(Param, f64)],
+    /// The values the global scan of a diagnosis tries for its fitted parameters, over their
+    /// plausible ranges (`diagnosis::scan::starts`); a fitted parameter left out is not scanned.
+    pub starts: &'static [(Param, Grid)],
+    /// A fit's step where 5 % of the default (or 0.1 % of the range) does not serve.
+    pub fit_steps: &'static [(Param, f64)],
     /// Its share of the right-hand side's numbers, from its values, at the forcing frequency
     /// and normal load.
     pub(crate) resolve: fn(&[f64], &mut Resolved, &At),
@@ -237,7 +295,7 @@ pub struct Form {
     /// The form parameter's value.
     pub value: f64,
     /// Parameters this form does not use.
-    pub unused: &'static [&'static str],
+    pub unused: &'static [Param],
 }
 
 const fn form(name: &'static str, doc: &'static str, value: f64) -> Form {
@@ -249,13 +307,10 @@ const fn form(name: &'static str, doc: &'static str, value: f64) -> Form {
     }
 }
 
-/// The parameter whose value chooses an effect's form.
+/// The name of the parameter whose value chooses an effect's form ([`EffectInfo::form`];
+/// `form` where it has none).
 pub fn form_param(kind: EffectKind) -> &'static str {
-    if kind == EffectKind::Viscous {
-        "exponent"
-    } else {
-        "form"
-    }
+    kind.info().form.map_or("form", |p| p.name(kind))
 }
 
 /// One entry of [`EFFECTS`]: `range` is `(min, max)`.
@@ -266,7 +321,7 @@ const fn ep(
     range: (f64, f64),
     default: f64,
     fitted: bool,
-    log: bool,
+    scale: Scale,
 ) -> EffectParam {
     EffectParam {
         name,
@@ -276,23 +331,9 @@ const fn ep(
         max: range.1,
         default,
         fitted,
-        log,
+        scale,
     }
 }
-
-/// The library of effects, in a fixed order: one line per effect, each defined in its file.
-pub static EFFECTS: [EffectInfo; 10] = [
-    aging::INFO,
-    actuator_response::INFO,
-    normal_coupling::INFO,
-    sensor_dynamics::INFO,
-    drive_ripple::INFO,
-    viscous::INFO,
-    stribeck_shape::INFO,
-    presliding::INFO,
-    frictional_lag::INFO,
-    track::INFO,
-];
 
 impl EffectKind {
     /// Its entry in [`EFFECTS`].
@@ -327,20 +368,14 @@ impl EffectKind {
     /// amplitude `u0` of 0 the model with it is the model without it, term for term (the
     /// actuator scales `u0`; the load swing is switched on with the vibration).
     pub fn vibration_only(self) -> bool {
-        matches!(
-            self,
-            EffectKind::ActuatorResponse | EffectKind::NormalCoupling
-        )
+        self.info().vibration_only
     }
 
     /// The value of its form parameter in its default form (0 where it has no forms).
     pub fn default_form(self) -> f64 {
-        let name = form_param(self);
         self.info()
-            .params
-            .iter()
-            .find(|p| p.name == name)
-            .map_or(0.0, |p| p.default)
+            .form
+            .map_or(0.0, |p| self.info().params[p.0].default)
     }
 
     /// The effects `diagnose` tries.
@@ -514,25 +549,41 @@ impl Effects {
     /// Sets an effect's form by name (switching the effect on): `form = "velocity"`.
     pub fn set_form(&mut self, kind: EffectKind, name: &str) -> Result<(), EffectError> {
         let info = kind.info();
-        let f = kind
-            .form_named(name)
-            .ok_or_else(|| EffectError::UnknownForm {
-                effect: info.name,
-                name: form_param(kind),
-                text: name.to_string(),
-                allowed: forms_list(kind),
-            })?;
-        self.set(kind, form_param(kind), f.value)
+        let unknown = || EffectError::UnknownForm {
+            effect: info.name,
+            name: form_param(kind),
+            text: name.to_string(),
+            allowed: forms_list(kind),
+        };
+        let f = kind.form_named(name).ok_or_else(unknown)?;
+        self.set_form_value(kind, f.value)
+    }
+
+    /// Sets an effect's form by its form parameter's value ([`EffectInfo::form`]), switching
+    /// the effect on; an effect without forms is only switched on.
+    pub fn set_form_value(&mut self, kind: EffectKind, value: f64) -> Result<(), EffectError> {
+        match kind.info().form {
+            Some(p) => self.set_at(kind, p, value),
+            None => {
+                self.enable(kind);
+                Ok(())
+            }
+        }
+    }
+
+    /// The value of the form parameter of an effect that is on, where the effect has forms.
+    pub fn form_value(&self, kind: EffectKind) -> Option<f64> {
+        self.at(kind, kind.info().form?)
     }
 
     /// The form of an effect that is on, where the effect has forms.
     pub fn form(&self, kind: EffectKind) -> Option<&'static Form> {
-        kind.form_of(self.get(kind, form_param(kind))?)
+        kind.form_of(self.form_value(kind)?)
     }
 
     /// Whether the form of `kind` uses its parameter `param` (every parameter of an effect
     /// without forms, or not on).
-    pub fn uses(&self, kind: EffectKind, param: &str) -> bool {
+    pub fn uses(&self, kind: EffectKind, param: Param) -> bool {
         self.form(kind).is_none_or(|f| !f.unused.contains(&param))
     }
 
@@ -597,15 +648,18 @@ impl Effects {
         self.list
             .iter()
             .map(|(k, v)| {
-                let form = k.form_of(self.get(*k, form_param(*k)).unwrap_or(f64::NAN));
+                let form = self.form(*k);
                 let ps: Vec<String> = k
                     .info()
                     .params
                     .iter()
                     .zip(v)
-                    .filter(|(p, _)| self.uses(*k, p.name))
-                    .map(|(p, x)| match form {
-                        Some(f) if p.name == form_param(*k) => format!("{}={}", p.name, f.name),
+                    .enumerate()
+                    .filter(|&(i, _)| self.uses(*k, Param(i)))
+                    .map(|(i, (p, x))| match form {
+                        Some(f) if k.info().form == Some(Param(i)) => {
+                            format!("{}={}", p.name, f.name)
+                        }
                         _ => format!("{}={x:.4e}", p.name),
                     })
                     .collect();
@@ -627,7 +681,7 @@ fn forms_list(kind: EffectKind) -> String {
 }
 
 fn check(info: &EffectInfo, p: &EffectParam, v: f64) -> Result<(), EffectError> {
-    let whole = matches!(p.name, "elements" | "form") && v.fract() != 0.0;
+    let whole = p.scale == Scale::Whole && v.fract() != 0.0;
     if !(v.is_finite() && v >= p.min && v <= p.max) || whole {
         return Err(EffectError::OutOfRange {
             effect: info.name,
@@ -794,7 +848,7 @@ mod tests {
 
     #[test]
     fn table_is_consistent() {
-        for e in &EFFECTS {
+        for e in EFFECTS {
             assert_eq!(EffectKind::from_name(e.name), Some(e.kind));
             for p in e.params {
                 assert!(
@@ -803,10 +857,62 @@ mod tests {
                     e.name,
                     p.name
                 );
-                assert!(!p.log || p.min > 0.0, "{}.{}", e.name, p.name);
+                assert!(!p.log() || p.min > 0.0, "{}.{}", e.name, p.name);
             }
         }
         assert_eq!(EffectKind::candidates().len(), 9);
+    }
+
+    /// What an effect's file says of its parameters for the diagnosis holds against its table:
+    /// its form parameter is the one its forms set (and a whole number), its neutral values and
+    /// scan grids lie within the bounds, a grid and a step are for a fitted parameter, and only
+    /// the two effects that act through the vibration say so.
+    #[test]
+    fn an_effects_diagnosis_data_agree_with_its_table() {
+        for e in EFFECTS {
+            let name = |p: Param| format!("{}.{}", e.name, p.name(e.kind));
+            match e.form {
+                Some(p) => {
+                    assert!(!e.forms.is_empty(), "{}", name(p));
+                    let info = p.of(e.kind);
+                    assert!(matches!(info.name, "form" | "exponent"), "{}", name(p));
+                    assert_eq!(info.default, e.forms[0].value, "{}", name(p));
+                    for f in e.forms {
+                        assert!(check(e, info, f.value).is_ok(), "{}", f.name);
+                    }
+                }
+                None => assert!(e.forms.is_empty(), "{}", e.name),
+            }
+            for &(p, v) in e.neutral {
+                let info = p.of(e.kind);
+                assert!(
+                    info.fitted && (info.min..=info.max).contains(&v),
+                    "{}",
+                    name(p)
+                );
+            }
+            for &(p, g) in e.starts {
+                let (lo, hi, ok) = match g {
+                    Grid::Values(v) => (v[0], v[v.len() - 1], v.windows(2).all(|w| w[0] < w[1])),
+                    Grid::Log(lo, hi, n) => (lo, hi, lo > 0.0 && lo < hi && n >= 2),
+                };
+                let info = p.of(e.kind);
+                assert!(ok && info.fitted, "{}", name(p));
+                assert!(lo >= info.min && hi <= info.max, "{}", name(p));
+            }
+            for &(p, step) in e.fit_steps {
+                assert!(p.of(e.kind).fitted && step > 0.0, "{}", name(p));
+            }
+        }
+        let vibrated: Vec<_> = EFFECTS
+            .iter()
+            .filter(|e| e.vibration_only)
+            .map(|e| e.kind)
+            .collect();
+        assert_eq!(
+            vibrated,
+            [EffectKind::ActuatorResponse, EffectKind::NormalCoupling]
+        );
     }
 
     /// Each effect file's typed indices name the parameter at their place in its table, and its
@@ -849,7 +955,7 @@ mod tests {
         for &(k, p, name) in named {
             assert_eq!(p.name(k), name, "{k}");
         }
-        for e in &EFFECTS {
+        for e in EFFECTS {
             assert_eq!(
                 named.iter().filter(|n| n.0 == e.kind).count(),
                 e.params.len(),

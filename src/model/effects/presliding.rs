@@ -2,7 +2,7 @@
 //! elements of stiffness `k_t/N` whose breakaway deformations spread about the mean.
 
 use super::terms::{FxCoeffs, Shape};
-use super::{At, EffectInfo, EffectKind, Effects, Param, Resolved, Scan, ep, range};
+use super::{At, EffectInfo, EffectKind, Effects, Grid, Param, Resolved, Scale, Scan, ep, range};
 use crate::model::state::S;
 use crate::ode::lanes::Real;
 
@@ -34,7 +34,7 @@ pub(super) const INFO: EffectInfo = EffectInfo {
             (0.0, 0.95),
             0.5,
             true,
-            false,
+            Scale::Linear,
         ),
         ep(
             "elements",
@@ -43,10 +43,15 @@ pub(super) const INFO: EffectInfo = EffectInfo {
             (1.0, 8.0),
             4.0,
             false,
-            false,
+            Scale::Whole,
         ),
     ],
     candidate: true,
+    form: None,
+    vibration_only: false,
+    neutral: &[(SPREAD, 0.0)],
+    starts: &[(SPREAD, Grid::Values(&[0.3, 0.6, 0.9]))],
+    fit_steps: &[],
     forms: &[],
     fit_ranges: &[],
     realistic: &[range(SPREAD, 0.5, 0.9)],

@@ -3,7 +3,9 @@
 //! late in `order4_delay`.
 
 use super::terms::{FxCoeffs, Shape};
-use super::{At, EffectInfo, EffectKind, Form, Param, Resolved, Scan, ep, form, range};
+use super::{
+    At, EffectInfo, EffectKind, Form, Grid, Param, Resolved, Scale, Scan, ep, form, range,
+};
 use crate::ode::lanes::Real;
 use std::f64::consts::TAU;
 
@@ -64,7 +66,7 @@ pub(super) const INFO: EffectInfo = EffectInfo {
             (10.0, 1e5),
             250.0,
             true,
-            true,
+            Scale::Log,
         ),
         ep(
             "zeta",
@@ -73,7 +75,7 @@ pub(super) const INFO: EffectInfo = EffectInfo {
             (0.005, 2.0),
             0.05,
             true,
-            true,
+            Scale::Log,
         ),
         ep(
             "form",
@@ -82,7 +84,7 @@ pub(super) const INFO: EffectInfo = EffectInfo {
             (0.0, 2.0),
             0.0,
             false,
-            false,
+            Scale::Whole,
         ),
         ep(
             "delay",
@@ -91,22 +93,31 @@ pub(super) const INFO: EffectInfo = EffectInfo {
             (0.0, 5e-3),
             1e-4,
             true,
-            false,
+            Scale::Linear,
         ),
     ],
     candidate: true,
+    form: Some(FORM),
+    vibration_only: false,
+    neutral: &[(F_N, 2e4), (ZETA, 0.7)],
+    starts: &[
+        // A load cell carrying the frame rings at tens of hertz.
+        (F_N, Grid::Log(20.0, 2e4, 10)),
+        (ZETA, Grid::Values(&[0.05, 0.3, 0.7])),
+    ],
+    fit_steps: &[],
     forms: &[
         Form {
             name: "order2",
             doc: "one second-order section (a load cell's resonance)",
             value: 0.0,
-            unused: &["delay"],
+            unused: &[DELAY],
         },
         Form {
             name: "order4",
             doc: "two second-order sections at f_n, of damping ζ and (1 + √2) ζ (a sharp anti-alias filter: Butterworth at ζ = 0.383)",
             value: 1.0,
-            unused: &["delay"],
+            unused: &[DELAY],
         },
         form(
             "order4_delay",

@@ -2,7 +2,7 @@
 //! or a rational curve `1/(1 + |v_r/v_s|^δ)`.
 
 use super::terms::{FxCoeffs, Shape, Stribeck};
-use super::{At, EffectInfo, EffectKind, Param, Resolved, Scan, ep, form, range};
+use super::{At, EffectInfo, EffectKind, Grid, Param, Resolved, Scale, Scan, ep, form, range};
 use crate::model::base::gauss;
 use crate::ode::lanes::{Real, exp, pow};
 
@@ -44,7 +44,7 @@ pub(super) const INFO: EffectInfo = EffectInfo {
             (0.2, 10.0),
             1.0,
             true,
-            true,
+            Scale::Log,
         ),
         ep(
             "form",
@@ -53,10 +53,15 @@ pub(super) const INFO: EffectInfo = EffectInfo {
             (0.0, 1.0),
             0.0,
             false,
-            false,
+            Scale::Whole,
         ),
     ],
     candidate: true,
+    form: Some(FORM),
+    vibration_only: false,
+    neutral: &[(DELTA, 2.0)],
+    starts: &[(DELTA, Grid::Values(&[0.5, 1.0, 1.5, 3.0]))],
+    fit_steps: &[],
     forms: &[
         form("exponential", "exp(−|v_r/v_s|^δ)", 0.0),
         form(

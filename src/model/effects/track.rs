@@ -2,7 +2,7 @@
 //! a test effect, not a diagnosis candidate.
 
 use super::terms::FxCoeffs;
-use super::{At, EffectInfo, EffectKind, Param, Resolved, ep, range};
+use super::{At, EffectInfo, EffectKind, Param, Resolved, Scale, ep, range};
 use crate::model::state::X;
 use crate::ode::lanes::{Real, sin};
 use std::f64::consts::TAU;
@@ -27,7 +27,7 @@ pub(super) const INFO: EffectInfo = EffectInfo {
             (0.0, 0.5),
             0.1,
             false,
-            false,
+            Scale::Linear,
         ),
         ep(
             "wavelength",
@@ -36,7 +36,7 @@ pub(super) const INFO: EffectInfo = EffectInfo {
             (1e-6, 1.0),
             0.7e-3,
             false,
-            true,
+            Scale::Log,
         ),
         ep(
             "offset",
@@ -45,10 +45,15 @@ pub(super) const INFO: EffectInfo = EffectInfo {
             (0.0, 1.0),
             0.0,
             false,
-            false,
+            Scale::Linear,
         ),
     ],
     candidate: false,
+    form: None,
+    vibration_only: false,
+    neutral: &[],
+    starts: &[],
+    fit_steps: &[],
     forms: &[],
     fit_ranges: &[],
     realistic: &[

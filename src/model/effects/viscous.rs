@@ -2,7 +2,7 @@
 //! `F_F → F_F + h_v v_r (|v_r|/V_1)^(n−1)`, `V_1` = 1 mm/s.
 
 use super::terms::{FxCoeffs, Shape};
-use super::{At, EffectInfo, EffectKind, Param, Resolved, Scan, ep, form, range};
+use super::{At, EffectInfo, EffectKind, Grid, Param, Resolved, Scale, Scan, ep, form, range};
 use crate::ode::lanes::{Real, pow};
 
 /// `h_v`.
@@ -54,7 +54,7 @@ pub(super) const INFO: EffectInfo = EffectInfo {
             (0.0, 1e4),
             50.0,
             true,
-            false,
+            Scale::Linear,
         ),
         ep(
             "exponent",
@@ -63,10 +63,15 @@ pub(super) const INFO: EffectInfo = EffectInfo {
             (1.0, 3.0),
             1.0,
             false,
-            false,
+            Scale::Linear,
         ),
     ],
     candidate: true,
+    form: Some(EXPONENT),
+    vibration_only: false,
+    neutral: &[(H_V, 0.0)],
+    starts: &[(H_V, Grid::Values(&[20.0, 50.0, 100.0, 200.0]))],
+    fit_steps: &[],
     forms: &[
         form(
             "linear",
