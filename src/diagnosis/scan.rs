@@ -35,7 +35,7 @@ fn scan_values(kind: EffectKind, param: Param) -> Vec<f64> {
     }
 }
 
-/// `base` with `kind` switched on at its neutral values ([`neutral`]): the base model, or
+/// `base` with `kind` switched on at its neutral values ([`neutral`](super::model::neutral)): the base model, or
 /// nearly so.
 pub fn neutral_start(base: &Model, kind: EffectKind, form: f64) -> Model {
     let mut m0 = base.clone();
@@ -53,7 +53,7 @@ pub fn neutral_start(base: &Model, kind: EffectKind, form: f64) -> Model {
 /// gain scan of [`actuator_scan`], 100 Hz to 100 kHz in steps of 1 %) on the calibrated
 /// parameters of `base`, scored on up to [`SCAN_RECORDINGS`] recordings (half of them those
 /// `base` misses most), with
-/// the neutral start ([`neutral`]) among them; for the drive ripple, the wavelength and
+/// the neutral start ([`neutral`](super::model::neutral)) among them; for the drive ripple, the wavelength and
 /// amplitude read off the recorded drive position, where recorded. The scan's best start is
 /// refined locally by [`fit`](super::fit::fit) (in `diagnose`, first by a screening fit, about whose optimum a
 /// sensor's resonance is then scanned densely: [`line_search`]). As the scan holds the
