@@ -41,6 +41,19 @@ impl Sampler {
     /// The sampler of `n` samples at `t0 + i dt` of `rig`, and the grid to integrate on.
     pub(crate) fn new(rig: Rig, t0: f64, dt: f64, n: usize) -> (Sampler, OutputGrid) {
         let tau = rig.sensor_delay();
+        Sampler::covering(rig, t0, dt, n, tau)
+    }
+
+    /// As [`Sampler::new`], with a grid that starts early enough for a sensor delay up to
+    /// `tau` (at least `rig`'s own), for samplers of rigs beside it ([`Sampler::alike`]).
+    pub(crate) fn covering(
+        rig: Rig,
+        t0: f64,
+        dt: f64,
+        n: usize,
+        tau: f64,
+    ) -> (Sampler, OutputGrid) {
+        let tau = tau.max(rig.sensor_delay());
         // Enough samples before t0 to bracket t0 − τ, none before t = 0.
         let lead = if tau > 0.0 {
             ((tau / dt).ceil() as usize + 1).min((t0 / dt).floor().max(0.0) as usize)
@@ -75,6 +88,30 @@ impl Sampler {
             hist,
         };
         (s, grid)
+    }
+
+    /// A sampler of `rig` on this one's grid, nothing taken yet.
+    pub(crate) fn alike(&self, rig: Rig) -> Sampler {
+        let tau = rig.sensor_delay();
+        Sampler {
+            rig,
+            out: SimTrace {
+                f_d: Vec::with_capacity(self.n),
+                x_s: Vec::with_capacity(self.n),
+                x_d: Vec::with_capacity(self.n),
+                status: Status::Success,
+            },
+            n: self.n,
+            lead: self.lead,
+            seen: 0,
+            start: self.start,
+            dt: self.dt,
+            hist: if tau > 0.0 {
+                Vec::with_capacity(self.n + self.lead)
+            } else {
+                Vec::new()
+            },
+        }
     }
 
     /// Takes the sample at grid time `t` of state `y`.

@@ -25,6 +25,7 @@
 pub mod batch;
 pub mod check;
 pub mod delay;
+pub mod sensitivity;
 pub mod synth;
 pub use batch::{GridAsk, GridResult, simulate_grids};
 

@@ -554,9 +554,9 @@ fn extend(
 /// restarting the step control at the switch-on, where the substrate velocity jumps from 0 to
 /// `u0 ω` (docs/model.md); the output times of `span.grid` are shared out by index: those up to
 /// `t_on` to the first stage. The work is added up.
-pub fn integrate_stages(
+pub fn integrate_stages<S: crate::ode::OdeSystem>(
     solver: &mut Solver,
-    rig: &Rig,
+    rig: &S,
     t_on: f64,
     span: Span,
     y: &mut [f64],
