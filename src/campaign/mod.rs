@@ -483,31 +483,37 @@ pub fn simulate_grid(
     let (mut sampler, grid) = delay::Sampler::new(rig.clone(), t0, dt, n);
     let t1 = t0 + dt * (n - 1) as f64;
     let solver = solvers.get(method_for(p));
+    let span = Span::new(0.0, t1, grid);
+    let rep = integrate_recording(solver, &rig, p, span, &mut y, tol, |t, y| {
+        sampler.take(t, y);
+        true
+    });
+    Ok(sampler.finish(rep.status))
+}
+
+/// Integrates a recording's system `sys` (the rig, or the rig with its sensitivities) from
+/// rest over `span` at tolerance `tol` (`rtol = atol`), in two stages where the recording's
+/// vibration switches on inside it (the substrate velocity jumps at `t_on`; the grid is shared
+/// by index), handing each output to `observe`.
+pub(crate) fn integrate_recording<S: crate::ode::OdeSystem>(
+    solver: &mut crate::ode::Solver,
+    sys: &S,
+    p: &Params,
+    span: Span,
+    y: &mut [f64],
+    tol: f64,
+    observe: impl FnMut(f64, &[f64]) -> bool,
+) -> crate::ode::RunReport {
     let opts = Options {
         rtol: tol,
         atol: tol,
         ..Options::default()
     };
-    let mut observe = |t: f64, y: &[f64]| sampler.take(t, y);
-    let rep = if p.two_stage() && p.t_on < t1 {
-        // The substrate velocity jumps at t_on: two integrations, the grid shared by index.
-        let observe = |t: f64, y: &[f64]| {
-            observe(t, y);
-            true
-        };
-        crate::sim::integrate_stages(
-            solver,
-            &rig,
-            p.t_on,
-            Span::new(0.0, t1, grid),
-            &mut y,
-            &opts,
-            observe,
-        )
+    if p.two_stage() && p.t_on < span.t1 {
+        crate::sim::integrate_stages(solver, sys, p.t_on, span, y, &opts, observe)
     } else {
-        solver.solve(&rig, Span::new(0.0, t1, grid), &mut y, &opts, &mut observe)
-    };
-    Ok(sampler.finish(rep.status))
+        solver.solve_until(sys, span, y, &opts, observe)
+    }
 }
 
 /// One solver per method, kept across runs by a worker.

@@ -29,11 +29,11 @@
 //! quotient of the sampler: the recorded force, with a sensor's delay where there is one.
 
 use super::delay::Sampler;
-use super::{SimTrace, simulate_grid};
+use super::{SimTrace, integrate_recording, simulate_grid};
 use crate::model::effects::Param;
 use crate::model::params::ParamInfo;
 use crate::model::{EffectKind, Effects, MAX_DIM, Params, Rig, RigError};
-use crate::ode::{Method, OdeSystem, Options, Solvers, Span};
+use crate::ode::{Method, OdeSystem, Solvers, Span};
 
 /// A parameter a derivative is taken along.
 #[derive(Clone, Copy, Debug)]
@@ -120,21 +120,21 @@ impl Quotient {
     /// `(g(hi, y + a σ s) − g(lo, y + b σ s)) / ((a − b) σ)` for a function `g` of a rig and
     /// a state.
     #[inline]
-    fn apply<const M: usize>(
+    fn apply(
         &self,
         y: &[f64],
         s: &[f64],
-        mut g: impl FnMut(&Rig, &[f64], &mut [f64; M]),
-        out: &mut [f64; M],
+        mut g: impl FnMut(&Rig, &[f64], &mut [f64; MAX_DIM]),
+        out: &mut [f64; MAX_DIM],
     ) {
         let n = y.len();
         let (a, b) = self.ends;
         let (ya, yb) = self.states(y, s);
-        let (mut ga, mut gb) = ([0.0; M], [0.0; M]);
+        let (mut ga, mut gb) = ([0.0; MAX_DIM], [0.0; MAX_DIM]);
         g(&self.hi, &ya[..n], &mut ga);
         g(&self.lo, &yb[..n], &mut gb);
         let inv = 1.0 / ((a - b) * QUOTIENT_STEP);
-        for i in 0..M {
+        for i in 0..y.len() {
             out[i] = (ga[i] - gb[i]) * inv;
         }
     }
@@ -298,12 +298,7 @@ pub fn simulate_grid_sensitive(
         .collect();
     let t1 = t0 + dt * (n - 1) as f64;
     let solver = solvers.get(sensitive_method_for(p));
-    let opts = Options {
-        rtol: tol,
-        atol: tol,
-        ..Options::default()
-    };
-    let mut observe = |t: f64, y: &[f64]| {
+    let observe = |t: f64, y: &[f64]| {
         let (y0, s) = y.split_at(dim);
         sampler.take(t, y0);
         for (k, (q, (hi, lo))) in sys.quotients.iter().zip(ends.iter_mut()).enumerate() {
@@ -313,19 +308,8 @@ pub fn simulate_grid_sensitive(
         }
         true
     };
-    let rep = if p.two_stage() && p.t_on < t1 {
-        crate::sim::integrate_stages(
-            solver,
-            &sys,
-            p.t_on,
-            Span::new(0.0, t1, grid),
-            &mut y,
-            &opts,
-            &mut observe,
-        )
-    } else {
-        solver.solve_until(&sys, Span::new(0.0, t1, grid), &mut y, &opts, &mut observe)
-    };
+    let span = Span::new(0.0, t1, grid);
+    let rep = integrate_recording(solver, &sys, p, span, &mut y, tol, observe);
     let trace = sampler.finish(rep.status);
     let derivatives = ends
         .into_iter()
@@ -428,8 +412,8 @@ mod tests {
 
     /// What a run at 1e-9 may depart beyond the reference's error, in units of the largest
     /// derivative: with the sensitivities under error control, the tolerance's reach; without,
-    /// their error is the method's on the state's steps (up to 7.1e-4 measured here, the load
-    /// swing's strength under vibration).
+    /// their error is the method's on the state's steps (docs/campaigns.md, "Derivatives from
+    /// the integrator", gives the largest measured here).
     fn floor(control: ErrorControl) -> f64 {
         match control {
             ErrorControl::Full => 1e-4,

@@ -133,7 +133,7 @@ pub(crate) fn coords(bounds: &Plausible, effects: &[EffectKind], fx: &Effects) -
                 Scale::Degrees => (min - 360.0, max + 360.0),
                 Scale::Linear | Scale::Whole => (min, max),
             };
-            let own_step = info.fit_steps.iter().find(|s| s.0 == param).map(|s| s.1);
+            let own_step = param.look_up(info.fit_steps);
             let step = if p.log() {
                 0.05
             } else if let Some(step) = own_step {
@@ -250,11 +250,7 @@ pub(crate) fn on_bounds(
 /// so a candidate is not worse on the calibration data than the base model (where a fit still
 /// ends worse, `diagnose` reports the base model for it).
 pub fn neutral(kind: EffectKind, param: Param) -> Option<f64> {
-    kind.info()
-        .neutral
-        .iter()
-        .find(|n| n.0 == param)
-        .map(|n| n.1)
+    param.look_up(kind.info().neutral)
 }
 
 /// Where a fit narrows an effect parameter's allowed range: the effect's

@@ -22,13 +22,7 @@ use rayon::prelude::*;
 /// others at three to five points of their range); none where the effect has none for it.
 /// The actuator's resonance has a scan of its own ([`actuator_scan`]).
 fn scan_values(kind: EffectKind, param: Param) -> Vec<f64> {
-    match kind
-        .info()
-        .starts
-        .iter()
-        .find(|s| s.0 == param)
-        .map(|s| s.1)
-    {
+    match param.look_up(kind.info().starts) {
         Some(Grid::Values(v)) => v.to_vec(),
         Some(Grid::Log(lo, hi, n)) => logspace(lo, hi, n),
         None => vec![],

@@ -78,6 +78,12 @@ impl Param {
     pub fn name(self, kind: EffectKind) -> &'static str {
         self.of(kind).name
     }
+
+    /// Its entry in one of an effect's tables by parameter ([`EffectInfo::neutral`],
+    /// [`EffectInfo::starts`], [`EffectInfo::fit_steps`]).
+    pub fn look_up<T: Copy>(self, table: &[(Param, T)]) -> Option<T> {
+        table.iter().find(|e| e.0 == self).map(|e| e.1)
+    }
 }
 
 impl std::ops::Index<Param> for [f64] {
