@@ -14,6 +14,7 @@ import subprocess
 import sys
 import textwrap
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -250,12 +251,19 @@ def test_open_a_diagnosis_and_refuse_what_is_not_a_file(tmp_path: Path) -> None:
 # ---- Ctrl-C ----------------------------------------------------------------------------------
 
 
-def _interrupt(script: str, after: float) -> tuple[str, float]:
+def _interrupt(script: str, after: float, ready: Callable[[], bool] | None = None) -> tuple[str, float]:
+    """Run `script`, send SIGINT once it is under way, and give its output and how long it took
+    to stop. Under way means: it printed "go" (just before the computation), `after` seconds
+    passed, and `ready()` holds if given (polled every 5 ms, for at most a minute)."""
     p = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    # Wait until the computation is under way (the script prints "go" just before it).
     assert p.stdout is not None
     assert p.stdout.readline().strip() == "go"
     time.sleep(after)
+    deadline = time.monotonic() + 60.0
+    while ready is not None and not ready():
+        assert p.poll() is None, "the script ended before it was ready to be interrupted"
+        assert time.monotonic() < deadline, "the script never became ready to be interrupted"
+        time.sleep(0.005)
     t0 = time.monotonic()
     p.send_signal(signal.SIGINT)
     out, err = p.communicate(timeout=60)
@@ -296,10 +304,16 @@ def test_ctrl_c_keeps_a_sweep_that_resumes_to_the_cli_numbers(tmp_path: Path) ->
             print("interrupted")
         """
     )
-    text, waited = _interrupt(script, 2.0)
+    journal = Path(str(out) + ".journal")
+
+    def some_runs_journaled() -> bool:
+        # Interrupt once a first run is recorded (the journal's first line is its header), so the
+        # sweep is under way however fast the machine is, and far from finished.
+        return journal.is_file() and sum(1 for l in journal.read_text().splitlines()[1:] if l.strip()) > 0
+
+    text, waited = _interrupt(script, 0.0, some_runs_journaled)
     assert "interrupted" in text, text
     assert waited < 1.0, waited
-    journal = Path(str(out) + ".journal")
     assert journal.is_file()
     recorded = sum(1 for l in journal.read_text().splitlines()[1:] if l.strip())
     assert recorded > 0
