@@ -7,7 +7,7 @@
 use stickslip::campaign::Campaign;
 use stickslip::campaign::synth::{Design, SynthSpec, synth};
 use stickslip::diagnosis::diagnose::{DiagnoseOptions, Diagnosis, Verdict, diagnose};
-use stickslip::diagnosis::limits::Limit;
+use stickslip::diagnosis::limits::{Confirmation, Limit};
 use stickslip::model::{EffectKind, Effects};
 
 fn campaign(effects: Effects, seed: u64) -> (tempfile::TempDir, Campaign) {
@@ -76,6 +76,36 @@ fn ageing_at_twice_its_limit_is_found_and_at_half_is_not() {
     for e in &l.effects {
         eprintln!("{}", e.statement);
         assert!(e.statement.contains(e.param), "{}", e.statement);
+        // The search: its probe ran first, and a limit is a strength at which the full test
+        // fired on at least 95 % of its draws, never a prediction alone.
+        let runs = &e.search.runs;
+        assert_eq!(
+            runs.first().map(|r| r.value),
+            Some(e.search.probe),
+            "{}",
+            e.statement
+        );
+        if let Some(v) = e.limit {
+            let at = runs
+                .iter()
+                .find(|r| r.value == v)
+                .expect("the limit was run in full");
+            assert!(at.detected as f64 >= 0.95 * at.draws as f64, "{at:?}");
+            // Every strength run below it did not fire, or the search would have stated it.
+            let weaker = |r: &&Confirmation| {
+                if e.stronger == "below" {
+                    r.value > v
+                } else {
+                    r.value < v
+                }
+            };
+            for r in runs.iter().filter(weaker) {
+                assert!(
+                    (r.detected as f64) < 0.95 * r.draws as f64 || r.failed > 0.05,
+                    "{r:?} below {v}"
+                );
+            }
+        }
     }
     let aging = l.effects.iter().find(|e| e.effect == "aging").unwrap();
     let b = aging.limit.expect("ageing is detectable in this campaign");

@@ -301,6 +301,8 @@ pub struct LimitRecord {
     pub strong_end: f64,
     /// One sentence.
     pub statement: String,
+    /// How it was searched.
+    pub search: super::limits::Search,
 }
 
 impl From<&super::limits::Limits> for LimitsRecord {
@@ -328,6 +330,7 @@ impl From<&super::limits::Limits> for LimitsRecord {
                     weak_end: x.weak_end,
                     strong_end: x.strong_end,
                     statement: x.statement.clone(),
+                    search: x.search.clone(),
                 })
                 .collect(),
             simulations: l.simulations,

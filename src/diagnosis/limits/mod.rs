@@ -53,16 +53,40 @@
 //! 4. on each draw the verdict's test is run on `r` ([`Test`]), and the power at `s` is the
 //!    share of draws on which it fires.
 //!
-//! The strength is scanned from the effect's neutral end to the strong end of its plausible
-//! range ([`super::model::Plausible`]) on a log scale (linear for the presliding spread): every
-//! rung of a ladder of [`LADDER`] (an octave apart for a resonance: [`RESONANCE_STEP`]; none fires: the effect cannot be excluded at any plausible
-//! strength), then [`BISECTIONS`] halvings of the bracket below the first rung that fires. The
-//! power need not grow with the strength: a load cell slower than the forcing shifts the
-//! ripple's phase, which shows; slower still it attenuates the ripple into the noise and shows
-//! nothing. A stronger rung that does not fire is a *hole*, and the edge of the detected band
-//! before it is bisected too. A strength at which more than [`MAX_FAILED`] of the runs fail
-//! ends the scan there. Each
-//! effect is scanned in one form, its other parameters fixed at stated values (`form`).
+//! **Searched by statistics, judged in full.** A limit is a number found by a search and judged
+//! by the test. The strength runs from the effect's neutral end (`u = 0`) to the strong end of
+//! its plausible range (`u = 1`, [`super::model::Plausible`]) on a log scale (linear for the
+//! presliding spread). The search (`Scanner::search`):
+//! 1. *probe*: the signature at the first rung of a ladder of [`LADDER`] (an octave apart for
+//!    a resonance: [`RESONANCE_STEP`]) is simulated in full;
+//! 2. *predict*: the signature grows as a power `k` of the effect's strength `x` (the
+//!    parameter's distance from where the effect vanishes; for a resonance the distance of
+//!    `1/f`): a filter's phase lag goes as `f/f_c` (`k = 1`), a resonance's gain as its square
+//!    (`k = 2`), a saturating effect slower. `k` is fitted from the noncentralities of the last
+//!    run and the run nearest it (1 until there are two; parametric power estimation, Ueckert,
+//!    Karlsson and Hooker 2016). The signature of the last run, scaled, goes through the very
+//!    draws of the test (steps 2 to 4, the folds' refit taken once and scaled) to the smallest
+//!    scale at which the test fires on [`POWER`] of them: the predicted limit, and its
+//!    *noncentrality*, the sum of squares over the held-out rows of the signature the refit
+//!    leaves (Gallant 1975). No simulation is run for it;
+//! 3. *confirm*: the effect at the predicted strength is simulated in full on every recording
+//!    and run through the test. A run that fires bounds the limit from above, one that does
+//!    not from below; the next strength is the last run's prediction (a quiet run's a step
+//!    further, `Scanner::next_u`) kept inside that bracket, else the bracket's middle. The
+//!    search ends when the bracket is one step wide (the ladder's step halved [`BISECTIONS`]
+//!    times, the resolution the scan had before it was searched) or when a run that fires
+//!    predicts its own strength within a step, and after [`MAX_RUNS`] runs at most (a
+//!    resonance's ladder besides): the limit is then the weakest strength confirmed.
+//!
+//! The limit stated is always a strength at which the full test fired. The power need not grow
+//! with the strength: a load cell slower than the forcing shifts the ripple's phase, which
+//! shows; slower still it attenuates the ripple into the noise and shows nothing. So the strong
+//! end is run too (`Scanner::band`); where it does not fire, every rung of the ladder stronger
+//! than the limit is, the rungs that do not fire are *holes*, and the edge of the detected band
+//! before the first is bisected. A resonance whose prediction and strong end both stay quiet has
+//! its ladder run rung by rung (its band may lie between). A strength at which more than
+//! [`MAX_FAILED`] of the runs fail caps the search there. Each effect is scanned in each of its
+//! forms, its other parameters fixed at stated values (`form`).
 //!
 //! **Approximation.** The refit of step 2 is the cross-validation's own, to first order in the
 //! signature: where an effect's signature is large enough for the base parameters to move far
@@ -86,6 +110,10 @@ use rand_distr::{Distribution, Normal};
 use rayon::prelude::*;
 use std::cmp::Ordering;
 
+mod search;
+use search::scan_limit;
+pub use search::{Confirmation, Search};
+
 /// The power at which an effect counts as detectable.
 pub const POWER: f64 = 0.95;
 /// Random-sign draws of the held-out residuals per strength.
@@ -106,6 +134,14 @@ pub const BISECTIONS: usize = 4;
 /// Largest share of rows whose runs may fail at a strength for its power to count: beyond it,
 /// the effect at that strength is outside what the model can simulate, and the scan ends.
 pub const MAX_FAILED: f64 = 0.05;
+/// Strengths a limit's search runs in full at most (the probe included), a resonance's ladder
+/// besides (`Scanner::search`); the detected band's strong side after it is not counted.
+pub const MAX_RUNS: usize = 8;
+/// Halvings of the logarithm of the scale of a signature in a prediction
+/// (`Scanner::predict`): a bracket of at most 21 in the logarithm to 0.08, finer than the
+/// scan's step (a sixteenth of a rung, 0.14 in the logarithm over four decades and four rungs);
+/// each halving runs the test's draws once.
+const PREDICTION_BISECTIONS: usize = 8;
 /// Seed of the draws (fixed: a diagnosis is deterministic).
 const SEED: u64 = 0x5eed_0f11;
 
@@ -175,6 +211,8 @@ pub struct Limit {
     pub strong_end: f64,
     /// One sentence.
     pub statement: String,
+    /// How it was searched: the prediction and the strengths run in full to confirm it.
+    pub search: Search,
 }
 
 impl Limit {
@@ -760,209 +798,83 @@ impl<'a> PowerTest<'a> {
         out
     }
 
-    /// The power of a signature (held-out rows, after the fold refits), the campaign's own
-    /// held-out residuals rescaled by its `scale` (the alternative's noise against the
-    /// campaign's, row by row; NaN: the row is not measured under the alternative). On each
-    /// draw a phase row's signature is the one at that draw's measured amplitude, refitted.
-    fn power_of(&self, sig: &Signature) -> f64 {
-        let (rows, feats, n, cv) = (&self.rows, &self.feats, self.n, self.cv);
-        let (signs, quadratures, shared) = (&self.signs, self.quadratures.as_slice(), &self.shared);
-        let (fold, k_folds, test) = (self.fold, self.k_folds, self.test);
-        let unabsorbed = |d: &[f64]| self.unabsorbed(d);
-        // Without phase rows the signature is the same on every draw: refitted once.
-        let fixed = sig.phases.is_empty().then(|| unabsorbed(&sig.d));
-        let fired = signs
-            .par_iter()
-            .zip(quadratures)
-            .filter(|(s, q)| {
-                let drawn;
-                let d = if let Some(fixed) = &fixed {
-                    fixed
-                } else {
+    /// A signature after each fold's refit: once where it has no phase rows, else per draw (a
+    /// phase row's signature is the one at the amplitude that draw measures).
+    fn unabsorbed_draws(&self, sig: &Signature) -> Unabsorbed {
+        if sig.phases.is_empty() {
+            return Unabsorbed::Once(self.unabsorbed(&sig.d));
+        }
+        Unabsorbed::PerDraw(
+            self.quadratures
+                .par_iter()
+                .map(|q| {
                     let mut d = sig.d.clone();
                     for p in &sig.phases {
                         let (n1, n2) = q[p.row];
                         d[p.row] = p.at((1.0 + n1 / p.snr).hypot(n2 / p.snr));
                     }
-                    drawn = unabsorbed(&d);
-                    &drawn
-                };
+                    self.unabsorbed(&d)
+                })
+                .collect(),
+        )
+    }
+
+    /// The draws on which the test fires with the refitted signature `u` taken `c` times (1: as
+    /// simulated), the campaign's own held-out residuals rescaled by the signature's `scale`
+    /// (the alternative's noise against the campaign's, row by row; NaN: the row is not
+    /// measured under the alternative).
+    fn detected(&self, sig: &Signature, u: &Unabsorbed, c: f64) -> usize {
+        let (rows, feats, n, cv) = (&self.rows, &self.feats, self.n, self.cv);
+        let shared = &self.shared;
+        let (fold, k_folds, test) = (self.fold, self.k_folds, self.test);
+        self.signs
+            .par_iter()
+            .enumerate()
+            .filter(|(k, s)| {
+                let d = u.on(*k);
                 let r: Vec<f64> = (0..rows.len())
                     .map(|i| {
                         let e = shared[i] + s[rows[i]] * (cv.held[i] - shared[i]);
-                        sig.scale[i] * e + d[i]
+                        sig.scale[i] * e + c * d[i]
                     })
                     .collect();
                 test.fires(&summarise(rows, feats, n, r, fold, k_folds))
             })
-            .count();
-        fired as f64 / DRAWS as f64
+            .count()
     }
 }
 
-/// One effect's scan: the power along a ladder of strengths from its weak end to its strong
-/// end, the limit bisected below the first rung that fires (and the detected band's end
-/// where a stronger rung does not), and its statement.
-fn scan_limit(
-    s: &Scan,
-    all: &Target,
-    against: &FitResult,
-    pipe: &Pipeline<'_, '_>,
-    pt: &PowerTest<'_>,
-) -> Limit {
-    let power_of = |sig: &Signature| pt.power_of(sig);
-    let info = s.kind.info();
-    let p = s.param.of(s.kind);
-    let (lo, hi) = all.bounds.range(s.kind, s.param);
-    let (lo, hi) = (lo.max(p.min), hi.min(p.max));
-    let neutral = neutral(s.kind, s.param).unwrap_or(if s.stronger_below { hi } else { lo });
-    let weak = s.weak.unwrap_or(neutral).clamp(lo, hi);
-    let weak = if s.log && weak <= 0.0 {
-        hi * 1e-4
-    } else {
-        weak
-    };
-    let strong = s.strong.unwrap_or(if s.stronger_below { lo } else { hi });
-    let mut model = against.model.clone();
-    for &(q, v) in s.fixed {
-        // The form's values are inside the library's bounds by construction.
-        let _ = model.effects.set_at(s.kind, q, v);
-    }
-    let (vmin, vmax) = (lo.min(hi), lo.max(hi));
-    // An effect that acts through the vibration leaves a recording without any (its
-    // amplitude 0) as the model in hand has it: not simulated again.
-    let alone: Vec<bool> = all
-        .recs
-        .iter()
-        .map(|r| s.kind.vibration_only() && r.params.u0 == 0.0)
-        .collect();
-    // The power at `u` of the scan, and the share of rows whose runs failed there.
-    let power_at = |u: f64| -> (f64, f64) {
-        let mut m = model.clone();
-        let v = value_at(weak, strong, s.log, u).clamp(vmin, vmax);
-        if m.effects.set_at(s.kind, s.param, v).is_err() {
-            return (0.0, 1.0);
+/// A signature after each fold's refit ([`PowerTest::unabsorbed_draws`]).
+enum Unabsorbed {
+    /// The same on every draw.
+    Once(Vec<f64>),
+    /// One per draw.
+    PerDraw(Vec<Vec<f64>>),
+}
+
+impl Unabsorbed {
+    /// On draw `k`.
+    fn on(&self, k: usize) -> &[f64] {
+        match self {
+            Unabsorbed::Once(d) => d,
+            Unabsorbed::PerDraw(v) => &v[k],
         }
-        let Some(sig) = pipe.signature(&m, &alone) else {
-            return (0.0, 1.0);
+    }
+
+    /// The noncentrality it stands for: the sum of its squares over the held-out rows (the
+    /// mean over the draws where it is drawn).
+    fn noncentrality(&self) -> f64 {
+        let ss = |d: &[f64]| {
+            d.iter()
+                .filter(|x| x.is_finite())
+                .map(|x| x * x)
+                .sum::<f64>()
         };
-        (power_of(&sig), sig.failed)
-    };
-    let form = s
-        .fixed_named()
-        .map(|(q, v)| format!("{q} = {v}"))
-        .collect::<Vec<_>>()
-        .join(", ");
-    // Every rung of the ladder (a stronger effect can hide its own trace: a load cell
-    // slow enough drowns the ripple whose phase it shifts), then the bracket below the
-    // first rung that fires halved.
-    let (rungs, reached) = rungs(s, weak, strong, &power_at);
-    let first = rungs.iter().position(|r| r.1 >= POWER);
-    // Stronger rungs than the first that fires on which the test does not fire.
-    let holes: Vec<f64> = first.map_or(vec![], |j| {
-        rungs[j..]
-            .iter()
-            .filter(|r| r.1 < POWER)
-            .map(|r| value_at(weak, strong, s.log, r.0).clamp(vmin, vmax))
-            .collect()
-    });
-    // Where the detected band ends on the strong side: the bracket between the last
-    // rung that fires before the first hole and that hole, halved as the limit's.
-    let band_end = first.and_then(|j| {
-        let h = (j..rungs.len()).find(|&i| rungs[i].1 < POWER)?;
-        let (mut a, mut b) = (rungs[h - 1].0, rungs[h].0);
-        for _ in 0..BISECTIONS {
-            let mid = 0.5 * (a + b);
-            let (pm, failed) = power_at(mid);
-            if pm >= POWER && failed <= MAX_FAILED {
-                a = mid;
-            } else {
-                b = mid;
-            }
+        match self {
+            Unabsorbed::Once(d) => ss(d),
+            Unabsorbed::PerDraw(v) => v.iter().map(|d| ss(d)).sum::<f64>() / v.len().max(1) as f64,
         }
-        Some(value_at(weak, strong, s.log, a).clamp(vmin, vmax))
-    });
-    let (limit, power, everywhere) = match first {
-        None => (None, rungs.last().map_or(0.0, |r| r.1), false),
-        Some(j) => {
-            let (mut b, mut pb) = rungs[j];
-            let mut a = if j == 0 { 0.0 } else { rungs[j - 1].0 };
-            for _ in 0..BISECTIONS {
-                let mid = 0.5 * (a + b);
-                let (pm, failed) = power_at(mid);
-                if pm >= POWER && failed <= MAX_FAILED {
-                    (b, pb) = (mid, pm);
-                } else {
-                    a = mid;
-                }
-            }
-            // Detected down to the weak end: the limit lies below the scan.
-            let everywhere = a == 0.0 && power_at(0.0).0 >= POWER;
-            (
-                Some(value_at(weak, strong, s.log, b).clamp(vmin, vmax)),
-                pb,
-                everywhere,
-            )
-        }
-    };
-    let strong = value_at(weak, strong, s.log, reached).clamp(vmin, vmax);
-    let found = Found {
-        weak,
-        strong,
-        limit,
-        band_end,
-        everywhere,
-        holes: &holes,
-        power,
-        reached,
-    };
-    let (stronger, statement) = statement(s, p.unit, &found);
-    Limit {
-        effect: info.name,
-        holes,
-        band_end,
-        param: s.param_name(),
-        unit: p.unit,
-        label: s.label,
-        form,
-        form_name: s.form_name(),
-        stronger,
-        limit,
-        power,
-        weak_end: weak,
-        strong_end: strong,
-        statement,
     }
-}
-
-/// The power at every rung of a scan's ladder (`(u, power)`, `u` from its weak end, 0, to
-/// its strong end, 1; a resonance's ladder steps at most [`RESONANCE_STEP`] in frequency), and
-/// the share of the scan reached: the ladder ends where the runs fail.
-fn rungs(
-    s: &Scan,
-    weak: f64,
-    strong: f64,
-    power_at: &impl Fn(f64) -> (f64, f64),
-) -> (Vec<(f64, f64)>, f64) {
-    let mut rungs: Vec<(f64, f64)> = vec![];
-    let mut reached = 1.0;
-    let ladder = if s.stronger_below && s.log && weak > 0.0 && strong > 0.0 {
-        let octaves = (weak / strong).ln() / RESONANCE_STEP.ln();
-        LADDER.max(octaves.ceil() as usize)
-    } else {
-        LADDER
-    };
-    for k in 1..=ladder {
-        let u = k as f64 / ladder as f64;
-        let (pw, failed) = power_at(u);
-        if failed > MAX_FAILED {
-            // Runs fail from here on: the scan ends where they still ran.
-            reached = rungs.last().map_or(0.0, |r| r.0);
-            break;
-        }
-        rungs.push((u, pw));
-    }
-    (rungs, reached)
 }
 
 /// What a scan found, for its statement.
@@ -1268,6 +1180,13 @@ mod tests {
             weak_end: 0.0,
             strong_end: 0.0,
             statement: String::new(),
+            search: Search {
+                probe: 0.0,
+                predicted: None,
+                noncentrality: None,
+                runs: vec![],
+                at_budget: false,
+            },
         }
     }
 
