@@ -13,9 +13,11 @@ LINK = re.compile(r"\[[^\]]*\]\(([^)\s]+)\)")
 
 
 def anchors(page: Path) -> set[str]:
-    """GitHub's heading anchors: lower case, punctuation dropped, spaces to hyphens."""
+    """GitHub's heading anchors (lower case, punctuation dropped, spaces to hyphens) and the
+    explicit ones (`<a id="..."></a>`)."""
     out = set()
     for line in page.read_text().splitlines():
+        out.update(re.findall(r'<a id="([^"]+)"></a>', line))
         if line.startswith("#"):
             title = line.lstrip("#").strip().lower()
             out.add(re.sub(r"[^\w\- ]", "", title).replace(" ", "-"))
