@@ -118,7 +118,7 @@ impl Scanner<'_, '_, '_> {
         let gv = g0 + x * (g1 - g0).signum();
         let v = if self.s.stronger_below { 1.0 / gv } else { gv };
         if self.s.log {
-            if !(v > 0.0) {
+            if v.is_nan() || v <= 0.0 {
                 return f64::NEG_INFINITY;
             }
             (v.ln() - self.weak.ln()) / (self.strong.ln() - self.weak.ln())
