@@ -64,6 +64,12 @@ impl Scan {
             .map_or(self.kind.default_form(), |f| f.1)
     }
 
+    /// Whether it scans a resonance (a frequency on a log scale, stronger below), whose trace
+    /// can vanish again at stronger strengths.
+    pub(crate) fn resonance(&self) -> bool {
+        self.stronger_below && self.log
+    }
+
     /// The name of the parameter it scans.
     pub(crate) fn param_name(&self) -> &'static str {
         self.param.name(self.kind)

@@ -129,7 +129,8 @@ pub const LADDER: usize = 4;
 /// four over 2e4 to 28 Hz (3.9 kHz and 743 Hz), and the limit read 77 Hz. An octave keeps such
 /// a band on a rung.
 pub const RESONANCE_STEP: f64 = 2.0;
-/// Halvings of the bracket between the last rung that did not fire and the first that did.
+/// Halvings of a rung that set a scan's resolution (its step, a sixteenth of a rung), and of
+/// the bracket before the first hole in which the detected band's end is bisected.
 pub const BISECTIONS: usize = 4;
 /// Largest share of rows whose runs may fail at a strength for its power to count: beyond it,
 /// the effect at that strength is outside what the model can simulate, and the scan ends.
@@ -197,8 +198,9 @@ pub struct Limit {
     /// The weakest value detected with [`POWER`] (None: not detected anywhere in the scanned
     /// range).
     pub limit: Option<f64>,
-    /// Values stronger than `limit` at which the test did not fire (the rungs of the scan's
-    /// ladder): where the effect hides its own trace. Empty where every stronger rung fired.
+    /// Values stronger than `limit` at which the full test did not fire (the strong end, the
+    /// ladder's rungs and the search's runs above the limit): where the effect hides its own
+    /// trace. Empty where the strong end fired.
     pub holes: Vec<f64>,
     /// Where such holes exist: the strongest value of the band from `limit` on in which the
     /// test fires (the edge before the first hole, bisected as `limit` is).

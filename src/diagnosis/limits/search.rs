@@ -46,11 +46,11 @@ pub struct Confirmation {
     pub predicts: Option<f64>,
 }
 
-/// A strength run in full: where on the scan, its signature and its power.
+/// A strength run in full: where on the scan, its power and what its signature predicts.
 struct Run {
     u: f64,
-    sig: Option<Signature>,
     detected: usize,
+    /// The share of rows whose runs failed (1 where no signature could be made).
     failed: f64,
     /// Its noncentrality as simulated (the sum of squares of its refitted signature over the
     /// held-out rows; 0 where it failed).
@@ -65,7 +65,7 @@ impl Run {
     }
 
     fn ran(&self) -> bool {
-        self.sig.is_some() && self.failed <= MAX_FAILED
+        self.failed <= MAX_FAILED
     }
 
     fn fires(&self) -> bool {
@@ -89,7 +89,7 @@ struct Scanner<'r, 't, 'a> {
     /// Where the effect vanishes (its neutral value, else the weak end): the origin of the
     /// strength its signature is proportional to.
     origin: f64,
-    /// Rungs of the ladder ([`rungs`]).
+    /// Rungs of the ladder ([`ladder_len`]).
     ladder: usize,
     /// The scan's resolution in `u`: the ladder's step halved [`BISECTIONS`] times.
     step: f64,
@@ -143,7 +143,6 @@ impl Scanner<'_, '_, '_> {
         let Some(sig) = sig else {
             return Run {
                 u,
-                sig: None,
                 detected: 0,
                 failed: 1.0,
                 lambda: 0.0,
@@ -155,17 +154,15 @@ impl Scanner<'_, '_, '_> {
         let (failed, lambda) = (sig.failed, un.noncentrality());
         let mut run = Run {
             u,
-            sig: None,
             detected,
             failed,
             lambda,
             predicts: None,
         };
-        if failed <= MAX_FAILED {
+        if run.ran() {
             let k = self.growth(&run, before);
             run.predicts = self.predict((u, k), &sig, &un);
         }
-        run.sig = Some(sig);
         run
     }
 
@@ -175,8 +172,7 @@ impl Scanner<'_, '_, '_> {
     /// to `1/f_c`, a resonance's gain as its square, a saturating effect slower.
     fn growth(&self, r: &Run, before: &[Run]) -> f64 {
         let lx = |u: f64| self.x(u).ln();
-        // (`r` is not stored yet: its signature is being read.)
-        let usable = |o: &Run| o.failed <= MAX_FAILED && o.lambda > 0.0 && lx(o.u).is_finite();
+        let usable = |o: &Run| o.ran() && o.lambda > 0.0 && lx(o.u).is_finite();
         if !usable(r) {
             return 1.0;
         }
@@ -247,6 +243,17 @@ impl Searched {
         self.runs.iter().any(|r| r.u == u)
     }
 
+    /// Keeps `run`: a failed one caps the search at its strength, the weakest that fires is
+    /// the limit.
+    fn push(&mut self, run: Run) {
+        if !run.ran() {
+            self.cap = self.cap.min(run.u);
+        } else if run.fires() && self.limit.is_none_or(|i| run.u < self.runs[i].u) {
+            self.limit = Some(self.runs.len());
+        }
+        self.runs.push(run);
+    }
+
     /// The strongest `u` that ran without firing below the limit (below the cap without one);
     /// minus infinity where none did.
     fn quiet_below(&self) -> f64 {
@@ -260,12 +267,6 @@ impl Searched {
 }
 
 impl Scanner<'_, '_, '_> {
-    /// Whether the scan is of a resonance (a frequency, on a log scale), whose trace can vanish
-    /// again at stronger strengths.
-    fn resonance(&self) -> bool {
-        self.s.stronger_below && self.s.log
-    }
-
     /// The search for the weakest strength at which the test fires: the probe (the ladder's
     /// first rung) simulated in full, then, run after run, the strength the last run's
     /// signature predicts, kept inside the bracket the runs so far have confirmed
@@ -278,20 +279,14 @@ impl Scanner<'_, '_, '_> {
             at_budget: false,
             cap: f64::INFINITY,
         };
-        let budget = MAX_RUNS + if self.resonance() { self.ladder } else { 0 };
+        let budget = MAX_RUNS + if self.s.resonance() { self.ladder } else { 0 };
         let mut next = Some(1.0 / self.ladder as f64);
         while let Some(u) = next {
             if sr.runs.len() >= budget {
                 sr.at_budget = sr.limit.is_some();
                 break;
             }
-            let run = self.run(u, &sr.runs);
-            if !run.ran() {
-                sr.cap = sr.cap.min(u);
-            } else if run.fires() && sr.limit.is_none_or(|i| u < sr.runs[i].u) {
-                sr.limit = Some(sr.runs.len());
-            }
-            sr.runs.push(run);
+            sr.push(self.run(u, &sr.runs));
             next = self.next_u(&sr);
         }
         sr
@@ -352,7 +347,7 @@ impl Scanner<'_, '_, '_> {
     /// A resonance's next rung of the ladder not run yet, from the weak end: where neither
     /// the prediction nor the strong end fired, the band it may show in lies between.
     fn next_rung(&self, sr: &Searched) -> Option<f64> {
-        if !self.resonance() {
+        if !self.s.resonance() {
             return None;
         }
         (1..=self.ladder)
@@ -371,11 +366,7 @@ impl Scanner<'_, '_, '_> {
         let h = sr.runs[i].u;
         let ensure = |sr: &mut Searched, u: f64| {
             if u < sr.cap && !sr.has(u) {
-                let run = self.run(u, &sr.runs);
-                if !run.ran() {
-                    sr.cap = sr.cap.min(u);
-                }
-                sr.runs.push(run);
+                sr.push(self.run(u, &sr.runs));
             }
         };
         ensure(sr, 1.0);
@@ -410,7 +401,7 @@ impl Scanner<'_, '_, '_> {
             let mid = 0.5 * (a + b);
             let run = self.run(mid, &sr.runs);
             let fires = run.fires();
-            sr.runs.push(run);
+            sr.push(run);
             if fires { a = mid } else { b = mid }
         }
         (holes, Some(self.value(a)))
@@ -561,7 +552,7 @@ fn scanner<'r, 't, 'a>(
 /// Rungs of a scan's ladder: [`LADDER`], more for a resonance so that neighbouring rungs are
 /// at most [`RESONANCE_STEP`] apart.
 fn ladder_len(s: &Scan, weak: f64, strong: f64) -> usize {
-    if s.stronger_below && s.log && weak > 0.0 && strong > 0.0 {
+    if s.resonance() && weak > 0.0 && strong > 0.0 {
         let octaves = (weak / strong).ln() / RESONANCE_STEP.ln();
         LADDER.max(octaves.ceil() as usize)
     } else {
