@@ -132,7 +132,8 @@ pub(crate) fn try_candidate(r: &Round<'_>, t: &Try) -> Ranked {
     // screened in full (no stop where its linearised residuals miss the bar at the start): the
     // family is known to reach, and a form's scan start can lie far from its valley (a
     // fourth-order sensor's resonance at twice the data's). That of a trailing effect stops
-    // where it cannot come near the leader (`reach`): then it can neither be named nor tie.
+    // where it cannot come near the leader (`reach`, `reach_stops_screen`): then it can
+    // neither be named nor tie; the leader's own forms are judged so where their screens end.
     let from_gap = screen.gap;
     let Screened {
         passed,
@@ -144,7 +145,7 @@ pub(crate) fn try_candidate(r: &Round<'_>, t: &Try) -> Ranked {
         &from.model,
         &start,
         &effects,
-        Reach::of(reach, warm.is_some()),
+        Reach::of(reach.filter(|_| t.reach_stops_screen), warm.is_some()),
         opts,
     );
     let sub = screen.recordings(all);
@@ -159,8 +160,8 @@ pub(crate) fn try_candidate(r: &Round<'_>, t: &Try) -> Ranked {
             ..as_from()
         };
     };
-    // Another form that cannot come near the leading candidate is not fitted further: it
-    // could neither be named nor tie.
+    // Another form whose screen ends short of the leading candidate's reach is not fitted
+    // further: it could neither be named nor tie (forms::FORM_REACH).
     if let Some(r) = reach
         && s.gap > r * from_gap
     {

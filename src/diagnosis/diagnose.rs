@@ -88,7 +88,7 @@ use super::evidence::breadth_of;
 use super::features::{FEATURES, Feature, N_FEATURES, PHASES};
 use super::fit::{self, FitOptions, FitResult, Model, StepLog, Target};
 use super::folds::*;
-use super::forms::{Try, charge_forms, form_choice, form_reach, forms_of_one, other_forms};
+use super::forms::{Try, charge_forms, form_choice, forms_of_one, other_forms, try_forms};
 use super::limits::{self, Limits};
 use super::screen::Screen;
 use super::vet::{Against, held_out_absent, vetted};
@@ -405,11 +405,15 @@ fn first_round(cx: &Ctx<'_>, base: &Base, log: &mut Log) -> First {
             .flatten()
             .map(|&j| ranking[j].effect)
             .collect();
-        let others = form_reach(&ranking, &base.fit, &decided, other_forms(&ranking, !named));
-        if others.is_empty() {
+        let others = other_forms(&ranking, !named);
+        let between = |ranking: &mut Vec<Ranked>| {
+            ranking.sort_by(by_evidence);
+            let t = decide_first(ranking, &mut vec![]);
+            t.iter().flatten().map(|&j| ranking[j].effect).collect()
+        };
+        if !try_forms(&mut ranking, &base.fit, &decided, others, round, between) {
             return first_try;
         }
-        ranking.extend(round(&others));
         steps.end("forms", all);
         charge_forms(&mut ranking);
         ranking.sort_by(by_evidence);
@@ -722,8 +726,12 @@ fn second_candidates(
     let qualifies = second
         .iter()
         .any(|r| r.evidence.clear() && first_share(r.gap_after) >= MIN_SECOND);
-    let others = form_reach(&second, first_fit, &[], other_forms(&second, !qualifies));
-    second.extend(round(&others));
+    let others = other_forms(&second, !qualifies);
+    let between = |s: &mut Vec<Ranked>| {
+        s.sort_by(by_evidence);
+        vec![]
+    };
+    try_forms(&mut second, first_fit, &[], others, round, between);
     charge_forms(&mut second);
     second.sort_by(by_evidence);
     let first_side = Side {

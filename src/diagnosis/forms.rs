@@ -50,9 +50,15 @@ pub(crate) struct Try {
     pub form: f64,
     /// A warm start: another form starts from the default form's fit.
     pub warm: Option<Model>,
-    /// The reach asked of its screen: another form of an effect that is not the leading one
-    /// ([`form_reach`]); `None`, fitted in full.
+    /// How near the leading candidate its screen must come to be fitted further, as a
+    /// multiple of the extended model's gap on the screen's recordings ([`form_reach`]);
+    /// `None`, fitted further wherever its screen passes.
     pub reach: Option<f64>,
+    /// Whether the reach may also stop the screen's iterations early, on their linearised
+    /// residuals (another form of a trailing effect); else the screen runs its iterations in
+    /// full and the reach is checked on where it ends (the leader's own forms, and those of the
+    /// effects a decision named or tied).
+    pub reach_stops_screen: bool,
 }
 
 impl Try {
@@ -63,25 +69,28 @@ impl Try {
             form: effect.default_form(),
             warm: None,
             reach: None,
+            reach_stops_screen: false,
         }
     }
 }
 
-/// How far above the leading candidate's gap another form of a trailing effect may screen and
-/// still be fitted further: its screen's gap at most `FORM_REACH` times the leader's, both as
-/// shares of the extended model's gap (the leader's on every recording, the form's on the
-/// screen's). Why 1.5: a fit 1.5 times the leader's gap over the few hundred residuals of a
-/// campaign is worse by `n/2 · ln 2.25` nats, 40 nats at 100 residuals, far past any tie; and
-/// a screen's few iterations end above the optimum its further fit would reach by a few
-/// percent, not by half. The leader's own forms, and those of the effects a decision named or
-/// tied, are fitted in full: the form the data choose depends on them.
+/// How far above the leading candidate's gap another form may screen and still be fitted
+/// further: its screen's gap at most `FORM_REACH` times the leader's, both as shares of the
+/// extended model's gap (the leader's on every recording, the form's on the screen's). Why
+/// 1.5: a fit 1.5 times the leader's gap over the few hundred residuals of a campaign is worse
+/// by `n/2 · ln 2.25` nats, 40 nats at 100 residuals, far past any tie. A screen's share is
+/// not its further fit's (on the bench's five campaigns the further fit's share on every
+/// recording was 0.63 to 1.46 times the screen's), so a form cut could end nearer the leader than
+/// 1.5 times, but on those campaigns every form cut had ended 1.20 to 3.0 times the named form's
+/// held-out gap when fitted in full (docs/campaigns.md, "Effect families").
 pub const FORM_REACH: f64 = 1.5;
 
-/// `others` (from [`other_forms`]) with the reach of each: `None` (fitted in full) for the
-/// forms of the leading candidate's effect (of `ranked`, the best by evidence whose fit holds
-/// its effect and that no fingerprint rejected) and of `exempt`; for the others
-/// [`FORM_REACH`] times the leader's gap as a share of `from`'s. Without a leader, every form
-/// is fitted in full.
+/// `others` (from [`other_forms`]) with the reach of each, where `ranked` has a leading
+/// candidate (the best by evidence whose fit holds its effect and that no fingerprint
+/// rejected): [`FORM_REACH`] times the leader's gap as a share of `from`'s. The forms of the
+/// leader's effect and of `exempt` (the effects a decision named or tied) are screened in full
+/// and judged on where their screens end; the others' screens may stop as soon as they cannot
+/// come near ([`Try::reach_stops_screen`]). Without a leader, every form is fitted in full.
 pub(crate) fn form_reach(
     ranked: &[Ranked],
     from: &FitResult,
@@ -103,16 +112,56 @@ pub(crate) fn form_reach(
         .into_iter()
         .map(|(k, f, warm)| {
             let reach = leader
-                .filter(|l| l.effect != k && !exempt.contains(&k) && from.gap > 0.0)
+                .filter(|_| from.gap > 0.0)
                 .map(|l| FORM_REACH * l.fit.gap / from.gap);
+            let trailing = leader.is_some_and(|l| l.effect != k && !exempt.contains(&k));
             Try {
                 effect: k,
                 form: f,
                 warm,
                 reach,
+                reach_stops_screen: trailing,
             }
         })
         .collect()
+}
+
+/// The other forms `others` (from [`other_forms`]) tried beside the candidates `ranked`, in
+/// two phases: first the forms of the leader's effect and of `exempt` ([`form_reach`]); then,
+/// after `between` (the decision again, its fingerprints included, so that the leader is one
+/// they let stand; it returns the effects that decision named or tied, exempt too from then
+/// on), the trailing effects' forms, whose reach is that of the leader as it then stands: a
+/// form of the leader's effect that fits better asks more of them. `round` fits a list of
+/// candidates. Returns whether any form was tried.
+pub(crate) fn try_forms(
+    ranked: &mut Vec<Ranked>,
+    from: &FitResult,
+    exempt: &[EffectKind],
+    others: Vec<(EffectKind, f64, Option<Model>)>,
+    round: impl Fn(&[Try]) -> Vec<Ranked>,
+    mut between: impl FnMut(&mut Vec<Ranked>) -> Vec<EffectKind>,
+) -> bool {
+    if others.is_empty() {
+        return false;
+    }
+    let (own, trailing): (Vec<Try>, Vec<Try>) = form_reach(ranked, from, exempt, others)
+        .into_iter()
+        .partition(|t| !t.reach_stops_screen);
+    ranked.extend(round(&own));
+    if trailing.is_empty() {
+        return true;
+    }
+    let mut exempt = exempt.to_vec();
+    if !own.is_empty() {
+        exempt.extend(between(ranked));
+    }
+    let trailing = trailing
+        .into_iter()
+        .map(|t| (t.effect, t.form, t.warm))
+        .collect();
+    let trailing = form_reach(ranked, from, &exempt, trailing);
+    ranked.extend(round(&trailing));
+    true
 }
 
 /// Charges every candidate of an effect tried in several forms `ln m` nats for the choice
@@ -183,11 +232,12 @@ pub(crate) fn form_choice(ranked: &[Ranked]) -> Option<FormChoice> {
 mod tests {
     use super::*;
 
-    /// Another form is fitted in full where its effect leads (or a decision named or tied it),
-    /// and asked to come within FORM_REACH of the leader otherwise; a rejected candidate, or one
+    /// Every other form is asked to come within FORM_REACH of the leader. Where its effect
+    /// leads (or a decision named or tied it), its screen runs in full and is judged where it
+    /// ends; otherwise it may stop as soon as it cannot come near. A rejected candidate, or one
     /// whose screen failed (its fit does not hold its effect), leads nothing.
     #[test]
-    fn trailing_forms_are_asked_to_come_near_the_leader() {
+    fn other_forms_are_asked_to_come_near_the_leader() {
         use crate::model::EffectKind as K;
         let base = [4.0; 24];
         let mut from = Ranked::for_test(K::Viscous, 0, &base, &base, 17).fit;
@@ -205,19 +255,71 @@ mod tests {
             (K::Viscous, 2.0, None),
             (K::FrictionalLag, 1.0, None),
         ];
-        let reach = |ranked: &[Ranked], exempt: &[K]| -> Vec<Option<f64>> {
+        let reach = |ranked: &[Ranked], exempt: &[K]| -> Vec<(Option<f64>, bool)> {
             form_reach(ranked, &from, exempt, others.clone())
                 .into_iter()
-                .map(|t| t.reach)
+                .map(|t| (t.reach, t.reach_stops_screen))
                 .collect()
         };
         let want = Some(FORM_REACH * 1.0 / 4.0);
-        assert_eq!(reach(&ranked, &[]), [want, want, None, want]);
-        // Named or tied by a decision: in full.
-        assert_eq!(reach(&ranked, &[K::Aging]), [want, None, None, want]);
+        let (stops, judged) = ((want, true), (want, false));
+        assert_eq!(reach(&ranked, &[]), [stops, stops, judged, stops]);
+        // Named or tied by a decision: screened in full, judged where it ends.
+        assert_eq!(reach(&ranked, &[K::Aging]), [stops, judged, judged, stops]);
         // No leader: every form in full.
         let reach = reach(&ranked[..2], &[]);
-        assert_eq!(reach, [None; 4]);
+        assert_eq!(reach, [(None, false); 4]);
+    }
+
+    /// The trailing effects' forms are asked to come near the leader as it stands once its own
+    /// effect's forms are fitted: a form that fits better than the default asks more of them,
+    /// and the fits run in two phases, the leader's first.
+    #[test]
+    fn trailing_forms_are_judged_after_the_leaders_own() {
+        use crate::model::EffectKind as K;
+        use std::cell::RefCell;
+        let base = [4.0; 24];
+        let mut from = Ranked::for_test(K::Viscous, 0, &base, &base, 17).fit;
+        from.gap = 4.0;
+        let mut ranked = vec![
+            Ranked::for_test(K::Viscous, 1, &[2.0; 24], &base, 17),
+            Ranked::for_test(K::FrictionalLag, 1, &[3.0; 24], &base, 17),
+        ];
+        let others = vec![(K::FrictionalLag, 1.0, None), (K::Viscous, 2.0, None)];
+        let phases: RefCell<Vec<Vec<(K, Option<f64>, bool)>>> = RefCell::new(vec![]);
+        let round = |tries: &[Try]| -> Vec<Ranked> {
+            phases.borrow_mut().push(
+                tries
+                    .iter()
+                    .map(|t| (t.effect, t.reach, t.reach_stops_screen))
+                    .collect(),
+            );
+            // The leader's other form fits with half its gap.
+            tries
+                .iter()
+                .map(|t| Ranked::for_test(t.effect, 1, &[1.0; 24], &base, 17))
+                .collect()
+        };
+        let mut between_ran = 0;
+        let between = |_: &mut Vec<Ranked>| {
+            between_ran += 1;
+            vec![]
+        };
+        let tried = try_forms(&mut ranked, &from, &[], others, round, between);
+        assert!(tried);
+        assert_eq!(between_ran, 1);
+        let phases = phases.into_inner();
+        assert_eq!(
+            phases,
+            [
+                vec![(K::Viscous, Some(FORM_REACH * 2.0 / 4.0), false)],
+                vec![(K::FrictionalLag, Some(FORM_REACH * 1.0 / 4.0), true)],
+            ]
+        );
+        assert_eq!(ranked.len(), 4);
+        // Nothing to try: no round.
+        let none = try_forms(&mut ranked, &from, &[], vec![], |_| unreachable!(), |_| vec![]);
+        assert!(!none);
     }
     use crate::diagnosis::decide::{Side, decide};
     use crate::diagnosis::evidence::MIN_PARTIAL;
