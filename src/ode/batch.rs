@@ -145,8 +145,10 @@ pub fn vector_set() -> &'static str {
 }
 
 /// Largest state dimension [`solve_batch_dim`] runs in lanes; larger systems (a rig with many
-/// extensions at once) run on the scalar path.
-pub const MAX_LANE_DIM: usize = 6;
+/// extensions at once) run on the scalar path. Why 8: a fourth-order sensor is the base
+/// model's three states and four of its own, and with ageing or a lag eight; each dimension
+/// served is one more copy of the attempt in the build.
+pub const MAX_LANE_DIM: usize = 8;
 
 /// [`solve_batch`] for systems of `dim` states, the dimension chosen at run time (3 to
 /// [`MAX_LANE_DIM`]; jobs of any other dimension are served by the scalar path).
@@ -162,6 +164,8 @@ pub fn solve_batch_dim<S, O>(
         4 => solve_batch::<S, O, 4>(jobs, done),
         5 => solve_batch::<S, O, 5>(jobs, done),
         6 => solve_batch::<S, O, 6>(jobs, done),
+        7 => solve_batch::<S, O, 7>(jobs, done),
+        8 => solve_batch::<S, O, 8>(jobs, done),
         _ => solve_batch::<S, O, 3>(jobs, done),
     }
 }
