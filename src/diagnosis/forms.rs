@@ -318,7 +318,14 @@ mod tests {
         );
         assert_eq!(ranked.len(), 4);
         // Nothing to try: no round.
-        let none = try_forms(&mut ranked, &from, &[], vec![], |_| unreachable!(), |_| vec![]);
+        let none = try_forms(
+            &mut ranked,
+            &from,
+            &[],
+            vec![],
+            |_| unreachable!(),
+            |_| vec![],
+        );
         assert!(!none);
     }
     use crate::diagnosis::decide::{Side, decide};
