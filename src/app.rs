@@ -76,6 +76,7 @@ pub fn execute(cmd: Command) -> Result<(), AppError> {
         Command::Calibrate(a) => calibrate_cmd(&a),
         Command::Diagnose(a) => diagnose_cmd(&a),
         Command::Plan(a) => plan_cmd(&a),
+        Command::Preflight(a) => preflight_cmd(&a),
         Command::Merge(a) => merge_cmd(&a),
         Command::Status(a) => status_cmd(&a),
         Command::Slurm(a) => slurm_cmd(&a),
@@ -202,12 +203,19 @@ pub fn calibrate(a: &CalibrateArgs) -> Result<Calibrated, AppError> {
     })
 }
 
-/// Checks every recording before any fit ([`campaign::check`]): refuses the campaign when one
-/// is implausible, or with `skip` sets those aside and returns them.
+/// Examines every recording's acquisition ([`campaign::acquisition::prepare`]: clipped ones set
+/// aside, mains subtracted) and checks the rest before any fit ([`campaign::check`]): refuses
+/// the campaign when one is implausible, or with `skip` sets those aside and returns them.
 fn checked(
     c: Campaign,
     skip: bool,
 ) -> Result<(Campaign, Vec<campaign::check::Implausible>), AppError> {
+    let dir = c.dir.display().to_string();
+    let c = campaign::acquisition::prepare(c).map_err(|msg| CampaignError::Malformed {
+        file: dir,
+        line: 0,
+        msg,
+    })?;
     let bad = campaign::check::check_campaign(&c);
     if bad.is_empty() {
         return Ok((c, bad));
@@ -365,7 +373,16 @@ pub fn plan_cmd(a: &PlanArgs) -> Result<(), AppError> {
 /// `plan.png`, `plan.svg`, `diagnosis.json`).
 pub fn plan(a: &PlanArgs) -> Result<Planned, AppError> {
     let (opts, out, json_path) = a.resolve()?;
-    let c = Campaign::load(&a.campaign)?;
+    // The preflight as the diagnosis runs it, so a diagnosis written beside the campaign is of
+    // the recordings the plan reads.
+    let dir = a.campaign.display().to_string();
+    let c = campaign::acquisition::prepare(Campaign::load(&a.campaign)?).map_err(|msg| {
+        CampaignError::Malformed {
+            file: dir,
+            line: 0,
+            msg,
+        }
+    })?;
     let space = match &a.space {
         Some(f) => crate::planning::space::Space::of(&c).with_file(f)?,
         None => crate::planning::space::Space::of(&c),
@@ -788,6 +805,53 @@ pub fn merge_cmd(a: &MergeArgs) -> Result<(), AppError> {
     );
     if !a.no_plot {
         figures_and_boundary(&o.out)?;
+    }
+    Ok(())
+}
+
+/// `stickslip preflight`: the acquisition of every recording, as `diagnose` examines it.
+pub fn preflight_cmd(a: &crate::cli::PreflightArgs) -> Result<(), AppError> {
+    let c = Campaign::load(&a.campaign)?;
+    let n = c.recordings.len();
+    let dir = c.dir.display().to_string();
+    let pre = match campaign::acquisition::prepare(c.clone()) {
+        Ok(p) => p.acquisition,
+        Err(_) => {
+            // Every recording set aside: the findings still say why.
+            let mut acq = c.acquisition.clone();
+            acq.recordings = c
+                .recordings
+                .iter()
+                .map(campaign::acquisition::examine)
+                .collect();
+            acq
+        }
+    };
+    let mut text = format!("campaign {dir}: {n} recordings examined\n");
+    let lines = pre.report();
+    if lines.is_empty() {
+        text += "nothing of note: no gap, clip, mains line, clock offset, coarse quantisation, coloured noise, drift or gain error found\n";
+    }
+    for l in lines {
+        text += &l;
+        text += "\n";
+    }
+    let json = serde_json::to_string_pretty(&pre).unwrap_or_default();
+    match &a.json {
+        Some(p) if p.as_os_str() == "-" => {
+            eprint!("{text}");
+            println!("{json}");
+        }
+        Some(p) => {
+            output::ensure_parent(p)?;
+            std::fs::write(p, json).map_err(|e| CampaignError::Io {
+                path: p.display().to_string(),
+                msg: e.to_string(),
+            })?;
+            crate::console::print(format_args!("{text}"));
+            crate::say!("wrote {}", p.display());
+        }
+        None => crate::console::print(format_args!("{text}")),
     }
     Ok(())
 }

@@ -65,6 +65,21 @@ pub enum Command {
     /// diagnosis leaves standing, within the rig's design space, checked by simulation; one
     /// conditions file per recording, plan.json, plan.png.
     Plan(PlanArgs),
+    /// Examine a campaign's acquisition before any fit: gaps, clipped channels, mains lines,
+    /// the vibration's clock, quantisation, the noise's colour, the force's zero drift and
+    /// gain; what `diagnose` would set aside or correct.
+    Preflight(PreflightArgs),
+}
+
+/// Arguments of `stickslip preflight`.
+#[derive(Args, Debug)]
+pub struct PreflightArgs {
+    /// Campaign directory.
+    pub campaign: PathBuf,
+    /// Also write every recording's findings as JSON to FILE (`-`: standard output, the
+    /// summary then to standard error).
+    #[arg(long, value_name = "FILE")]
+    pub json: Option<PathBuf>,
 }
 
 /// Arguments of `stickslip plan`.

@@ -17,6 +17,7 @@ pub mod diagnosis;
 pub mod interrupt;
 pub mod measures;
 pub mod model;
+pub mod nullable;
 pub mod ode;
 pub mod output;
 pub mod planning;

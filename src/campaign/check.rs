@@ -385,6 +385,7 @@ impl Campaign {
                 .filter(|n| !names.contains(n))
                 .cloned()
                 .collect(),
+            acquisition: self.acquisition.clone(),
         }
     }
 }

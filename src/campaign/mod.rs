@@ -22,6 +22,7 @@
 //! ignored. A `.csv` without its `.toml` (or the reverse) is an error, as is any malformed line:
 //! the message names the file, the line and the problem. No recording is skipped silently.
 
+pub mod acquisition;
 pub mod batch;
 pub mod check;
 pub mod delay;
@@ -75,6 +76,9 @@ pub struct Campaign {
     /// The names of the recordings a plan proposed (their conditions file has a `plan` key:
     /// `stickslip plan`), in the order of [`Campaign::recordings`].
     pub planned: Vec<String>,
+    /// What the acquisition did: the files split at gaps (by [`Campaign::load`]) and, once
+    /// [`acquisition::prepare`] has run, the preflight of every recording.
+    pub acquisition: acquisition::Acquired,
 }
 
 /// A digest of recordings (names, conditions and every sample), hexadecimal: whether a
@@ -185,6 +189,7 @@ impl Campaign {
         };
         let mut recordings = vec![];
         let mut planned = vec![];
+        let mut splits = vec![];
         for (stem, (csv, toml)) in stems {
             let csv_path = dir.join(format!("{stem}.csv"));
             let toml_path = dir.join(format!("{stem}.toml"));
@@ -205,18 +210,51 @@ impl Campaign {
                 });
             }
             let (params, from_plan) = read_conditions(&toml_path, defaults.as_ref())?;
-            if from_plan {
-                planned.push(stem.clone());
+            let (cols, pieces, gaps) = read_csv(&csv_path)?;
+            let kept: Vec<&(usize, usize)> = pieces
+                .iter()
+                .filter(|(a, b)| b - a >= MIN_SAMPLES)
+                .collect();
+            if kept.is_empty() {
+                return Err(CampaignError::Malformed {
+                    file: csv_path.display().to_string(),
+                    line: 0,
+                    msg: format!(
+                        "no stretch between the time column's {} gap(s) holds {MIN_SAMPLES} samples; at least {MIN_SAMPLES} are needed",
+                        gaps.len()
+                    ),
+                });
             }
-            let (t, f_d, x_s, x_d) = read_csv(&csv_path)?;
-            recordings.push(Recording {
-                name: stem,
-                params,
-                t,
-                f_d,
-                x_s,
-                x_d,
-            });
+            let mut split = acquisition::Split {
+                file: stem.clone(),
+                gaps,
+                pieces: vec![],
+                dropped_samples: pieces.iter().map(|(a, b)| b - a).sum::<usize>()
+                    - kept.iter().map(|(a, b)| b - a).sum::<usize>(),
+            };
+            for (k, &&(a, b)) in kept.iter().enumerate() {
+                let name = if kept.len() == 1 {
+                    stem.clone()
+                } else {
+                    format!("{stem}~{}", k + 1)
+                };
+                let cut = |v: &Vec<f64>| v[a..b].to_vec();
+                if from_plan {
+                    planned.push(name.clone());
+                }
+                split.pieces.push(name.clone());
+                recordings.push(Recording {
+                    name,
+                    params,
+                    t: cut(&cols.0),
+                    f_d: cut(&cols.1),
+                    x_s: cols.2.as_ref().map(cut),
+                    x_d: cols.3.as_ref().map(cut),
+                });
+            }
+            if !split.gaps.is_empty() {
+                splits.push(split);
+            }
         }
         if recordings.is_empty() {
             return Err(CampaignError::Malformed {
@@ -229,6 +267,10 @@ impl Campaign {
             dir: dir.to_path_buf(),
             recordings,
             planned,
+            acquisition: acquisition::Acquired {
+                recordings: vec![],
+                splits,
+            },
         })
     }
 }
@@ -296,6 +338,8 @@ fn read_conditions(path: &Path, defaults: Option<&Doc>) -> Result<(Params, bool)
 }
 
 type Columns = (Vec<f64>, Vec<f64>, Option<Vec<f64>>, Option<Vec<f64>>);
+/// A file's columns, its stretches between gaps and its gaps.
+type Read = (Columns, Vec<(usize, usize)>, Vec<acquisition::Gap>);
 
 /// Largest recording read \[bytes\]: 1 GiB of CSV text, some 20 million samples of four
 /// channels.
@@ -303,7 +347,7 @@ pub const MAX_CSV_BYTES: u64 = 1 << 30;
 /// Most columns a recording's header may name (it uses four; a spreadsheet adds a few).
 pub const MAX_COLUMNS: usize = 256;
 
-fn read_csv(path: &Path) -> Result<Columns, CampaignError> {
+fn read_csv(path: &Path) -> Result<Read, CampaignError> {
     let text = crate::config::read_input(path, MAX_CSV_BYTES).map_err(|e| io(path, e))?;
     let file = path.display().to_string();
     let bad = |line: usize, msg: String| CampaignError::Malformed {
@@ -414,25 +458,70 @@ fn read_csv(path: &Path) -> Result<Columns, CampaignError> {
         }
     }
     let n = cols[0].len();
-    if n < 200 {
-        return Err(bad(0, format!("{n} samples; at least 200 are needed")));
+    if n < MIN_SAMPLES {
+        return Err(bad(
+            0,
+            format!("{n} samples; at least {MIN_SAMPLES} are needed"),
+        ));
     }
-    let t = &cols[0];
-    let dt = (t[n - 1] - t[0]) / (n - 1) as f64;
-    for i in 1..n {
-        let d = t[i] - t[i - 1];
-        if (d - dt).abs() > 0.01 * dt {
-            return Err(bad(
-                i + 2,
-                format!(
-                    "sampling is not uniform: step {d:.3e} s against a mean of {dt:.3e} s (1 % allowed)"
-                ),
-            ));
-        }
-    }
+    let (pieces, gaps) = pieces(&cols[0], &bad)?;
     let has = |j: usize| idx.iter().any(|&(k, _)| k == j);
     let [t, f, xs, xd] = cols;
-    Ok((t, f, has(2).then_some(xs), has(3).then_some(xd)))
+    Ok((
+        (t, f, has(2).then_some(xs), has(3).then_some(xd)),
+        pieces,
+        gaps,
+    ))
+}
+
+/// Fewest samples of a recording (or of a piece of one between gaps).
+pub const MIN_SAMPLES: usize = 200;
+/// A step of the time column over this many median steps is a gap (a dropped DAQ buffer, a
+/// restart); shorter steps must lie within 1 % of their stretch's mean.
+pub const GAP_STEPS: f64 = 1.5;
+
+/// The stretches of uniform sampling between the time column's gaps (`[start, end)` sample
+/// ranges) and the gaps; an error naming the line where a step is neither regular (within 1 %
+/// of its stretch's mean) nor a gap.
+fn pieces(
+    t: &[f64],
+    bad: &impl Fn(usize, String) -> CampaignError,
+) -> Result<(Vec<(usize, usize)>, Vec<acquisition::Gap>), CampaignError> {
+    let n = t.len();
+    let step = check::median(t.windows(2).map(|w| w[1] - w[0]).collect());
+    let mut cuts = vec![0];
+    let mut gaps = vec![];
+    for i in 1..n {
+        let d = t[i] - t[i - 1];
+        if d > GAP_STEPS * step {
+            cuts.push(i);
+            gaps.push(acquisition::Gap {
+                after_s: t[i - 1],
+                missing_s: d - step,
+                samples: ((d - step) / step).round() as usize,
+            });
+        }
+    }
+    cuts.push(n);
+    let pieces: Vec<(usize, usize)> = cuts.windows(2).map(|w| (w[0], w[1])).collect();
+    for &(a, b) in &pieces {
+        if b - a < 2 {
+            continue;
+        }
+        let dt = (t[b - 1] - t[a]) / (b - a - 1) as f64;
+        for i in a + 1..b {
+            let d = t[i] - t[i - 1];
+            if (d - dt).abs() > 0.01 * dt {
+                return Err(bad(
+                    i + 2,
+                    format!(
+                        "sampling is not uniform: step {d:.3e} s against a mean of {dt:.3e} s (1 % allowed; a step over {GAP_STEPS} times the median {step:.3e} s is read as a gap)"
+                    ),
+                ));
+            }
+        }
+    }
+    Ok((pieces, gaps))
 }
 
 /// The model's version of a recording: the signals the stand records, sampled at the

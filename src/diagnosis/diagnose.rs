@@ -1018,6 +1018,7 @@ mod tests {
             dir: "mem".into(),
             recordings,
             planned: vec![],
+            acquisition: Default::default(),
         }
     }
 

@@ -24,7 +24,7 @@ pub mod forms;
 pub mod limits;
 pub mod linearised;
 pub mod model;
-pub mod nullable;
+pub use crate::nullable;
 pub mod record;
 pub mod report;
 pub mod scan;

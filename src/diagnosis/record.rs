@@ -25,7 +25,7 @@ use std::collections::BTreeMap;
 
 /// The version of the record's layout, written as `schema_version`: raised whenever a field is
 /// added, removed or changes meaning, so that a file of another layout is refused by number.
-pub const SCHEMA_VERSION: u32 = 1;
+pub const SCHEMA_VERSION: u32 = 2;
 
 /// A value that may be `null` but must be present: `Option`'s own deserialiser, which keeps
 /// serde from reading a missing field as `None`.
@@ -131,6 +131,9 @@ pub struct DiagnosisRecord {
     pub work: WorkRecord,
     /// Recordings set aside by the plausibility checks (`diagnose --skip-implausible`).
     pub skipped_implausible: Vec<Skipped>,
+    /// The preflight: what the acquisition did to each recording, and what the diagnosis set
+    /// aside or corrected for it ([`crate::campaign::acquisition`]).
+    pub acquisition: crate::campaign::acquisition::Acquired,
 }
 
 /// [`DiagnosisRecord::concentrated`].
@@ -970,6 +973,7 @@ impl DiagnosisRecord {
                     .collect(),
             },
             skipped_implausible: skipped.iter().map(Skipped::from).collect(),
+            acquisition: c.acquisition.clone(),
         }
     }
 
@@ -1205,6 +1209,7 @@ impl DiagnosisRecord {
                 steps: vec![],
             },
             skipped_implausible: vec![],
+            acquisition: Default::default(),
         }
     }
 }

@@ -58,6 +58,13 @@ fn summary_head(c: &Campaign, d: &Diagnosis, s: &mut String) {
             c.planned.join(", ")
         );
     }
+    let pre = c.acquisition.report();
+    if !pre.is_empty() {
+        let _ = writeln!(s, "preflight (what the acquisition did):");
+        for l in pre {
+            let _ = writeln!(s, "  {l}");
+        }
+    }
     for n in &d.not_checked {
         let _ = writeln!(s, "  not checked: {n}");
     }
