@@ -767,4 +767,47 @@ mod tests {
         let e = Campaign::load(d.path()).unwrap_err().to_string();
         assert!(e.contains("not uniform"), "{e}");
     }
+
+    #[test]
+    fn a_gap_in_the_time_column_splits_the_recording() {
+        let d = tempfile::tempdir().unwrap();
+        write(
+            d.path(),
+            "a.toml",
+            "v_d = 1e-3
+k_d = 1e4
+f = 0
+u0 = 0
+",
+        );
+        // 600 rows, rows 300 to 339 lost (a dropped buffer of 40 samples).
+        let text: String = csv(600)
+            .lines()
+            .enumerate()
+            .filter(|(i, _)| !(301..341).contains(i))
+            .map(|(_, l)| format!("{l}\n"))
+            .collect();
+        write(d.path(), "a.csv", &text);
+        let c = Campaign::load(d.path()).unwrap();
+        let names: Vec<&str> = c.recordings.iter().map(|r| r.name.as_str()).collect();
+        assert_eq!(names, ["a~1", "a~2"]);
+        assert_eq!(c.recordings[0].t.len(), 300);
+        assert_eq!(c.recordings[1].t.len(), 260);
+        let s = &c.acquisition.splits[0];
+        assert_eq!(s.gaps.len(), 1);
+        assert_eq!(s.gaps[0].samples, 40);
+        assert!((s.gaps[0].after_s - 0.299).abs() < 1e-12, "{s:?}");
+        // A short piece is dropped and counted; the long one keeps the file's name.
+        let text: String = csv(600)
+            .lines()
+            .enumerate()
+            .filter(|(i, _)| !(101..141).contains(i))
+            .map(|(_, l)| format!("{l}\n"))
+            .collect();
+        write(d.path(), "a.csv", &text);
+        let c = Campaign::load(d.path()).unwrap();
+        assert_eq!(c.recordings[0].name, "a");
+        assert_eq!(c.recordings[0].t.len(), 460);
+        assert_eq!(c.acquisition.splits[0].dropped_samples, 100);
+    }
 }
