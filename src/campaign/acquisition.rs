@@ -594,6 +594,11 @@ fn clips(name: &str, v: &[f64], scale: f64) -> Vec<Clip> {
     let lo = v.iter().copied().fold(f64::INFINITY, f64::min);
     let hi = v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
     let mut out = vec![];
+    // A channel of fewer than three values is flat, not clipped: the plausibility checks name it.
+    let mut few = v.iter().filter(|&&x| x != lo && x != hi);
+    if few.next().is_none() {
+        return out;
+    }
     for (level, inside) in [(hi, -1.0), (lo, 1.0)] {
         let at = v.iter().filter(|&&x| x == level).count();
         let band = v
