@@ -203,6 +203,19 @@ pub fn calibrate(a: &CalibrateArgs) -> Result<Calibrated, AppError> {
     })
 }
 
+/// The campaign after its preflight ([`campaign::acquisition::prepare`]), or why nothing is left.
+fn prepared(c: Campaign) -> Result<Campaign, AppError> {
+    let dir = c.dir.display().to_string();
+    campaign::acquisition::prepare(c).map_err(|msg| {
+        CampaignError::Malformed {
+            file: dir,
+            line: 0,
+            msg,
+        }
+        .into()
+    })
+}
+
 /// Examines every recording's acquisition ([`campaign::acquisition::prepare`]: clipped ones set
 /// aside, mains subtracted) and checks the rest before any fit ([`campaign::check`]): refuses
 /// the campaign when one is implausible, or with `skip` sets those aside and returns them.
@@ -210,12 +223,7 @@ fn checked(
     c: Campaign,
     skip: bool,
 ) -> Result<(Campaign, Vec<campaign::check::Implausible>), AppError> {
-    let dir = c.dir.display().to_string();
-    let c = campaign::acquisition::prepare(c).map_err(|msg| CampaignError::Malformed {
-        file: dir,
-        line: 0,
-        msg,
-    })?;
+    let c = prepared(c)?;
     let bad = campaign::check::check_campaign(&c);
     if bad.is_empty() {
         return Ok((c, bad));
@@ -375,14 +383,7 @@ pub fn plan(a: &PlanArgs) -> Result<Planned, AppError> {
     let (opts, out, json_path) = a.resolve()?;
     // The preflight as the diagnosis runs it, so a diagnosis written beside the campaign is of
     // the recordings the plan reads.
-    let dir = a.campaign.display().to_string();
-    let c = campaign::acquisition::prepare(Campaign::load(&a.campaign)?).map_err(|msg| {
-        CampaignError::Malformed {
-            file: dir,
-            line: 0,
-            msg,
-        }
-    })?;
+    let c = prepared(Campaign::load(&a.campaign)?)?;
     let space = match &a.space {
         Some(f) => crate::planning::space::Space::of(&c).with_file(f)?,
         None => crate::planning::space::Space::of(&c),

@@ -449,7 +449,7 @@ fn mad(v: &[f64]) -> f64 {
 
 /// Samples per window of the noise's colour: a quadratic in time fitted to each leaves the
 /// noise (a stick's ramp, a steady slide and a slow drift are quadratic over 32 samples).
-const COLOUR_WINDOW: usize = 32;
+pub const COLOUR_WINDOW: usize = 32;
 
 /// The residual maker `I − X (XᵀX)⁻¹ Xᵀ` of a quadratic over [`COLOUR_WINDOW`] samples.
 fn residual_maker() -> Vec<[f64; COLOUR_WINDOW]> {
